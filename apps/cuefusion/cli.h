@@ -1,0 +1,39 @@
+#pragma once
+
+#include <boost/program_options.hpp>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace cuefusion
+{
+namespace cli
+{
+/** Bad command-line usage: exit code 2. */
+struct UsageError : std::runtime_error
+{
+  using std::runtime_error::runtime_error;
+};
+
+namespace po = boost::program_options;
+
+/** Parses \a args (without the program and subcommand names) into \a vm. Returns false
+  * when --help was given (help already printed). Throws UsageError on bad usage. */
+bool
+parseCommandLine (const std::string& command, const std::string& synopsis, const std::vector<std::string>& args,
+                  po::options_description& options, const po::positional_options_description& positional,
+                  po::variables_map& vm);
+
+/** True when a value is given for \a key. */
+inline bool
+given (const po::variables_map& vm, const std::string& key)
+{
+  return vm.count (key) > 0 && !vm[key].defaulted ();
+}
+
+int runSynth (const std::vector<std::string>& args);
+int runInfo (const std::vector<std::string>& args);
+int runRun (const std::vector<std::string>& args);
+}  // namespace cli
+}  // namespace cuefusion

@@ -1,0 +1,72 @@
+#include "cli.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/progress.h>
+#include <cuefusion/io/synthetic_sequence.h>
+
+#include <iostream>
+#include <sstream>
+
+namespace cuefusion
+{
+namespace cli
+{
+int
+runSynth (const std::vector<std::string>& args)
+{
+  std::string scene_name, layout_name, out, size;
+  io::SyntheticSequenceConfig config;
+  io::DetectorErrorConfig& det = config.detector;
+  po::options_description options ("options");
+  options.add_options ()
+    ("scene", po::value (&scene_name)->required (), "scene NAME (data/scenes/NAME.scene) or scene FILE")
+    ("frames", po::value (&config.frames)->default_value (config.frames), "number of frames")
+    ("layout", po::value (&layout_name)->default_value ("tum"), "dataset layout: tum, scannet, redwood, 7scenes")
+    ("out", po::value (&out)->required (), "output folder (must not exist or be empty)")
+    ("seed", po::value (&config.seed)->default_value (config.seed), "seed of every random choice")
+    ("size", po::value (&size), "image size WxH (default: the scene's camera), e.g. 320x240")
+    ("fps", po::value (&config.fps)->default_value (config.fps), "frame rate of the timestamps")
+    ("noise", po::bool_switch (&config.noise.enabled), "add Kinect axial depth noise and grazing-angle dropout")
+    ("gt-spacing", po::value (&config.gt_cloud_spacing)->default_value (config.gt_cloud_spacing),
+     "point spacing of gt_cloud.pcd (m)")
+    ("mask-boundary", po::value (&det.boundary_px)->default_value (det.boundary_px),
+     "simulated detector: grow (>0, leaking) or shrink (<0) masks by this many pixels")
+    ("mask-jitter", po::value (&det.boundary_jitter_px)->default_value (det.boundary_jitter_px),
+     "simulated detector: random extra boundary change per mask and frame, in [-J, J] pixels")
+    ("mask-merge", po::value (&det.merge_probability)->default_value (det.merge_probability),
+     "simulated detector: probability that two touching objects come out as one mask")
+    ("mask-miss", po::value (&det.miss_probability)->default_value (det.miss_probability),
+     "simulated detector: probability per object and frame of missing it")
+    ("mask-false-positives", po::value (&det.false_positives)->default_value (det.false_positives),
+     "simulated detector: mean number of spurious masks per frame")
+    ("mask-min-pixels", po::value (&det.min_pixels)->default_value (det.min_pixels),
+     "simulated detector: never report objects with fewer visible pixels")
+    ("overwrite", "replace OUT if it exists");
+  po::positional_options_description positional;
+  po::variables_map vm;
+  if (!parseCommandLine ("synth", "--scene NAME|FILE --out DIR [options]", args, options, positional, vm))
+    return 0;
+  if (!size.empty ())
+  {
+    char x = 0;
+    std::istringstream in (size);
+    if (!(in >> config.width >> x >> config.height) || x != 'x' || !in.eof ())
+      throw Error ("--size", "expected WIDTHxHEIGHT, e.g. 320x240");
+  }
+  const io::DatasetLayout layout = io::parseDatasetLayout (layout_name);
+  config.validate ();
+  const io::SyntheticScene scene =
+    io::SyntheticScene::load (io::resolveScenePath (scene_name, io::defaultScenesDir ()));
+  const io::SyntheticSequence sequence (scene, config);
+
+  ProgressReporter progress ("synth", sequence.size ());
+  io::writeSyntheticSequence (sequence, layout, out, vm.count ("overwrite") > 0,
+                              [&progress] (std::size_t done) { progress.update (done); });
+  progress.finish ();
+  const PinholeCamera& c = sequence.camera ();
+  std::cout << "wrote " << sequence.size () << " frames of scene '" << scene.name << "' (" << c.width << "x" << c.height
+            << ", " << scene.objects.size () << " objects) as " << layout_name << " to " << out << "\n";
+  return 0;
+}
+}  // namespace cli
+}  // namespace cuefusion

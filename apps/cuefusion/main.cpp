@@ -1,0 +1,68 @@
+// cuefusion: object-level 3D segmentation of RGB-D sequences — command-line front end.
+// Exit codes: 0 success, 1 failure (bad input, I/O), 2 bad usage.
+#include "cli.h"
+
+#include <cuefusion/common/exceptions.h>
+
+#include <pcl/console/print.h>
+
+#include <iostream>
+#include <map>
+
+namespace
+{
+const char* kUsage =
+  "usage: cuefusion COMMAND [OPTIONS]\n"
+  "\n"
+  "commands:\n"
+  "  synth   render a synthetic RGB-D sequence with exact ground truth\n"
+  "  info    describe a sequence: format, frames, resolution, intrinsics, poses, masks\n"
+  "  run     process a sequence (folder, openni2[:DEVICE] or .oni file) into a map\n"
+  "\n"
+  "'cuefusion COMMAND --help' describes a command's options.\n";
+}
+
+int
+main (int argc, char** argv)
+{
+  using namespace cuefusion::cli;
+  const std::map<std::string, int (*) (const std::vector<std::string>&)> commands = {
+    {"synth", runSynth}, {"info", runInfo}, {"run", runRun}};
+  if (argc < 2)
+  {
+    std::cerr << kUsage;
+    return 2;
+  }
+  const std::string command = argv[1];
+  if (command == "--help" || command == "-h" || command == "help")
+  {
+    std::cout << kUsage;
+    return 0;
+  }
+  const auto it = commands.find (command);
+  if (it == commands.end ())
+  {
+    std::cerr << "cuefusion: unknown command '" << command << "'\n" << kUsage;
+    return 2;
+  }
+  pcl::console::setVerbosityLevel (pcl::console::L_ERROR);
+  try
+  {
+    return it->second (std::vector<std::string> (argv + 2, argv + argc));
+  }
+  catch (const UsageError& e)
+  {
+    std::cerr << "cuefusion " << command << ": " << e.what () << " (see 'cuefusion " << command << " --help')\n";
+    return 2;
+  }
+  catch (const cuefusion::Error& e)
+  {
+    std::cerr << "cuefusion " << command << ": " << e.what () << "\n";
+    return 1;
+  }
+  catch (const std::exception& e)
+  {
+    std::cerr << "cuefusion " << command << ": unexpected error: " << e.what () << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,1 @@
+option(CUEFUSION_BUILD_TESTS "Build the GoogleTest suites" ON)

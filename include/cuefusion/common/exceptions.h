@@ -1,0 +1,20 @@
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace cuefusion
+{
+/** \brief Error raised for bad input (files, folders, parameters).
+  *
+  * The message is one line and names the offending file or option first, so a
+  * command-line front end can print it as is.
+  */
+class Error : public std::runtime_error
+{
+public:
+  explicit Error (const std::string& what) : std::runtime_error (what) {}
+  /** \brief "<where>: <what>", e.g. Error ("depth/3.png", "cannot decode image"). */
+  Error (const std::string& where, const std::string& what) : std::runtime_error (where + ": " + what) {}
+};
+}  // namespace cuefusion

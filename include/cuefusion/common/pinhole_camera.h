@@ -1,0 +1,85 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <string>
+
+namespace cuefusion
+{
+/** \brief Intrinsics of a pinhole camera (no distortion) and the image size.
+  *
+  * Pixel centres lie at integer coordinates: pixel (0, 0) covers [-0.5, 0.5]².
+  * The camera frame is the usual vision frame: x right, y down, z forward.
+  */
+struct PinholeCamera
+{
+  double fx = 525.0;
+  double fy = 525.0;
+  double cx = 319.5;
+  double cy = 239.5;
+  int width = 640;
+  int height = 480;
+
+  PinholeCamera () = default;
+  PinholeCamera (double fx_, double fy_, double cx_, double cy_, int width_, int height_)
+    : fx (fx_), fy (fy_), cx (cx_), cy (cy_), width (width_), height (height_) {}
+
+  /** \brief Continuous pixel coordinates (u, v) of a point in the camera frame (z > 0). */
+  inline Eigen::Vector2f
+  project (const Eigen::Vector3f& p) const
+  {
+    return {static_cast<float> (fx * p.x () / p.z () + cx), static_cast<float> (fy * p.y () / p.z () + cy)};
+  }
+
+  /** \brief Nearest pixel of a point; false when behind the camera or outside the image. */
+  inline bool
+  projectToPixel (const Eigen::Vector3f& p, int& u, int& v) const
+  {
+    if (!(p.z () > 0.f))
+      return false;
+    const Eigen::Vector2f uv = project (p);
+    u = static_cast<int> (std::floor (uv.x () + 0.5f));
+    v = static_cast<int> (std::floor (uv.y () + 0.5f));
+    return u >= 0 && v >= 0 && u < width && v < height;
+  }
+
+  /** \brief The 3D point seen at pixel (u, v) with z-depth \a depth (metres). */
+  inline Eigen::Vector3f
+  backProject (float u, float v, float depth) const
+  {
+    return {static_cast<float> ((u - cx) / fx) * depth, static_cast<float> ((v - cy) / fy) * depth, depth};
+  }
+
+  /** \brief The same camera at another resolution (e.g. 640×480 → 320×240).
+    * Scales focal lengths by the size ratio and keeps the image borders fixed:
+    * c' = (c + 0.5)·s − 0.5.
+    */
+  PinholeCamera
+  scaled (int new_width, int new_height) const;
+
+  /** \brief 3×3 matrix K. */
+  Eigen::Matrix3d
+  matrix () const;
+
+  /** \brief Finite positive focal lengths and a positive image size. */
+  bool
+  isValid () const;
+
+  /** \brief Throws cuefusion::Error naming \a source when !isValid(). */
+  void
+  validate (const std::string& source) const;
+
+  bool
+  operator== (const PinholeCamera& other) const;
+};
+
+/** \brief Kinect axial depth noise σ_z(z, θ) of Nguyen et al. 2012 (metres).
+  * \param[in] z depth in metres
+  * \param[in] theta angle between the viewing ray and the surface normal (radians)
+  *
+  * σ_z = 0.0012 + 0.0019 (z − 0.4)² + 0.0001/√z · θ²/(π/2 − θ)²; θ is clamped just below
+  * π/2 so grazing angles give a large but finite value.
+  */
+double
+kinectAxialNoise (double z, double theta);
+}  // namespace cuefusion

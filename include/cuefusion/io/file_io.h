@@ -1,0 +1,50 @@
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <string>
+#include <vector>
+
+namespace cuefusion
+{
+namespace io
+{
+/** \brief Reads and decodes an image; throws cuefusion::Error naming the file when it is
+  * missing, unreadable, truncated or not an image. \a flags as for cv::imread.
+  */
+cv::Mat
+readImage (const std::string& path, int flags);
+
+/** \brief Reads a 16-bit single-channel depth PNG and returns CV_32F metres
+  * (raw / \a units_per_metre); raw 0 stays 0 (invalid).
+  */
+cv::Mat
+readDepthImage (const std::string& path, double units_per_metre);
+
+/** \brief Reads a 16-bit single-channel label/instance PNG (CV_16U). */
+cv::Mat
+readLabelImage (const std::string& path);
+
+/** \brief Converts CV_32F metres to CV_16U raw units (rounded; invalid and out-of-range → 0). */
+cv::Mat
+depthToRaw (const cv::Mat& depth_m, double units_per_metre);
+
+/** \brief Encodes \a image by the file's extension and writes it atomically
+  * (temporary file in the same folder, then rename), so a reader never sees half a file.
+  */
+void
+writeImageAtomic (const std::string& path, const cv::Mat& image, const std::vector<int>& params = {});
+
+/** \brief Writes text atomically (temporary file, then rename). */
+void
+writeTextAtomic (const std::string& path, const std::string& text);
+
+/** \brief Whole file as a string; throws cuefusion::Error naming it when it cannot be read. */
+std::string
+readTextFile (const std::string& path);
+
+/** \brief Whitespace-separated numbers of a text file; throws on any non-numeric token. */
+std::vector<double>
+readNumbers (const std::string& path);
+}  // namespace io
+}  // namespace cuefusion

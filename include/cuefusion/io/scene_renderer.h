@@ -1,0 +1,65 @@
+#pragma once
+
+#include <cuefusion/io/synthetic_scene.h>
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+
+namespace cuefusion
+{
+namespace io
+{
+/** \brief Kinect-like imperfections added to rendered depth (off by default: exact depth). */
+struct DepthNoiseConfig
+{
+  bool enabled = false;
+  double dropout_start_deg = 70.0;   ///< incidence angle where pixels start to go missing
+  double max_incidence_deg = 80.0;   ///< beyond this every pixel is missing
+  double min_depth = 0.3;            ///< sensor range (m); outside it depth is 0
+  double max_depth = 8.0;
+};
+
+/** \brief What one view of a scene looks like, with exact truth. */
+struct RenderedView
+{
+  cv::Mat depth;       ///< CV_32F z-depth in metres, 0 where no surface (or dropped)
+  cv::Mat color;       ///< CV_8UC3 BGR, Lambertian shading under a fixed light
+  cv::Mat instance;    ///< CV_16U object id of the visible surface (0 = none)
+  cv::Mat class_ids;   ///< CV_16U class id of the visible surface (0 = none)
+  cv::Mat normals;     ///< CV_32FC3 camera-frame unit normal of the visible surface
+};
+
+/** \brief Ray-casts a SyntheticScene through a pinhole camera, one ray per pixel centre.
+  * Rows run in parallel with OpenMP when available.
+  */
+class SceneRenderer
+{
+public:
+  explicit SceneRenderer (const SyntheticScene& scene);
+
+  /** \brief Renders the view from camera-to-world \a pose. \a noise_seed seeds the noise
+    * (only used when noise.enabled), so a frame renders the same on every run.
+    */
+  RenderedView render (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
+                       const DepthNoiseConfig& noise = DepthNoiseConfig (), std::uint64_t noise_seed = 0) const;
+
+  /** \brief Nearest surface along a world ray: object id (0 = none), distance t, world normal. */
+  std::uint16_t castRay (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double& t,
+                         Eigen::Vector3d& normal) const;
+
+  /** \brief Shaded colour (R, G, B) of object \a id at world point \a p with normal \a n. */
+  cv::Vec3b shade (const SceneObject& object, const Eigen::Vector3d& p, const Eigen::Vector3d& n) const;
+
+private:
+  const SyntheticScene& scene_;
+  std::vector<std::uint16_t> class_of_;   ///< object index → class id
+};
+
+/** \brief 64-bit mix of a seed and a counter (SplitMix64), for per-frame random streams
+  * that do not depend on the order frames are generated in.
+  */
+std::uint64_t
+mixSeed (std::uint64_t seed, std::uint64_t counter);
+}  // namespace io
+}  // namespace cuefusion

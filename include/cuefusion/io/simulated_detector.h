@@ -1,0 +1,77 @@
+#pragma once
+
+#include <cuefusion/io/synthetic_scene.h>
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace cuefusion
+{
+namespace io
+{
+/** \brief Errors a simulated instance-segmentation network makes, all seeded.
+  * With the defaults it is a perfect detector of every detectable object.
+  */
+struct DetectorErrorConfig
+{
+  int boundary_px = 0;              ///< > 0 grows ("leaking" masks, thesis §5.3.2.2), < 0 shrinks masks
+  int boundary_jitter_px = 0;       ///< extra per-mask, per-frame change in [−j, j] pixels
+  double merge_probability = 0.0;   ///< chance that a pair of touching objects is reported as one (Fig. 5.19)
+  double miss_probability = 0.0;    ///< chance, per object and frame, that an object is not reported
+  double false_positives = 0.0;     ///< mean number of spurious masks per frame (Poisson)
+  int min_pixels = 50;              ///< objects with fewer visible pixels are never reported
+  double min_score = 0.7;           ///< scores of true detections are uniform in [min, max]
+  double max_score = 0.99;
+
+  /** \brief Throws cuefusion::Error naming the option for values outside their range. */
+  void validate () const;
+};
+
+/** \brief One reported instance. */
+struct Detection
+{
+  std::uint16_t id = 0;                     ///< value in DetectionResult::ids (1-based)
+  std::uint16_t class_id = 0;               ///< SyntheticScene class id
+  std::string class_name;
+  float score = 0.f;
+  std::vector<std::uint16_t> gt_instances;  ///< true objects it covers (empty for a false positive)
+};
+
+/** \brief Output of a detector on one frame: an instance-id image and the detections. */
+struct DetectionResult
+{
+  cv::Mat ids;   ///< CV_16U, 0 = no detection; overlaps go to the higher score
+  std::vector<Detection> detections;
+};
+
+/** \brief Turns exact instance masks into the masks a network would give, with the errors
+  * of DetectorErrorConfig. Merge decisions are fixed per object pair for the whole
+  * sequence (a network fails the same way from frame to frame); misses, jitter, scores
+  * and false positives are drawn per frame from a stream seeded by (seed, frame).
+  */
+class SimulatedDetector
+{
+public:
+  SimulatedDetector (const SyntheticScene& scene, const DetectorErrorConfig& config, std::uint64_t seed);
+
+  DetectionResult detect (const cv::Mat& instance_truth, std::size_t frame_index) const;
+
+  /** \brief Whether objects a and b are reported as one when they touch. */
+  bool mergesPair (std::uint16_t a, std::uint16_t b) const;
+
+private:
+  const SyntheticScene& scene_;
+  DetectorErrorConfig config_;
+  std::uint64_t seed_;
+};
+
+/** \brief The per-frame JSON written next to a detection PNG:
+  * {"instances": [{"id", "class_id", "class_name", "score"}, …]}.
+  */
+std::string
+detectionsToJson (const DetectionResult& result);
+}  // namespace io
+}  // namespace cuefusion

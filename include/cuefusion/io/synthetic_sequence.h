@@ -1,0 +1,74 @@
+#pragma once
+
+#include <cuefusion/common/rgbd_frame.h>
+#include <cuefusion/io/scene_renderer.h>
+#include <cuefusion/io/sequence_writer.h>
+#include <cuefusion/io/simulated_detector.h>
+#include <cuefusion/io/synthetic_scene.h>
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace cuefusion
+{
+namespace io
+{
+/** \brief How to turn a scene into a sequence. */
+struct SyntheticSequenceConfig
+{
+  std::size_t frames = 60;
+  double fps = 30.0;
+  std::uint64_t seed = 1;
+  int width = 0;                     ///< 0 = the scene's camera; else scaled to this size
+  int height = 0;
+  DepthNoiseConfig noise;            ///< off by default: exact depth
+  DetectorErrorConfig detector;      ///< perfect detector by default
+  double gt_cloud_spacing = 0.01;    ///< metres between ground-truth cloud points
+
+  void validate () const;
+};
+
+/** \brief A synthetic RGB-D sequence with exact truth: frame i is the scene seen from
+  * the orbit at s = i / (frames − 1), with its pose, instance and class masks.
+  */
+class SyntheticSequence
+{
+public:
+  SyntheticSequence (const SyntheticScene& scene, const SyntheticSequenceConfig& config);
+
+  std::size_t size () const { return config_.frames; }
+  const PinholeCamera& camera () const { return camera_; }
+  const SyntheticScene& scene () const { return scene_; }
+
+  Eigen::Isometry3d poseAt (std::size_t i) const;
+  /** \brief Renders frame \a i (deterministic for a given seed). */
+  RGBDFrame::Ptr frame (std::size_t i) const;
+  /** \brief The simulated detector's output on a rendered frame. */
+  DetectionResult detections (const RGBDFrame& frame) const;
+  /** \brief Every visible-from-outside surface point, labelled with its object id. */
+  pcl::PointCloud<pcl::PointXYZRGBL>::Ptr groundTruthCloud () const;
+
+private:
+  SyntheticScene scene_;
+  SyntheticSequenceConfig config_;
+  PinholeCamera camera_;
+  SceneRenderer renderer_;
+  SimulatedDetector detector_;
+};
+
+/** \brief Writes a whole synthetic sequence into \a dir in \a layout, plus
+  * detections/<frame>.png + .json (simulated detector), gt_cloud.pcd (PointXYZRGBL) and
+  * scene.json (instances and classes). Everything goes to a temporary sibling folder
+  * that is renamed to \a dir at the end, so \a dir is never left half-written; an
+  * existing non-empty \a dir is an error unless \a overwrite.
+  * \a progress is called with the number of frames written.
+  */
+void
+writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout, const std::string& dir,
+                        bool overwrite = false, const std::function<void (std::size_t)>& progress = {});
+}  // namespace io
+}  // namespace cuefusion

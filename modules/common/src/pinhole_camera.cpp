@@ -1,0 +1,58 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/pinhole_camera.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace cuefusion
+{
+PinholeCamera
+PinholeCamera::scaled (int new_width, int new_height) const
+{
+  const double sx = static_cast<double> (new_width) / width;
+  const double sy = static_cast<double> (new_height) / height;
+  return {fx * sx, fy * sy, (cx + 0.5) * sx - 0.5, (cy + 0.5) * sy - 0.5, new_width, new_height};
+}
+
+Eigen::Matrix3d
+PinholeCamera::matrix () const
+{
+  Eigen::Matrix3d k;
+  k << fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0;
+  return k;
+}
+
+bool
+PinholeCamera::isValid () const
+{
+  return std::isfinite (fx) && std::isfinite (fy) && std::isfinite (cx) && std::isfinite (cy) && fx > 0.0 &&
+         fy > 0.0 && width > 0 && height > 0;
+}
+
+void
+PinholeCamera::validate (const std::string& source) const
+{
+  if (isValid ())
+    return;
+  std::ostringstream msg;
+  msg << "invalid camera intrinsics (fx=" << fx << " fy=" << fy << " cx=" << cx << " cy=" << cy
+      << " size=" << width << "x" << height << ")";
+  throw Error (source, msg.str ());
+}
+
+bool
+PinholeCamera::operator== (const PinholeCamera& o) const
+{
+  return fx == o.fx && fy == o.fy && cx == o.cx && cy == o.cy && width == o.width && height == o.height;
+}
+
+double
+kinectAxialNoise (double z, double theta)
+{
+  constexpr double half_pi = 1.57079632679489661923;
+  const double t = std::min (std::abs (theta), half_pi - 1e-3);
+  const double dz = z - 0.4;
+  return 0.0012 + 0.0019 * dz * dz + 0.0001 / std::sqrt (std::max (z, 1e-6)) * t * t / ((half_pi - t) * (half_pi - t));
+}
+}  // namespace cuefusion

@@ -1,0 +1,310 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/camera_io.h>
+#include <cuefusion/io/dataset_layouts.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/pose_io.h>
+
+#include <boost/algorithm/string.hpp>
+#include <boost/filesystem.hpp>
+
+#include <pcl/console/print.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+namespace fs = boost::filesystem;
+
+namespace cuefusion
+{
+namespace io
+{
+namespace
+{
+bool
+isImageFile (const fs::path& p)
+{
+  const std::string ext = boost::algorithm::to_lower_copy (p.extension ().string ());
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg";
+}
+
+bool
+allDigits (const std::string& s)
+{
+  return !s.empty () && std::all_of (s.begin (), s.end (), [] (char c) { return c >= '0' && c <= '9'; });
+}
+
+/** Image files of a folder, in numeric order of their stems when the stems are numbers
+  * (ScanNet writes 0.png … 10.png, which sort wrongly as text). */
+std::vector<fs::path>
+listImages (const fs::path& dir)
+{
+  std::vector<fs::path> files;
+  for (const fs::directory_entry& e : fs::directory_iterator (dir))
+    if (fs::is_regular_file (e.path ()) && isImageFile (e.path ()) && e.path ().filename ().string ()[0] != '.')
+      files.push_back (e.path ());
+  std::sort (files.begin (), files.end (), [] (const fs::path& a, const fs::path& b) {
+    const std::string sa = a.stem ().string (), sb = b.stem ().string ();
+    if (allDigits (sa) && allDigits (sb) && sa.size () != sb.size ())
+      return std::stoull (sa) < std::stoull (sb);
+    return sa < sb;
+  });
+  return files;
+}
+
+std::string
+optionalFile (const fs::path& p)
+{
+  return fs::is_regular_file (p) ? p.string () : std::string ();
+}
+
+/** Same stem in another folder with any image extension ("" when absent). */
+std::string
+siblingImage (const fs::path& dir, const std::string& stem)
+{
+  for (const char* ext : {".png", ".jpg", ".jpeg"})
+  {
+    const fs::path p = dir / (stem + ext);
+    if (fs::is_regular_file (p))
+      return p.string ();
+  }
+  return "";
+}
+
+void
+requireFolder (const fs::path& p, const std::string& what)
+{
+  if (!fs::is_directory (p))
+    throw Error (p.string (), "missing " + what + " folder");
+}
+
+PinholeCamera
+intrinsicsFrom (const std::string& override_path, const fs::path& default_path)
+{
+  if (!override_path.empty ())
+    return readIntrinsics (override_path);
+  if (!fs::is_regular_file (default_path))
+    throw Error (default_path.string (), "missing intrinsics file (give one with --intrinsics)");
+  return readIntrinsics (default_path.string ());
+}
+
+// ---------------------------------------------------------------- TUM
+struct StampedFile
+{
+  double timestamp;
+  std::string file;
+};
+
+std::vector<StampedFile>
+readTumFileList (const fs::path& list)
+{
+  if (!fs::is_regular_file (list))
+    throw Error (list.string (), "no such file");
+  std::istringstream in (readTextFile (list.string ()));
+  std::vector<StampedFile> entries;
+  std::string line;
+  int line_no = 0;
+  while (std::getline (in, line))
+  {
+    ++line_no;
+    boost::algorithm::trim (line);
+    if (line.empty () || line[0] == '#')
+      continue;
+    const std::string where = list.string () + ":" + std::to_string (line_no);
+    std::istringstream fields (line);
+    StampedFile e;
+    if (!(fields >> e.timestamp >> e.file))
+      throw Error (where, "expected 'timestamp filename'");
+    if (!entries.empty () && !(e.timestamp > entries.back ().timestamp))
+      throw Error (where, e.timestamp == entries.back ().timestamp ? "duplicate timestamp" : "timestamps are not sorted");
+    entries.push_back (e);
+  }
+  if (entries.empty ())
+    throw Error (list.string (), "lists no images");
+  return entries;
+}
+
+PinholeCamera
+tumIntrinsics (const fs::path& root, const std::string& override_path)
+{
+  if (!override_path.empty ())
+    return readIntrinsics (override_path);
+  if (fs::is_regular_file (root / "intrinsics.txt"))
+    return readIntrinsics ((root / "intrinsics.txt").string ());
+  // Published calibration of the benchmark's three Kinects (colour camera; the
+  // benchmark's depth images are registered to it).
+  const std::string name = fs::absolute (root).filename ().string ();
+  if (name.find ("freiburg1") != std::string::npos)
+    return {517.3, 516.5, 318.6, 255.3, 0, 0};
+  if (name.find ("freiburg2") != std::string::npos)
+    return {520.9, 521.0, 325.1, 249.7, 0, 0};
+  if (name.find ("freiburg3") != std::string::npos)
+    return {535.4, 539.2, 320.1, 247.6, 0, 0};
+  PCL_WARN ("[cuefusion] %s: no intrinsics.txt; using the ROS default fx=fy=525 cx=319.5 cy=239.5\n",
+            root.string ().c_str ());
+  return {525.0, 525.0, 319.5, 239.5, 0, 0};
+}
+}  // namespace
+
+TumGrabber::TumGrabber (const std::string& root, const Config& config) : DatasetGrabber (root)
+{
+  const fs::path dir (root);
+  depth_units_per_metre_ = 5000.0;
+  if (!(config.max_difference > 0.0))
+    throw Error ("max difference", "must be positive");
+  const std::vector<StampedFile> rgb = readTumFileList (dir / "rgb.txt");
+  const std::vector<StampedFile> depth = readTumFileList (dir / "depth.txt");
+
+  // Every candidate pair within the tolerance, closest first; each image used once.
+  struct Pair
+  {
+    double diff;
+    std::size_t rgb, depth;
+  };
+  std::vector<Pair> candidates;
+  for (std::size_t i = 0; i < rgb.size (); ++i)
+  {
+    auto lo = std::lower_bound (depth.begin (), depth.end (), rgb[i].timestamp - config.max_difference,
+                                [] (const StampedFile& d, double t) { return d.timestamp < t; });
+    for (auto it = lo; it != depth.end () && it->timestamp <= rgb[i].timestamp + config.max_difference; ++it)
+      candidates.push_back ({std::abs (it->timestamp - rgb[i].timestamp), i, static_cast<std::size_t> (it - depth.begin ())});
+  }
+  std::stable_sort (candidates.begin (), candidates.end (), [] (const Pair& a, const Pair& b) { return a.diff < b.diff; });
+  std::vector<bool> rgb_used (rgb.size (), false), depth_used (depth.size (), false);
+  std::map<std::size_t, std::size_t> matches;  // rgb index → depth index, ordered by time
+  for (const Pair& p : candidates)
+    if (!rgb_used[p.rgb] && !depth_used[p.depth])
+    {
+      rgb_used[p.rgb] = depth_used[p.depth] = true;
+      matches[p.rgb] = p.depth;
+    }
+  if (matches.empty ())
+    throw Error (root, "no colour and depth images within " + std::to_string (config.max_difference) +
+                           " s of each other (rgb.txt vs depth.txt)");
+
+  Trajectory groundtruth;
+  const fs::path gt_path = dir / "groundtruth.txt";
+  if (fs::is_regular_file (gt_path))
+    groundtruth = readTumTrajectory (gt_path.string ());
+
+  for (const auto& [ri, di] : matches)
+  {
+    FrameRecord r;
+    r.timestamp = rgb[ri].timestamp;
+    r.color_path = (dir / rgb[ri].file).string ();
+    r.depth_path = (dir / depth[di].file).string ();
+    r.name = fs::path (rgb[ri].file).stem ().string ();
+    if (!groundtruth.empty ())
+      r.pose = interpolatePose (groundtruth, r.timestamp);
+    r.instance_path = optionalFile (dir / "instance" / (r.name + ".png"));
+    r.class_path = optionalFile (dir / "label" / (r.name + ".png"));
+    records_.push_back (r);
+  }
+  camera_ = tumIntrinsics (dir, config.intrinsics_path);
+  finishSetup ();
+}
+
+RedwoodGrabber::RedwoodGrabber (const std::string& root, const Config& config) : DatasetGrabber (root)
+{
+  const fs::path dir (root);
+  depth_units_per_metre_ = 1000.0;
+  requireFolder (dir / "depth", "depth/");
+  fs::path color_dir = dir / "image";
+  if (!fs::is_directory (color_dir))
+    color_dir = dir / "color";
+  requireFolder (color_dir, "image/ or color/");
+  const std::vector<fs::path> depth = listImages (dir / "depth");
+  const std::vector<fs::path> color = listImages (color_dir);
+  if (depth.size () != color.size ())
+    throw Error (root, std::to_string (depth.size ()) + " depth images but " + std::to_string (color.size ()) +
+                           " colour images in " + color_dir.filename ().string () + "/");
+  PoseList poses;
+  const fs::path log = dir / "trajectory.log";
+  if (fs::is_regular_file (log))
+  {
+    poses = readRedwoodLog (log.string ());
+    if (poses.size () != depth.size ())
+      throw Error (log.string (), "has " + std::to_string (poses.size ()) + " poses for " +
+                                      std::to_string (depth.size ()) + " frames");
+  }
+  for (std::size_t i = 0; i < depth.size (); ++i)
+  {
+    FrameRecord r;
+    r.timestamp = i / config.fps;
+    r.name = depth[i].stem ().string ();
+    r.depth_path = depth[i].string ();
+    r.color_path = color[i].string ();
+    if (!poses.empty ())
+      r.pose = poses[i];
+    r.instance_path = siblingImage (dir / "instance", r.name);
+    r.class_path = siblingImage (dir / "label", r.name);
+    records_.push_back (r);
+  }
+  camera_ = intrinsicsFrom (config.intrinsics_path, dir / "camera_intrinsics.json");
+  finishSetup ();
+}
+
+SevenScenesGrabber::SevenScenesGrabber (const std::string& root, const Config& config) : DatasetGrabber (root)
+{
+  const fs::path dir (root);
+  depth_units_per_metre_ = 1000.0;
+  std::vector<fs::path> depth;
+  for (const fs::directory_entry& e : fs::directory_iterator (dir))
+  {
+    const std::string name = e.path ().filename ().string ();
+    if (boost::algorithm::starts_with (name, "frame-") && boost::algorithm::ends_with (name, ".depth.png"))
+      depth.push_back (e.path ());
+  }
+  std::sort (depth.begin (), depth.end ());
+  for (std::size_t i = 0; i < depth.size (); ++i)
+  {
+    FrameRecord r;
+    const std::string file = depth[i].filename ().string ();
+    r.name = file.substr (0, file.size () - std::string (".depth.png").size ());
+    r.timestamp = i / config.fps;
+    r.depth_path = depth[i].string ();
+    for (const char* ext : {".color.png", ".color.jpg"})
+      if (fs::is_regular_file (dir / (r.name + ext)))
+        r.color_path = (dir / (r.name + ext)).string ();
+    if (r.color_path.empty ())
+      throw Error ((dir / (r.name + ".color.png")).string (), "missing colour image for " + file);
+    r.pose_path = optionalFile (dir / (r.name + ".pose.txt"));
+    r.instance_path = optionalFile (dir / (r.name + ".instance.png"));
+    r.class_path = optionalFile (dir / (r.name + ".label.png"));
+    records_.push_back (r);
+  }
+  camera_ = intrinsicsFrom (config.intrinsics_path, dir / "camera-intrinsics.txt");
+  finishSetup ();
+}
+
+ScanNetGrabber::ScanNetGrabber (const std::string& root, const Config& config) : DatasetGrabber (root)
+{
+  const fs::path dir (root);
+  depth_units_per_metre_ = 1000.0;
+  requireFolder (dir / "depth", "depth/");
+  requireFolder (dir / "color", "color/");
+  for (const fs::path& d : listImages (dir / "depth"))
+  {
+    FrameRecord r;
+    r.name = d.stem ().string ();
+    if (!allDigits (r.name))
+      throw Error (d.string (), "ScanNet frames are named by number (e.g. depth/12.png)");
+    r.timestamp = std::stoull (r.name) / config.fps;
+    r.depth_path = d.string ();
+    r.color_path = siblingImage (dir / "color", r.name);
+    if (r.color_path.empty ())
+      throw Error ((dir / "color" / (r.name + ".jpg")).string (), "missing colour image for " + d.string ());
+    r.pose_path = optionalFile (dir / "pose" / (r.name + ".txt"));
+    r.instance_path = optionalFile (dir / "instance-filt" / (r.name + ".png"));
+    r.class_path = optionalFile (dir / "label-filt" / (r.name + ".png"));
+    records_.push_back (r);
+  }
+  camera_ = intrinsicsFrom (config.intrinsics_path, dir / "intrinsic" / "intrinsic_depth.txt");
+  const fs::path color_intrinsics = dir / "intrinsic" / "intrinsic_color.txt";
+  if (fs::is_regular_file (color_intrinsics))
+    color_camera_ = readIntrinsics (color_intrinsics.string ());
+  finishSetup ();
+}
+}  // namespace io
+}  // namespace cuefusion

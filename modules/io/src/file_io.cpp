@@ -1,0 +1,207 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/file_io.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <boost/filesystem.hpp>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace fs = boost::filesystem;
+
+namespace cuefusion
+{
+namespace io
+{
+namespace
+{
+std::vector<uchar>
+readBytes (const std::string& path)
+{
+  if (!fs::exists (path))
+    throw Error (path, "no such file");
+  if (fs::is_directory (path))
+    throw Error (path, "is a folder, expected a file");
+  std::ifstream in (path, std::ios::binary);
+  if (!in)
+    throw Error (path, std::string ("cannot open: ") + std::strerror (errno));
+  return std::vector<uchar> ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
+}
+
+// libpng decodes a PNG cut short after its first rows without an error and fills
+// the rest with zeros; a PNG must end with its IEND chunk, so check that first.
+bool
+isTruncatedPng (const std::vector<uchar>& bytes)
+{
+  static const uchar signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (bytes.size () < 8 || std::memcmp (bytes.data (), signature, 8) != 0)
+    return false;
+  static const uchar iend[8] = {'I', 'E', 'N', 'D', 0xae, 0x42, 0x60, 0x82};
+  return bytes.size () < 20 || std::memcmp (bytes.data () + bytes.size () - 8, iend, 8) != 0;
+}
+
+// JPEG data must end with the EOI marker FF D9.
+bool
+isTruncatedJpeg (const std::vector<uchar>& bytes)
+{
+  if (bytes.size () < 3 || bytes[0] != 0xff || bytes[1] != 0xd8)
+    return false;
+  std::size_t end = bytes.size ();
+  while (end > 2 && (bytes[end - 1] == 0x00 || bytes[end - 1] == '\n' || bytes[end - 1] == '\r'))
+    --end;  // some writers pad after EOI
+  return !(bytes[end - 2] == 0xff && bytes[end - 1] == 0xd9);
+}
+}  // namespace
+
+cv::Mat
+readImage (const std::string& path, int flags)
+{
+  const std::vector<uchar> bytes = readBytes (path);
+  if (bytes.empty ())
+    throw Error (path, "file is empty");
+  if (isTruncatedPng (bytes) || isTruncatedJpeg (bytes))
+    throw Error (path, "image file is truncated");
+  cv::Mat image;
+  try
+  {
+    image = cv::imdecode (bytes, flags);
+  }
+  catch (const cv::Exception& e)
+  {
+    throw Error (path, "cannot decode image (" + std::string (e.err) + ")");
+  }
+  if (image.empty ())
+    throw Error (path, "cannot decode image (corrupt or not an image)");
+  return image;
+}
+
+cv::Mat
+readDepthImage (const std::string& path, double units_per_metre)
+{
+  const cv::Mat raw = readImage (path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  if (raw.type () != CV_16UC1)
+    throw Error (path, "expected a 16-bit single-channel depth image, got " + std::to_string (raw.channels ()) +
+                           " channel(s) of " + std::to_string (raw.elemSize1 () * 8) + " bits");
+  cv::Mat depth;
+  raw.convertTo (depth, CV_32F, 1.0 / units_per_metre);
+  depth.setTo (0.f, raw == 65535);  // 7-Scenes marks invalid pixels with 65535, others with 0
+  return depth;
+}
+
+cv::Mat
+readLabelImage (const std::string& path)
+{
+  cv::Mat raw = readImage (path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  if (raw.channels () != 1)
+    throw Error (path, "expected a single-channel label image, got " + std::to_string (raw.channels ()) + " channels");
+  if (raw.type () == CV_8UC1)
+    raw.convertTo (raw, CV_16U);
+  if (raw.type () != CV_16UC1)
+    throw Error (path, "expected an 8- or 16-bit label image");
+  return raw;
+}
+
+cv::Mat
+depthToRaw (const cv::Mat& depth_m, double units_per_metre)
+{
+  cv::Mat raw (depth_m.size (), CV_16UC1, cv::Scalar (0));
+  for (int v = 0; v < depth_m.rows; ++v)
+  {
+    const float* z = depth_m.ptr<float> (v);
+    std::uint16_t* out = raw.ptr<std::uint16_t> (v);
+    for (int u = 0; u < depth_m.cols; ++u)
+    {
+      const double value = std::round (static_cast<double> (z[u]) * units_per_metre);
+      out[u] = (std::isfinite (value) && value > 0.0 && value <= 65535.0) ? static_cast<std::uint16_t> (value) : 0;
+    }
+  }
+  return raw;
+}
+
+namespace
+{
+void
+writeBytesAtomic (const std::string& path, const char* data, std::size_t size)
+{
+  const fs::path target (path);
+  const fs::path tmp = target.parent_path () / fs::unique_path (".tmp-%%%%%%%%-" + target.filename ().string ());
+  {
+    std::ofstream out (tmp.string (), std::ios::binary | std::ios::trunc);
+    if (!out)
+      throw Error (path, std::string ("cannot write: ") + std::strerror (errno));
+    out.write (data, static_cast<std::streamsize> (size));
+    out.flush ();
+    if (!out)
+    {
+      boost::system::error_code ignored;
+      fs::remove (tmp, ignored);
+      throw Error (path, "write failed (disk full?)");
+    }
+  }
+  boost::system::error_code ec;
+  fs::rename (tmp, target, ec);
+  if (ec)
+  {
+    boost::system::error_code ignored;
+    fs::remove (tmp, ignored);
+    throw Error (path, "cannot replace file: " + ec.message ());
+  }
+}
+}  // namespace
+
+void
+writeImageAtomic (const std::string& path, const cv::Mat& image, const std::vector<int>& params)
+{
+  std::vector<uchar> buffer;
+  const std::string ext = fs::path (path).extension ().string ();
+  bool ok = false;
+  try
+  {
+    ok = cv::imencode (ext, image, buffer, params);
+  }
+  catch (const cv::Exception& e)
+  {
+    throw Error (path, "cannot encode image (" + std::string (e.err) + ")");
+  }
+  if (!ok)
+    throw Error (path, "cannot encode image as " + ext);
+  writeBytesAtomic (path, reinterpret_cast<const char*> (buffer.data ()), buffer.size ());
+}
+
+void
+writeTextAtomic (const std::string& path, const std::string& text)
+{
+  writeBytesAtomic (path, text.data (), text.size ());
+}
+
+std::string
+readTextFile (const std::string& path)
+{
+  const std::vector<uchar> bytes = readBytes (path);
+  return std::string (bytes.begin (), bytes.end ());
+}
+
+std::vector<double>
+readNumbers (const std::string& path)
+{
+  std::istringstream in (readTextFile (path));
+  std::vector<double> values;
+  std::string token;
+  while (in >> token)
+  {
+    // strtod accepts "inf"/"-inf"/"nan", which ScanNet writes for frames without a pose.
+    char* end = nullptr;
+    const double value = std::strtod (token.c_str (), &end);
+    if (end == token.c_str () || *end != '\0')
+      throw Error (path, "not a number: '" + token + "'");
+    values.push_back (value);
+  }
+  return values;
+}
+}  // namespace io
+}  // namespace cuefusion

@@ -1,0 +1,119 @@
+#include <cuefusion/common/pinhole_camera.h>
+#include <cuefusion/io/scene_renderer.h>
+
+#include <cmath>
+#include <random>
+
+namespace cuefusion
+{
+namespace io
+{
+std::uint64_t
+mixSeed (std::uint64_t seed, std::uint64_t counter)
+{
+  std::uint64_t z = seed + 0x9e3779b97f4a7c15ULL * (counter + 1);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+SceneRenderer::SceneRenderer (const SyntheticScene& scene) : scene_ (scene)
+{
+  for (const SceneObject& o : scene_.objects)
+    class_of_.push_back (scene_.classIdOf (o));
+}
+
+std::uint16_t
+SceneRenderer::castRay (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double& t,
+                        Eigen::Vector3d& normal) const
+{
+  std::uint16_t hit_id = 0;
+  t = std::numeric_limits<double>::infinity ();
+  for (const SceneObject& o : scene_.objects)
+    for (const Primitive& prim : o.parts)
+    {
+      // Cull by bounding sphere before the exact test.
+      const Eigen::Vector3d oc = prim.center - origin;
+      const double along = oc.dot (dir);
+      const double r = prim.boundingRadius ();
+      if (along + r < 0.0 || oc.squaredNorm () - along * along > r * r || along - r > t)
+        continue;
+      double ti;
+      Eigen::Vector3d ni;
+      if (prim.intersect (origin, dir, 1e-6, ti, ni) && ti < t)
+      {
+        t = ti;
+        normal = ni;
+        hit_id = o.id;
+      }
+    }
+  return hit_id;
+}
+
+cv::Vec3b
+SceneRenderer::shade (const SceneObject& object, const Eigen::Vector3d& p, const Eigen::Vector3d& n) const
+{
+  static const Eigen::Vector3d light = Eigen::Vector3d (0.3, 0.5, 1.0).normalized ();
+  double k = 0.45 + 0.55 * std::max (0.0, n.dot (light));
+  if (object.checker && (static_cast<long> (std::floor (p.x () / 0.25)) + static_cast<long> (std::floor (p.y () / 0.25))) % 2)
+    k *= 0.75;
+  auto channel = [k] (std::uint8_t c) { return static_cast<std::uint8_t> (std::min (255.0, std::round (c * k))); };
+  return cv::Vec3b (channel (object.rgb[2]), channel (object.rgb[1]), channel (object.rgb[0]));
+}
+
+RenderedView
+SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const DepthNoiseConfig& noise,
+                       std::uint64_t noise_seed) const
+{
+  RenderedView view;
+  view.depth = cv::Mat (camera.height, camera.width, CV_32F, cv::Scalar (0.f));
+  view.color = cv::Mat (camera.height, camera.width, CV_8UC3, cv::Scalar (0, 0, 0));
+  view.instance = cv::Mat (camera.height, camera.width, CV_16U, cv::Scalar (0));
+  view.class_ids = cv::Mat (camera.height, camera.width, CV_16U, cv::Scalar (0));
+  view.normals = cv::Mat (camera.height, camera.width, CV_32FC3, cv::Scalar (0, 0, 0));
+  const Eigen::Matrix3d rotation = pose.rotation ();
+  const Eigen::Vector3d origin = pose.translation ();
+  const double deg = 3.14159265358979323846 / 180.0;
+
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int v = 0; v < camera.height; ++v)
+  {
+    // One random stream per row keeps the noise independent of the thread count.
+    std::mt19937_64 rng (mixSeed (noise_seed, static_cast<std::uint64_t> (v)));
+    std::normal_distribution<double> gauss (0.0, 1.0);
+    std::uniform_real_distribution<double> uniform (0.0, 1.0);
+    for (int u = 0; u < camera.width; ++u)
+    {
+      const Eigen::Vector3d ray_cam ((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
+      const Eigen::Vector3d dir = (rotation * ray_cam).normalized ();
+      double t;
+      Eigen::Vector3d n;
+      const std::uint16_t id = castRay (origin, dir, t, n);
+      if (id == 0)
+        continue;
+      const SceneObject& object = scene_.objects[id - 1u];
+      const Eigen::Vector3d p = origin + t * dir;
+      view.instance.at<std::uint16_t> (v, u) = id;
+      view.class_ids.at<std::uint16_t> (v, u) = class_of_[id - 1u];
+      view.color.at<cv::Vec3b> (v, u) = shade (object, p, n);
+      const Eigen::Vector3d n_cam = rotation.transpose () * n;
+      view.normals.at<cv::Vec3f> (v, u) = cv::Vec3f (static_cast<float> (n_cam.x ()), static_cast<float> (n_cam.y ()),
+                                                     static_cast<float> (n_cam.z ()));
+      double z = (rotation.transpose () * (p - origin)).z ();
+      if (noise.enabled)
+      {
+        const double incidence = std::acos (std::min (1.0, std::abs (n.dot (dir))));
+        const double start = noise.dropout_start_deg * deg, stop = noise.max_incidence_deg * deg;
+        if (incidence >= stop || (incidence > start && uniform (rng) < (incidence - start) / (stop - start)))
+          continue;
+        z += gauss (rng) * kinectAxialNoise (z, incidence);
+        if (z < noise.min_depth || z > noise.max_depth)
+          continue;
+      }
+      view.depth.at<float> (v, u) = static_cast<float> (z);
+    }
+  }
+  return view;
+}
+}  // namespace io
+}  // namespace cuefusion

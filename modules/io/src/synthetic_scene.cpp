@@ -1,0 +1,510 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/synthetic_scene.h>
+
+#include <boost/algorithm/string.hpp>
+#include <boost/filesystem.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <sstream>
+
+namespace fs = boost::filesystem;
+
+namespace cuefusion
+{
+namespace io
+{
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+}
+
+Eigen::Vector3d
+Primitive::toLocal (const Eigen::Vector3d& p) const
+{
+  return Eigen::AngleAxisd (-yaw, Eigen::Vector3d::UnitZ ()) * (p - center);
+}
+
+Eigen::Vector3d
+Primitive::fromLocal (const Eigen::Vector3d& p) const
+{
+  return Eigen::AngleAxisd (yaw, Eigen::Vector3d::UnitZ ()) * p + center;
+}
+
+Eigen::Vector3d
+Primitive::directionFromLocal (const Eigen::Vector3d& d) const
+{
+  return Eigen::AngleAxisd (yaw, Eigen::Vector3d::UnitZ ()) * d;
+}
+
+bool
+Primitive::intersect (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double& t,
+                      Eigen::Vector3d& normal) const
+{
+  if (type == Type::Sphere)
+  {
+    const double r = half_size.x ();
+    const Eigen::Vector3d oc = origin - center;
+    const double b = oc.dot (dir);
+    const double c = oc.squaredNorm () - r * r;
+    const double disc = b * b - c;
+    if (disc < 0.0)
+      return false;
+    const double s = std::sqrt (disc);
+    double hit = -b - s;
+    if (hit <= t_min)
+      hit = -b + s;
+    if (hit <= t_min)
+      return false;
+    t = hit;
+    normal = (origin + t * dir - center) / r;
+    return true;
+  }
+  const Eigen::Vector3d o = toLocal (origin);
+  const Eigen::Vector3d d = Eigen::AngleAxisd (-yaw, Eigen::Vector3d::UnitZ ()) * dir;
+  double best = std::numeric_limits<double>::infinity ();
+  Eigen::Vector3d best_n;
+  if (type == Type::Box)
+  {
+    // Slab test; the entry face gives the normal.
+    double t0 = -std::numeric_limits<double>::infinity (), t1 = std::numeric_limits<double>::infinity ();
+    int axis0 = -1, axis1 = -1;
+    for (int a = 0; a < 3; ++a)
+    {
+      if (std::abs (d[a]) < 1e-15)
+      {
+        if (std::abs (o[a]) > half_size[a])
+          return false;
+        continue;
+      }
+      double ta = (-half_size[a] - o[a]) / d[a];
+      double tb = (half_size[a] - o[a]) / d[a];
+      if (ta > tb)
+        std::swap (ta, tb);
+      if (ta > t0)
+      {
+        t0 = ta;
+        axis0 = a;
+      }
+      if (tb < t1)
+      {
+        t1 = tb;
+        axis1 = a;
+      }
+    }
+    if (t0 > t1)
+      return false;
+    if (t0 > t_min && axis0 >= 0)
+    {
+      best = t0;
+      best_n = Eigen::Vector3d::Zero ();
+      best_n[axis0] = d[axis0] > 0 ? -1.0 : 1.0;
+    }
+    else if (t1 > t_min && axis1 >= 0)
+    {
+      best = t1;
+      best_n = Eigen::Vector3d::Zero ();
+      best_n[axis1] = d[axis1] > 0 ? 1.0 : -1.0;
+    }
+  }
+  else  // upright cylinder
+  {
+    const double r = half_size.x (), h = half_size.z ();
+    const double a = d.x () * d.x () + d.y () * d.y ();
+    if (a > 1e-15)
+    {
+      const double b = o.x () * d.x () + o.y () * d.y ();
+      const double c = o.x () * o.x () + o.y () * o.y () - r * r;
+      const double disc = b * b - a * c;
+      if (disc >= 0.0)
+      {
+        const double s = std::sqrt (disc);
+        for (double cand : {(-b - s) / a, (-b + s) / a})
+        {
+          const double z = o.z () + cand * d.z ();
+          if (cand > t_min && cand < best && std::abs (z) <= h)
+          {
+            best = cand;
+            best_n = Eigen::Vector3d (o.x () + cand * d.x (), o.y () + cand * d.y (), 0.0) / r;
+          }
+        }
+      }
+    }
+    if (std::abs (d.z ()) > 1e-15)
+      for (double cap : {-h, h})
+      {
+        const double cand = (cap - o.z ()) / d.z ();
+        const double x = o.x () + cand * d.x (), y = o.y () + cand * d.y ();
+        if (cand > t_min && cand < best && x * x + y * y <= r * r)
+        {
+          best = cand;
+          best_n = Eigen::Vector3d (0, 0, cap > 0 ? 1.0 : -1.0);
+        }
+      }
+  }
+  if (!std::isfinite (best))
+    return false;
+  t = best;
+  normal = directionFromLocal (best_n);
+  return true;
+}
+
+bool
+Primitive::contains (const Eigen::Vector3d& p, double margin) const
+{
+  if (type == Type::Sphere)
+    return (p - center).norm () < half_size.x () + margin;
+  const Eigen::Vector3d q = toLocal (p);
+  if (type == Type::Box)
+    return (q.cwiseAbs () - half_size).maxCoeff () < margin;
+  return std::hypot (q.x (), q.y ()) < half_size.x () + margin && std::abs (q.z ()) < half_size.z () + margin;
+}
+
+void
+Primitive::sampleSurface (double spacing, std::vector<Eigen::Vector3d>& points) const
+{
+  auto steps = [spacing] (double length) { return std::max (1, static_cast<int> (std::ceil (length / spacing))); };
+  if (type == Type::Sphere)
+  {
+    // Fibonacci lattice: near-uniform points on the sphere.
+    const double r = half_size.x ();
+    const int n = std::max (8, static_cast<int> (4.0 * kPi * r * r / (spacing * spacing)));
+    const double golden = kPi * (3.0 - std::sqrt (5.0));
+    for (int i = 0; i < n; ++i)
+    {
+      const double z = 1.0 - 2.0 * (i + 0.5) / n;
+      const double rho = std::sqrt (1.0 - z * z);
+      points.push_back (center + r * Eigen::Vector3d (rho * std::cos (golden * i), rho * std::sin (golden * i), z));
+    }
+    return;
+  }
+  if (type == Type::Box)
+  {
+    for (int axis = 0; axis < 3; ++axis)
+    {
+      const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+      const int n1 = steps (2 * half_size[a1]), n2 = steps (2 * half_size[a2]);
+      for (double side : {-1.0, 1.0})
+        for (int i = 0; i < n1; ++i)
+          for (int j = 0; j < n2; ++j)
+          {
+            Eigen::Vector3d q;
+            q[axis] = side * half_size[axis];
+            q[a1] = -half_size[a1] + (i + 0.5) * 2 * half_size[a1] / n1;
+            q[a2] = -half_size[a2] + (j + 0.5) * 2 * half_size[a2] / n2;
+            points.push_back (fromLocal (q));
+          }
+    }
+    return;
+  }
+  const double r = half_size.x (), h = half_size.z ();
+  const int n_around = steps (2 * kPi * r), n_up = steps (2 * h);
+  for (int i = 0; i < n_around; ++i)
+  {
+    const double phi = 2 * kPi * (i + 0.5) / n_around;
+    for (int j = 0; j < n_up; ++j)
+      points.push_back (fromLocal ({r * std::cos (phi), r * std::sin (phi), -h + (j + 0.5) * 2 * h / n_up}));
+  }
+  const int n_cap = steps (2 * r);
+  for (double cap : {-h, h})
+    for (int i = 0; i < n_cap; ++i)
+      for (int j = 0; j < n_cap; ++j)
+      {
+        const double x = -r + (i + 0.5) * 2 * r / n_cap, y = -r + (j + 0.5) * 2 * r / n_cap;
+        if (x * x + y * y <= r * r)
+          points.push_back (fromLocal ({x, y, cap}));
+      }
+}
+
+Eigen::Isometry3d
+OrbitTrajectory::poseAt (double s) const
+{
+  const double azimuth = (start_deg + sweep_deg * s) * kPi / 180.0;
+  const Eigen::Vector3d position =
+    target + Eigen::Vector3d (radius * std::cos (azimuth), radius * std::sin (azimuth),
+                              height + bob * std::sin (2.0 * kPi * s));
+  const Eigen::Vector3d forward = (target - position).normalized ();
+  const Eigen::Vector3d right = forward.cross (Eigen::Vector3d::UnitZ ()).normalized ();
+  const Eigen::Vector3d down = forward.cross (right);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
+  pose.linear ().col (0) = right;
+  pose.linear ().col (1) = down;
+  pose.linear ().col (2) = forward;
+  pose.translation () = position;
+  return pose;
+}
+
+std::vector<std::string>
+SyntheticScene::classNames () const
+{
+  std::vector<std::string> names;
+  for (const SceneObject& o : objects)
+    if (std::find (names.begin (), names.end (), o.class_name) == names.end ())
+      names.push_back (o.class_name);
+  return names;
+}
+
+std::uint16_t
+SyntheticScene::classIdOf (const SceneObject& object) const
+{
+  const std::vector<std::string> names = classNames ();
+  return static_cast<std::uint16_t> (std::find (names.begin (), names.end (), object.class_name) - names.begin () + 1);
+}
+
+const SceneObject*
+SyntheticScene::objectById (std::uint16_t id) const
+{
+  for (const SceneObject& o : objects)
+    if (o.id == id)
+      return &o;
+  return nullptr;
+}
+
+namespace
+{
+class LineParser
+{
+public:
+  LineParser (const std::string& where, const std::vector<std::string>& tokens) : where_ (where)
+  {
+    for (std::size_t i = 1; i < tokens.size (); ++i)
+    {
+      const auto eq = tokens[i].find ('=');
+      if (eq == std::string::npos)
+        positional_.push_back (tokens[i]);
+      else
+        keys_[tokens[i].substr (0, eq)] = tokens[i].substr (eq + 1);
+    }
+  }
+
+  double
+  number (const std::string& text, const std::string& what) const
+  {
+    char* end = nullptr;
+    const double v = std::strtod (text.c_str (), &end);
+    if (text.empty () || *end != '\0' || !std::isfinite (v))
+      throw Error (where_, what + ": '" + text + "' is not a number");
+    return v;
+  }
+
+  double
+  scalar (const std::string& key, double fallback, bool required = false)
+  {
+    auto it = keys_.find (key);
+    if (it == keys_.end ())
+    {
+      if (required)
+        throw Error (where_, "missing " + key + "=");
+      return fallback;
+    }
+    const double v = number (it->second, key);
+    keys_.erase (it);
+    return v;
+  }
+
+  Eigen::Vector3d
+  vector3 (const std::string& key, const Eigen::Vector3d& fallback, bool required = false)
+  {
+    auto it = keys_.find (key);
+    if (it == keys_.end ())
+    {
+      if (required)
+        throw Error (where_, "missing " + key + "=x,y,z");
+      return fallback;
+    }
+    std::vector<std::string> parts;
+    boost::algorithm::split (parts, it->second, boost::is_any_of (","));
+    if (parts.size () != 3)
+      throw Error (where_, key + " needs three comma-separated numbers");
+    Eigen::Vector3d v (number (parts[0], key), number (parts[1], key), number (parts[2], key));
+    keys_.erase (it);
+    return v;
+  }
+
+  std::string
+  text (const std::string& key, const std::string& fallback)
+  {
+    auto it = keys_.find (key);
+    if (it == keys_.end ())
+      return fallback;
+    const std::string v = it->second;
+    keys_.erase (it);
+    return v;
+  }
+
+  bool
+  flag (const std::string& key, bool fallback)
+  {
+    const std::string v = text (key, fallback ? "yes" : "no");
+    if (v == "yes" || v == "true" || v == "1")
+      return true;
+    if (v == "no" || v == "false" || v == "0")
+      return false;
+    throw Error (where_, key + " must be yes or no");
+  }
+
+  const std::vector<std::string>& positional () const { return positional_; }
+
+  /** Every key must have been used: a typo is an error, not a silent default. */
+  void
+  finish () const
+  {
+    if (!keys_.empty ())
+      throw Error (where_, "unknown setting '" + keys_.begin ()->first + "'");
+  }
+
+private:
+  std::string where_;
+  std::vector<std::string> positional_;
+  std::map<std::string, std::string> keys_;
+};
+
+void
+requirePositive (const std::string& where, const std::string& what, double v)
+{
+  if (!(v > 0.0))
+    throw Error (where, what + " must be positive");
+}
+}  // namespace
+
+SyntheticScene
+SyntheticScene::parse (const std::string& text, const std::string& source)
+{
+  SyntheticScene scene;
+  scene.name = fs::path (source).stem ().string ();
+  std::istringstream in (text);
+  std::string line;
+  int line_no = 0;
+  while (std::getline (in, line))
+  {
+    ++line_no;
+    const std::string where = source + ":" + std::to_string (line_no);
+    const auto hash = line.find ('#');
+    if (hash != std::string::npos)
+      line.erase (hash);
+    boost::algorithm::trim (line);
+    if (line.empty ())
+      continue;
+    std::vector<std::string> tokens;
+    boost::algorithm::split (tokens, line, boost::is_any_of (" \t"), boost::token_compress_on);
+    const std::string& kind = tokens[0];
+    LineParser p (where, tokens);
+    if (kind == "scene")
+    {
+      if (p.positional ().size () != 1)
+        throw Error (where, "expected 'scene NAME'");
+      scene.name = p.positional ()[0];
+    }
+    else if (kind == "camera")
+    {
+      const auto& v = p.positional ();
+      if (v.size () != 6)
+        throw Error (where, "expected 'camera WIDTH HEIGHT FX FY CX CY'");
+      scene.camera = PinholeCamera (p.number (v[2], "fx"), p.number (v[3], "fy"), p.number (v[4], "cx"),
+                                    p.number (v[5], "cy"), static_cast<int> (p.number (v[0], "width")),
+                                    static_cast<int> (p.number (v[1], "height")));
+      scene.camera.validate (where);
+    }
+    else if (kind == "trajectory")
+    {
+      OrbitTrajectory& t = scene.trajectory;
+      t.target = p.vector3 ("target", t.target);
+      t.radius = p.scalar ("radius", t.radius);
+      t.height = p.scalar ("height", t.height);
+      t.start_deg = p.scalar ("start", t.start_deg);
+      t.sweep_deg = p.scalar ("sweep", t.sweep_deg);
+      t.bob = p.scalar ("bob", t.bob);
+      requirePositive (where, "radius", t.radius);
+    }
+    else if (kind == "object")
+    {
+      if (p.positional ().size () != 1)
+        throw Error (where, "expected 'object NAME class=CLASS color=R,G,B'");
+      if (scene.objects.size () >= 65535)
+        throw Error (where, "too many objects (instance ids are 16-bit)");
+      SceneObject o;
+      o.id = static_cast<std::uint16_t> (scene.objects.size () + 1);
+      o.name = p.positional ()[0];
+      o.class_name = boost::algorithm::replace_all_copy (p.text ("class", o.name), "_", " ");
+      const Eigen::Vector3d c = p.vector3 ("color", Eigen::Vector3d (128, 128, 128));
+      for (int i = 0; i < 3; ++i)
+      {
+        if (c[i] < 0 || c[i] > 255)
+          throw Error (where, "color components must lie in 0..255");
+        o.rgb[static_cast<std::size_t> (i)] = static_cast<std::uint8_t> (c[i]);
+      }
+      o.detectable = p.flag ("detectable", true);
+      const std::string texture = p.text ("texture", "plain");
+      if (texture != "plain" && texture != "checker")
+        throw Error (where, "texture must be plain or checker");
+      o.checker = texture == "checker";
+      scene.objects.push_back (o);
+    }
+    else if (kind == "box" || kind == "cylinder" || kind == "sphere")
+    {
+      if (scene.objects.empty ())
+        throw Error (where, kind + " before any 'object' line");
+      Primitive prim;
+      prim.center = p.vector3 ("center", Eigen::Vector3d::Zero (), true);
+      if (kind == "box")
+      {
+        prim.type = Primitive::Type::Box;
+        prim.half_size = 0.5 * p.vector3 ("size", Eigen::Vector3d::Zero (), true);
+        prim.yaw = p.scalar ("yaw", 0.0) * kPi / 180.0;
+      }
+      else if (kind == "cylinder")
+      {
+        prim.type = Primitive::Type::Cylinder;
+        const double r = p.scalar ("radius", 0.0, true);
+        prim.half_size = Eigen::Vector3d (r, r, 0.5 * p.scalar ("height", 0.0, true));
+      }
+      else
+      {
+        prim.type = Primitive::Type::Sphere;
+        prim.half_size = Eigen::Vector3d::Constant (p.scalar ("radius", 0.0, true));
+      }
+      if (!(prim.half_size.minCoeff () > 0.0))
+        throw Error (where, kind + " dimensions must be positive");
+      scene.objects.back ().parts.push_back (prim);
+    }
+    else
+      throw Error (where, "unknown line '" + kind + "' (scene, camera, trajectory, object, box, cylinder, sphere)");
+    p.finish ();
+  }
+  if (scene.objects.empty ())
+    throw Error (source, "scene has no objects");
+  for (const SceneObject& o : scene.objects)
+    if (o.parts.empty ())
+      throw Error (source, "object '" + o.name + "' has no box, cylinder or sphere");
+  return scene;
+}
+
+SyntheticScene
+SyntheticScene::load (const std::string& path)
+{
+  return parse (readTextFile (path), path);
+}
+
+std::string
+resolveScenePath (const std::string& name_or_file, const std::string& scenes_dir)
+{
+  if (fs::is_regular_file (name_or_file))
+    return name_or_file;
+  const fs::path named = fs::path (scenes_dir) / (name_or_file + ".scene");
+  if (fs::is_regular_file (named))
+    return named.string ();
+  throw Error (name_or_file, "no such scene file, and no " + named.string ());
+}
+
+std::string
+defaultScenesDir ()
+{
+  if (const char* dir = std::getenv ("CUEFUSION_DATA_DIR"))
+    return (fs::path (dir) / "scenes").string ();
+  return (fs::path (CUEFUSION_DATA_DIR) / "scenes").string ();
+}
+}  // namespace io
+}  // namespace cuefusion

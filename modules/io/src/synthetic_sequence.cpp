@@ -1,0 +1,182 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/synthetic_sequence.h>
+
+#include <boost/filesystem.hpp>
+#include <nlohmann/json.hpp>
+#include <pcl/io/pcd_io.h>
+
+#include <cmath>
+
+namespace fs = boost::filesystem;
+
+namespace cuefusion
+{
+namespace io
+{
+void
+SyntheticSequenceConfig::validate () const
+{
+  if (frames < 1 || frames > 1000000)
+    throw Error ("--frames", "must lie in [1, 1000000]");
+  if (!(fps > 0.0 && fps <= 1000.0))
+    throw Error ("--fps", "must lie in (0, 1000]");
+  if (width < 0 || height < 0 || width > 8192 || height > 8192 || ((width == 0) != (height == 0)))
+    throw Error ("--size", "width and height must both be given, each in [1, 8192]");
+  if (!(gt_cloud_spacing >= 0.001 && gt_cloud_spacing <= 1.0))
+    throw Error ("--gt-spacing", "must lie in [0.001, 1] metres");
+  detector.validate ();
+}
+
+SyntheticSequence::SyntheticSequence (const SyntheticScene& scene, const SyntheticSequenceConfig& config)
+  : scene_ (scene), config_ (config),
+    camera_ (config.width > 0 ? scene.camera.scaled (config.width, config.height) : scene.camera), renderer_ (scene_),
+    detector_ (scene_, config.detector, config.seed)
+{
+  config_.validate ();
+}
+
+Eigen::Isometry3d
+SyntheticSequence::poseAt (std::size_t i) const
+{
+  const double s = config_.frames > 1 ? static_cast<double> (i) / static_cast<double> (config_.frames - 1) : 0.0;
+  return scene_.trajectory.poseAt (s);
+}
+
+RGBDFrame::Ptr
+SyntheticSequence::frame (std::size_t i) const
+{
+  auto f = std::make_shared<RGBDFrame> ();
+  f->index = i;
+  f->timestamp = 1.0 + static_cast<double> (i) / config_.fps;
+  f->name = std::to_string (i);
+  f->camera = camera_;
+  f->pose = poseAt (i);
+  RenderedView view = renderer_.render (camera_, *f->pose, config_.noise, mixSeed (config_.seed, i));
+  f->depth = view.depth;
+  f->color = view.color;
+  f->instance_mask = view.instance;
+  f->class_mask = view.class_ids;
+  return f;
+}
+
+DetectionResult
+SyntheticSequence::detections (const RGBDFrame& frame) const
+{
+  return detector_.detect (frame.instance_mask, frame.index);
+}
+
+pcl::PointCloud<pcl::PointXYZRGBL>::Ptr
+SyntheticSequence::groundTruthCloud () const
+{
+  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGBL>> ();
+  // Contact faces (a mug's base on the table, the table top under it) lie inside a
+  // neighbour grown by this margin and are dropped: no camera can see them.
+  const double margin = 1e-3;
+  for (const SceneObject& o : scene_.objects)
+    for (std::size_t k = 0; k < o.parts.size (); ++k)
+    {
+      std::vector<Eigen::Vector3d> points;
+      o.parts[k].sampleSurface (config_.gt_cloud_spacing, points);
+      for (const Eigen::Vector3d& p : points)
+      {
+        bool hidden = false;
+        for (const SceneObject& other : scene_.objects)
+          for (std::size_t j = 0; j < other.parts.size () && !hidden; ++j)
+            if (!(&other == &o && j == k) && other.parts[j].contains (p, margin))
+              hidden = true;
+        if (hidden)
+          continue;
+        pcl::PointXYZRGBL q;
+        q.x = static_cast<float> (p.x ());
+        q.y = static_cast<float> (p.y ());
+        q.z = static_cast<float> (p.z ());
+        q.r = o.rgb[0];
+        q.g = o.rgb[1];
+        q.b = o.rgb[2];
+        q.a = 255;
+        q.label = o.id;
+        cloud->push_back (q);
+      }
+    }
+  return cloud;
+}
+
+namespace
+{
+std::string
+sceneJson (const SyntheticSequence& sequence)
+{
+  const SyntheticScene& scene = sequence.scene ();
+  nlohmann::json instances = nlohmann::json::array ();
+  for (const SceneObject& o : scene.objects)
+    instances.push_back ({{"id", o.id},
+                          {"name", o.name},
+                          {"class_id", scene.classIdOf (o)},
+                          {"class_name", o.class_name},
+                          {"detectable", o.detectable}});
+  const PinholeCamera& c = sequence.camera ();
+  nlohmann::json j = {{"scene", scene.name},
+                      {"frames", sequence.size ()},
+                      {"camera", {{"width", c.width}, {"height", c.height}, {"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}}},
+                      {"classes", scene.classNames ()},
+                      {"instances", instances}};
+  return j.dump (1) + "\n";
+}
+}  // namespace
+
+void
+writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout, const std::string& dir,
+                        bool overwrite, const std::function<void (std::size_t)>& progress)
+{
+  const fs::path target = fs::absolute (dir);
+  if (fs::exists (target) && !(fs::is_directory (target) && fs::is_empty (target)) && !overwrite)
+    throw Error (dir, "already exists and is not empty (use --overwrite to replace it)");
+  boost::system::error_code ec;
+  fs::create_directories (target.parent_path (), ec);
+  const fs::path staging = target.parent_path () / fs::unique_path ("." + target.filename ().string () + ".tmp-%%%%%%");
+  try
+  {
+    std::unique_ptr<SequenceWriter> writer = SequenceWriter::create (layout, staging.string (), sequence.camera ());
+    fs::create_directories (staging / "detections");
+    for (std::size_t i = 0; i < sequence.size (); ++i)
+    {
+      const RGBDFrame::Ptr frame = sequence.frame (i);
+      writer->write (*frame);
+      const DetectionResult detections = sequence.detections (*frame);
+      const std::string stem = (staging / "detections" / writer->frameName (*frame)).string ();
+      writeImageAtomic (stem + ".png", detections.ids);
+      writeTextAtomic (stem + ".json", detectionsToJson (detections));
+      if (progress)
+        progress (i + 1);
+    }
+    writer->finish ();
+    const auto cloud = sequence.groundTruthCloud ();
+    if (pcl::io::savePCDFileBinaryCompressed ((staging / "gt_cloud.pcd").string (), *cloud) != 0)
+      throw Error ((staging / "gt_cloud.pcd").string (), "cannot write point cloud");
+    writeTextAtomic ((staging / "scene.json").string (), sceneJson (sequence));
+  }
+  catch (...)
+  {
+    fs::remove_all (staging, ec);
+    throw;
+  }
+  // Swap in the finished folder; the old one (if any) is removed only afterwards.
+  const fs::path old = target.parent_path () / fs::unique_path ("." + target.filename ().string () + ".old-%%%%%%");
+  const bool had_old = fs::exists (target);
+  if (had_old)
+    fs::rename (target, old, ec);
+  if (!ec)
+    fs::rename (staging, target, ec);
+  if (ec)
+  {
+    fs::remove_all (staging);
+    if (had_old)
+      fs::rename (old, target);
+    throw Error (dir, "cannot move the finished sequence into place: " + ec.message ());
+  }
+  if (had_old)
+    fs::remove_all (old, ec);
+}
+}  // namespace io
+}  // namespace cuefusion
