@@ -55,7 +55,7 @@ runRun (const std::vector<std::string>& args)
   if (!parseCommandLine ("run", "SEQUENCE --out DIR [options]", args, options, positional, vm))
     return 0;
   if (!(voxel >= 0.001f && voxel <= 1.f))
-    throw Error ("--voxel", "must lie in [0.001, 1] metres");
+    throw ParameterError ("--voxel", "must lie in [0.001, 1] metres");
 
   io::SequenceOptions opts;
   opts.format = io::parseSequenceFormat (format);

@@ -51,7 +51,7 @@ runSynth (const std::vector<std::string>& args)
     char x = 0;
     std::istringstream in (size);
     if (!(in >> config.width >> x >> config.height) || x != 'x' || !in.eof ())
-      throw Error ("--size", "expected WIDTHxHEIGHT, e.g. 320x240");
+      throw ParameterError ("--size", "expected WIDTHxHEIGHT, e.g. 320x240");
   }
   const io::DatasetLayout layout = io::parseDatasetLayout (layout_name);
   config.validate ();

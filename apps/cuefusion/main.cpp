@@ -55,6 +55,11 @@ main (int argc, char** argv)
     std::cerr << "cuefusion " << command << ": " << e.what () << " (see 'cuefusion " << command << " --help')\n";
     return 2;
   }
+  catch (const cuefusion::ParameterError& e)
+  {
+    std::cerr << "cuefusion " << command << ": " << e.what () << " (see 'cuefusion " << command << " --help')\n";
+    return 2;
+  }
   catch (const cuefusion::Error& e)
   {
     std::cerr << "cuefusion " << command << ": " << e.what () << "\n";

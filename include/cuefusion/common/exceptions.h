@@ -18,3 +18,13 @@ public:
   Error (const std::string& where, const std::string& what) : std::runtime_error (where + ": " + what) {}
 };
 }  // namespace cuefusion
+
+namespace cuefusion
+{
+/** \brief A parameter outside its valid range (named as its command-line option). */
+class ParameterError : public Error
+{
+public:
+  ParameterError (const std::string& parameter, const std::string& what) : Error (parameter, what) {}
+};
+}  // namespace cuefusion

@@ -132,7 +132,7 @@ void
 DatasetGrabber::setFramesPerSecond (float fps)
 {
   if (!(fps >= 0.f) || !std::isfinite (fps))
-    throw Error ("frames per second", "must be 0 (trigger mode) or positive, got " + std::to_string (fps));
+    throw ParameterError ("frames per second", "must be 0 (trigger mode) or positive, got " + std::to_string (fps));
   fps_ = fps;
 }
 

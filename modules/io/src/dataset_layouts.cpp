@@ -152,7 +152,7 @@ TumGrabber::TumGrabber (const std::string& root, const Config& config) : Dataset
   const fs::path dir (root);
   depth_units_per_metre_ = 5000.0;
   if (!(config.max_difference > 0.0))
-    throw Error ("max difference", "must be positive");
+    throw ParameterError ("max difference", "must be positive");
   const std::vector<StampedFile> rgb = readTumFileList (dir / "rgb.txt");
   const std::vector<StampedFile> depth = readTumFileList (dir / "depth.txt");
 

@@ -20,20 +20,20 @@ DetectorErrorConfig::validate () const
 {
   auto probability = [] (double p, const char* option) {
     if (!(p >= 0.0 && p <= 1.0))
-      throw Error (option, "must be a probability in [0, 1]");
+      throw ParameterError (option, "must be a probability in [0, 1]");
   };
   probability (merge_probability, "--mask-merge");
   probability (miss_probability, "--mask-miss");
   if (!(false_positives >= 0.0 && false_positives <= 100.0))
-    throw Error ("--mask-false-positives", "must lie in [0, 100] per frame");
+    throw ParameterError ("--mask-false-positives", "must lie in [0, 100] per frame");
   if (std::abs (boundary_px) > 100)
-    throw Error ("--mask-boundary", "must lie in [-100, 100] pixels");
+    throw ParameterError ("--mask-boundary", "must lie in [-100, 100] pixels");
   if (boundary_jitter_px < 0 || boundary_jitter_px > 100)
-    throw Error ("--mask-jitter", "must lie in [0, 100] pixels");
+    throw ParameterError ("--mask-jitter", "must lie in [0, 100] pixels");
   if (min_pixels < 0)
-    throw Error ("--mask-min-pixels", "must not be negative");
+    throw ParameterError ("--mask-min-pixels", "must not be negative");
   if (!(min_score >= 0.0 && min_score <= max_score && max_score <= 1.0))
-    throw Error ("detector scores", "need 0 <= min <= max <= 1");
+    throw ParameterError ("detector scores", "need 0 <= min <= max <= 1");
 }
 
 SimulatedDetector::SimulatedDetector (const SyntheticScene& scene, const DetectorErrorConfig& config,

@@ -1,0 +1,114 @@
+// The cuefusion binary: exit codes (0 ok, 1 failure, 2 usage) and one-line errors.
+#include "test_utils.h"
+
+#include <cuefusion/io/pose_io.h>
+
+#include <boost/filesystem.hpp>
+#include <gtest/gtest.h>
+#include <pcl/io/pcd_io.h>
+
+#include <cstdlib>
+#include <sys/wait.h>
+
+using namespace cuefusion;
+
+namespace
+{
+struct Result
+{
+  int code;
+  std::string out, err;
+};
+
+class Cli : public ::testing::Test
+{
+protected:
+  Result
+  run (const std::string& args)
+  {
+    const std::string cmd = std::string (CUEFUSION_BINARY) + " " + args + " >" + (dir / "out.txt") + " 2>" +
+                            (dir / "err.txt") + " </dev/null";
+    const int status = std::system (cmd.c_str ());
+    return {WIFEXITED (status) ? WEXITSTATUS (status) : -1, test::readFile (dir / "out.txt"),
+            test::readFile (dir / "err.txt")};
+  }
+  static int
+  lines (const std::string& s)
+  {
+    return static_cast<int> (std::count (s.begin (), s.end (), '\n'));
+  }
+  test::TempDir dir;
+};
+}  // namespace
+
+TEST_F (Cli, UsageErrorsExitWith2)
+{
+  EXPECT_EQ (run ("").code, 2);
+  EXPECT_EQ (run ("frobnicate").code, 2);
+  Result r = run ("info");
+  EXPECT_EQ (r.code, 2);
+  EXPECT_EQ (lines (r.err), 1) << r.err;
+  EXPECT_EQ (run ("synth --scene tabletop").code, 2);  // --out missing
+  EXPECT_EQ (run ("synth --scene tabletop --out x --frames abc").code, 2);
+  r = run ("synth --scene tabletop --out " + (dir / "s") + " --mask-merge 1.5");
+  EXPECT_EQ (r.code, 2);
+  EXPECT_NE (r.err.find ("--mask-merge"), std::string::npos) << r.err;
+  EXPECT_EQ (run ("synth --scene tabletop --out " + (dir / "s") + " --layout nope").code, 2);
+  EXPECT_FALSE (boost::filesystem::exists (dir / "s"));
+}
+
+TEST_F (Cli, HelpForEveryCommand)
+{
+  for (const char* command : {"--help", "synth --help", "info --help", "run --help"})
+  {
+    const Result r = run (command);
+    EXPECT_EQ (r.code, 0) << command;
+    EXPECT_NE (r.out.find ("usage: cuefusion"), std::string::npos) << command;
+  }
+}
+
+TEST_F (Cli, BadInputIsOneLineAndExit1)
+{
+  Result r = run ("info " + (dir / "missing"));
+  EXPECT_EQ (r.code, 1);
+  EXPECT_EQ (lines (r.err), 1) << r.err;
+  EXPECT_NE (r.err.find (dir / "missing"), std::string::npos) << r.err;
+  r = run ("synth --scene no_such_scene --out " + (dir / "s"));
+  EXPECT_EQ (r.code, 1);
+  EXPECT_EQ (lines (r.err), 1) << r.err;
+}
+
+TEST_F (Cli, SynthInfoRun)
+{
+  const std::string seq = dir / "seq";
+  Result r = run ("synth --scene tabletop --frames 3 --size 80x60 --layout redwood --out " + seq);
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_TRUE (r.err.empty ()) << r.err;  // no progress output when not on a terminal
+  r = run ("info " + seq);
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_NE (r.out.find ("format:      redwood"), std::string::npos) << r.out;
+  EXPECT_NE (r.out.find ("frames:      3"), std::string::npos) << r.out;
+  EXPECT_NE (r.out.find ("resolution:  80x60"), std::string::npos) << r.out;
+  EXPECT_NE (r.out.find ("masks:       yes"), std::string::npos) << r.out;
+
+  r = run ("run " + seq + " --out " + (dir / "run"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  const io::Trajectory trajectory = io::readTumTrajectory (dir / "run/trajectory.txt");
+  EXPECT_EQ (trajectory.size (), 3u);
+  pcl::PointCloud<pcl::PointXYZRGBL> map;
+  ASSERT_EQ (pcl::io::loadPCDFile (dir / "run/map.pcd", map), 0);
+  EXPECT_GT (map.size (), 100u);
+  // The map lies in the world frame of the scene: above the floor, below the ceiling.
+  for (const auto& p : map.points)
+  {
+    EXPECT_GT (p.z, -0.05f);
+    EXPECT_LT (p.z, 2.6f);
+  }
+
+  // A sequence without poses cannot be mapped yet: clear error, nothing written.
+  boost::filesystem::remove (seq + "/trajectory.log");
+  r = run ("run " + seq + " --out " + (dir / "run2"));
+  EXPECT_EQ (r.code, 1);
+  EXPECT_EQ (lines (r.err), 1) << r.err;
+  EXPECT_FALSE (boost::filesystem::exists (dir / "run2/map.pcd"));
+}

@@ -1,0 +1,121 @@
+#include "test_utils.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/rgbd_frame.h>
+#include <cuefusion/io/camera_io.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/pose_io.h>
+
+#include <gtest/gtest.h>
+
+using namespace cuefusion;
+using cuefusion::test::TempDir;
+
+TEST (CameraIO, IntrinsicsRoundTripInEveryLayout)
+{
+  TempDir dir;
+  const PinholeCamera cam (585.25, 584.5, 320.125, 239.75, 640, 480);
+  io::writeIntrinsicsJson (dir / "k.json", cam);
+  EXPECT_TRUE (io::readIntrinsics (dir / "k.json") == cam);
+  io::writeIntrinsicsLine (dir / "k.txt", cam);
+  EXPECT_TRUE (io::readIntrinsics (dir / "k.txt") == cam);
+  for (int rows : {3, 4})
+  {
+    io::writeIntrinsicsMatrix (dir / "m.txt", cam, rows);
+    const PinholeCamera back = io::readIntrinsics (dir / "m.txt");
+    EXPECT_EQ (back.fx, cam.fx);
+    EXPECT_EQ (back.fy, cam.fy);
+    EXPECT_EQ (back.cx, cam.cx);
+    EXPECT_EQ (back.cy, cam.cy);
+    EXPECT_EQ (back.width, 0);  // matrices carry no size; grabbers take it from the images
+  }
+}
+
+TEST (CameraIO, ReadsOpen3DColumnMajorJson)
+{
+  TempDir dir;
+  test::writeFile (dir / "camera_intrinsics.json",
+                   "{\"width\": 640, \"height\": 480, \"intrinsic_matrix\": [525, 0, 0, 0, 520, 0, 319.5, 239.5, 1]}");
+  const PinholeCamera cam = io::readIntrinsics (dir / "camera_intrinsics.json");
+  EXPECT_EQ (cam.fx, 525.0);
+  EXPECT_EQ (cam.fy, 520.0);
+  EXPECT_EQ (cam.cx, 319.5);
+  EXPECT_EQ (cam.cy, 239.5);
+  EXPECT_EQ (cam.width, 640);
+}
+
+TEST (FileIO, DepthRoundTripIsExactToOneUnit)
+{
+  TempDir dir;
+  cv::Mat depth (4, 5, CV_32F);
+  cv::randu (depth, 0.3, 6.0);
+  depth.at<float> (0, 0) = 0.f;
+  depth.at<float> (1, 1) = std::numeric_limits<float>::quiet_NaN ();
+  io::writeImageAtomic (dir / "d.png", io::depthToRaw (depth, 5000.0));
+  const cv::Mat back = io::readDepthImage (dir / "d.png", 5000.0);
+  for (int v = 0; v < depth.rows; ++v)
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      const float z = depth.at<float> (v, u);
+      if (isValidDepth (z))
+        EXPECT_NEAR (back.at<float> (v, u), z, 0.5 / 5000.0 + 1e-6);
+      else
+        EXPECT_EQ (back.at<float> (v, u), 0.f);
+    }
+}
+
+TEST (FileIO, TruncatedImagesAreReportedByName)
+{
+  TempDir dir;
+  cv::Mat image (64, 64, CV_16U);
+  cv::randu (image, 0, 65535);
+  io::writeImageAtomic (dir / "full.png", image);
+  const std::string bytes = test::readFile (dir / "full.png");
+  test::writeFile (dir / "cut.png", bytes.substr (0, bytes.size () / 2));
+  try
+  {
+    io::readDepthImage (dir / "cut.png", 1000.0);
+    FAIL () << "truncated PNG accepted";
+  }
+  catch (const Error& e)
+  {
+    EXPECT_NE (std::string (e.what ()).find ("cut.png"), std::string::npos);
+  }
+  test::writeFile (dir / "junk.png", "not an image at all");
+  EXPECT_THROW (io::readImage (dir / "junk.png", -1), Error);
+  EXPECT_THROW (io::readImage (dir / "missing.png", -1), Error);
+}
+
+TEST (PoseIO, MatrixFilesAndRedwoodLogRoundTrip)
+{
+  TempDir dir;
+  io::PoseList poses;
+  for (int i = 0; i < 3; ++i)
+  {
+    Eigen::Isometry3d p = Eigen::Isometry3d::Identity ();
+    p.rotate (Eigen::AngleAxisd (0.3 * i + 0.1, Eigen::Vector3d (1, 2, 3).normalized ()));
+    p.translation () = Eigen::Vector3d (i, -0.5 * i, 0.25);
+    poses.push_back (p);
+  }
+  io::writePoseMatrixFile (dir / "p.txt", poses[1]);
+  EXPECT_TRUE (io::readPoseMatrixFile (dir / "p.txt")->isApprox (poses[1], 1e-12));
+  io::writeRedwoodLog (dir / "t.log", poses);
+  const io::PoseList back = io::readRedwoodLog (dir / "t.log");
+  ASSERT_EQ (back.size (), poses.size ());
+  for (std::size_t i = 0; i < poses.size (); ++i)
+    EXPECT_TRUE (back[i].isApprox (poses[i], 1e-12));
+}
+
+TEST (PoseIO, InfinitePoseMeansNoPose)
+{
+  TempDir dir;
+  test::writeFile (dir / "p.txt", "-inf -inf -inf -inf\n-inf -inf -inf -inf\n-inf -inf -inf -inf\n-inf -inf -inf -inf\n");
+  EXPECT_FALSE (io::readPoseMatrixFile (dir / "p.txt").has_value ());
+}
+
+TEST (PoseIO, RejectsNonRigidMatrix)
+{
+  TempDir dir;
+  test::writeFile (dir / "p.txt", "2 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n");
+  EXPECT_THROW (io::readPoseMatrixFile (dir / "p.txt"), Error);
+}

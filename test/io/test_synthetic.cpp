@@ -1,0 +1,358 @@
+#include "test_utils.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/scene_renderer.h>
+#include <cuefusion/io/simulated_detector.h>
+#include <cuefusion/io/synthetic_sequence.h>
+
+#include <gtest/gtest.h>
+#include <pcl/kdtree/kdtree_flann.h>
+
+#include <cmath>
+#include <set>
+
+using namespace cuefusion;
+
+namespace
+{
+io::SyntheticScene
+sceneFromText (const std::string& text)
+{
+  return io::SyntheticScene::parse (text, "test.scene");
+}
+
+io::SyntheticScene
+tabletop ()
+{
+  return io::SyntheticScene::load (test::tabletopScenePath ());
+}
+}  // namespace
+
+TEST (SceneRenderer, SphereDepthMatchesAnalyticIntersection)
+{
+  const io::SyntheticScene scene = sceneFromText ("object ball\n sphere center=0.1,-0.05,3 radius=0.5\n");
+  const PinholeCamera cam (100, 100, 39.5, 29.5, 80, 60);
+  const io::RenderedView view = io::SceneRenderer (scene).render (cam, Eigen::Isometry3d::Identity ());
+  int hits = 0;
+  const Eigen::Vector3d c (0.1, -0.05, 3.0);
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u)
+    {
+      const Eigen::Vector3d d = Eigen::Vector3d ((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0).normalized ();
+      const double b = d.dot (c), disc = b * b - (c.squaredNorm () - 0.25);
+      const float z = view.depth.at<float> (v, u);
+      const std::uint16_t id = view.instance.at<std::uint16_t> (v, u);
+      if (disc < 0)
+      {
+        EXPECT_EQ (z, 0.f);
+        EXPECT_EQ (id, 0);
+        continue;
+      }
+      ++hits;
+      EXPECT_EQ (id, 1);
+      EXPECT_NEAR (z, (b - std::sqrt (disc)) * d.z (), 1e-5);
+    }
+  EXPECT_GT (hits, 500);
+}
+
+TEST (SceneRenderer, NearestSurfaceWinsAndBoxFaceIsFlat)
+{
+  const io::SyntheticScene scene = sceneFromText (
+    "object wall\n box center=0,0,2.05 size=10,10,0.1\nobject cube\n box center=0,0,1.0 size=0.2,0.2,0.2 yaw=30\n");
+  const PinholeCamera cam (100, 100, 39.5, 29.5, 80, 60);
+  const io::RenderedView view = io::SceneRenderer (scene).render (cam, Eigen::Isometry3d::Identity ());
+  EXPECT_NEAR (view.depth.at<float> (0, 0), 2.0f, 1e-6);
+  EXPECT_EQ (view.instance.at<std::uint16_t> (0, 0), 1);
+  EXPECT_NEAR (view.depth.at<float> (29, 39), 0.9f, 1e-5);  // front face of the cube
+  EXPECT_EQ (view.instance.at<std::uint16_t> (29, 39), 2);
+  EXPECT_EQ (view.class_ids.at<std::uint16_t> (29, 39), 2);
+}
+
+TEST (SceneRenderer, NoiseFollowsTheAxialModel)
+{
+  const io::SyntheticScene scene = sceneFromText ("object wall\n box center=0,0,2.05 size=10,10,0.1\n");
+  const PinholeCamera cam (300, 300, 79.5, 59.5, 160, 120);
+  io::DepthNoiseConfig noise;
+  noise.enabled = true;
+  const io::SceneRenderer renderer (scene);
+  const io::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
+  const io::RenderedView noisy = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 7);
+  double sum = 0, sum_sq = 0;
+  int n = 0;
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u)
+    {
+      const double z = exact.depth.at<float> (v, u);
+      const Eigen::Vector3d d = Eigen::Vector3d ((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0).normalized ();
+      const double r = (noisy.depth.at<float> (v, u) - z) / kinectAxialNoise (z, std::acos (d.z ()));
+      sum += r;
+      sum_sq += r * r;
+      ++n;
+    }
+  EXPECT_NEAR (sum / n, 0.0, 0.05);
+  EXPECT_NEAR (std::sqrt (sum_sq / n), 1.0, 0.05);
+  // Same seed, same noise.
+  const io::RenderedView again = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 7);
+  EXPECT_EQ (cv::norm (again.depth, noisy.depth, cv::NORM_INF), 0.0);
+}
+
+TEST (SceneRenderer, GrazingSurfacesLoseDepth)
+{
+  const io::SyntheticScene scene = sceneFromText ("object floor\n box center=0,0,-0.01 size=40,40,0.02\n");
+  const PinholeCamera cam (200, 200, 79.5, 59.5, 160, 120);
+  io::OrbitTrajectory orbit;
+  orbit.target = Eigen::Vector3d (0, 0, 0);
+  orbit.radius = 3.0;
+  orbit.height = 0.3;  // looking along the floor
+  io::DepthNoiseConfig noise;
+  noise.enabled = true;
+  const io::RenderedView view = io::SceneRenderer (scene).render (cam, orbit.poseAt (0.0), noise, 1);
+  int floor_pixels = 0, missing = 0;
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u)
+      if (view.instance.at<std::uint16_t> (v, u))
+      {
+        ++floor_pixels;
+        missing += view.depth.at<float> (v, u) == 0.f;
+      }
+  EXPECT_GT (floor_pixels, 1000);
+  EXPECT_GT (missing, floor_pixels / 10);
+}
+
+TEST (SceneFile, ParsesTheBundledScene)
+{
+  const io::SyntheticScene scene = tabletop ();
+  EXPECT_EQ (scene.name, "tabletop");
+  EXPECT_EQ (scene.camera.width, 640);
+  ASSERT_GE (scene.objects.size (), 10u);
+  std::set<std::string> names;
+  for (const io::SceneObject& o : scene.objects)
+    names.insert (o.class_name);
+  EXPECT_TRUE (names.count ("teddy bear"));
+  EXPECT_EQ (scene.objects[0].detectable, false);  // floor
+}
+
+TEST (SceneFile, ErrorsNameTheLine)
+{
+  try
+  {
+    sceneFromText ("object a\n box center=0,0,0 size=1,1\n");
+    FAIL ();
+  }
+  catch (const Error& e)
+  {
+    EXPECT_NE (std::string (e.what ()).find ("test.scene:2"), std::string::npos) << e.what ();
+  }
+  EXPECT_THROW (sceneFromText ("object a\n sphere center=0,0,0 radius=1 colour=3\n"), Error);  // typo'd key
+  EXPECT_THROW (sceneFromText ("sphere center=0,0,0 radius=1\n"), Error);
+  EXPECT_THROW (sceneFromText ("object a\n"), Error);
+  EXPECT_THROW (sceneFromText ("object a\n sphere center=0,0,0 radius=-1\n"), Error);
+}
+
+TEST (SyntheticSequence, MasksPosesAndGroundTruthCloudAgree)
+{
+  io::SyntheticSequenceConfig config;
+  config.frames = 5;
+  config.width = 160;
+  config.height = 120;
+  const io::SyntheticSequence sequence (tabletop (), config);
+  const auto cloud = sequence.groundTruthCloud ();
+  ASSERT_GT (cloud->size (), 10000u);
+  pcl::KdTreeFLANN<pcl::PointXYZRGBL> tree;
+  tree.setInputCloud (cloud);
+  for (std::size_t i : {std::size_t (0), std::size_t (4)})
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    ASSERT_TRUE (frame->pose.has_value ());
+    int checked = 0, agree = 0;
+    for (int v = 0; v < frame->depth.rows; v += 2)
+      for (int u = 0; u < frame->depth.cols; u += 2)
+      {
+        const float z = frame->depth.at<float> (v, u);
+        if (!isValidDepth (z))
+          continue;
+        const Eigen::Vector3d p = *frame->pose * frame->camera.backProject (u, v, z).cast<double> ();
+        pcl::PointXYZRGBL q;
+        q.getVector3fMap () = p.cast<float> ();
+        std::vector<int> index (1);
+        std::vector<float> sq (1);
+        tree.nearestKSearch (q, 1, index, sq);
+        ++checked;
+        // Every visible surface point is in the cloud (within the sampling spacing) with
+        // the label of the instance mask.
+        agree += std::sqrt (sq[0]) < 0.015 && (*cloud)[index[0]].label == frame->instance_mask.at<std::uint16_t> (v, u);
+      }
+    ASSERT_GT (checked, 2000);
+    EXPECT_GT (agree, 0.99 * checked) << "frame " << i;
+  }
+}
+
+TEST (SyntheticSequence, ContactFacesAreNotInTheGroundTruthCloud)
+{
+  const io::SyntheticScene scene = tabletop ();
+  io::SyntheticSequenceConfig config;
+  config.frames = 1;
+  const auto cloud = io::SyntheticSequence (scene, config).groundTruthCloud ();
+  const io::SceneObject* mug = nullptr;
+  const io::SceneObject* table = nullptr;
+  for (const io::SceneObject& o : scene.objects)
+  {
+    if (o.name == "mug")
+      mug = &o;
+    if (o.name == "table")
+      table = &o;
+  }
+  ASSERT_TRUE (mug && table);
+  const Eigen::Vector3d axis = mug->parts[0].center;
+  for (const auto& p : cloud->points)
+  {
+    const double radial = std::hypot (p.x - axis.x (), p.y - axis.y ());
+    if (p.label == mug->id)
+    {
+      EXPECT_GT (p.z, 0.7405f);  // the base on the table is hidden
+    }
+    if (p.label == table->id && radial < 0.04)
+    {
+      EXPECT_LT (p.z, 0.7395f);  // and so is the table top under the mug
+    }
+  }
+}
+
+TEST (SyntheticSequence, CameraLooksAtTheTarget)
+{
+  const io::SyntheticScene scene = tabletop ();
+  io::SyntheticSequenceConfig config;
+  config.frames = 10;
+  const io::SyntheticSequence sequence (scene, config);
+  for (std::size_t i = 0; i < 10; ++i)
+  {
+    const Eigen::Isometry3d pose = sequence.poseAt (i);
+    const Eigen::Vector3d to_target = (scene.trajectory.target - pose.translation ()).normalized ();
+    EXPECT_NEAR (pose.rotation ().col (2).dot (to_target), 1.0, 1e-9);
+    EXPECT_NEAR (pose.rotation ().determinant (), 1.0, 1e-9);
+    EXPECT_LT (pose.rotation ().col (1).z (), 0.0);  // image "down" points down in the world
+  }
+}
+
+namespace
+{
+struct DetectorFixture : ::testing::Test
+{
+  io::SyntheticScene scene = tabletop ();
+  std::vector<RGBDFrame::Ptr> frames;
+  void
+  SetUp () override
+  {
+    io::SyntheticSequenceConfig config;
+    config.frames = 6;
+    config.width = 320;
+    config.height = 240;
+    const io::SyntheticSequence sequence (scene, config);
+    for (std::size_t i = 0; i < config.frames; ++i)
+      frames.push_back (sequence.frame (i));
+  }
+  std::uint16_t
+  idOf (const std::string& name) const
+  {
+    for (const io::SceneObject& o : scene.objects)
+      if (o.name == name)
+        return o.id;
+    return 0;
+  }
+};
+}  // namespace
+
+TEST_F (DetectorFixture, PerfectDetectorReproducesTheMasksOfDetectableObjects)
+{
+  const io::SimulatedDetector detector (scene, io::DetectorErrorConfig (), 3);
+  for (const RGBDFrame::Ptr& f : frames)
+  {
+    const io::DetectionResult r = detector.detect (f->instance_mask, f->index);
+    ASSERT_GE (r.detections.size (), 6u);
+    for (const io::Detection& d : r.detections)
+    {
+      ASSERT_EQ (d.gt_instances.size (), 1u);
+      EXPECT_EQ (cv::countNonZero ((r.ids == d.id) != (f->instance_mask == d.gt_instances[0])), 0);
+      EXPECT_EQ (d.class_name, scene.objectById (d.gt_instances[0])->class_name);
+      EXPECT_GE (d.score, 0.7f);
+    }
+    // Floor, walls and table are stuff: never detected.
+    for (const char* stuff : {"floor", "wall", "table"})
+      EXPECT_EQ (cv::countNonZero ((f->instance_mask == idOf (stuff)) & (r.ids > 0)), 0) << stuff;
+  }
+}
+
+TEST_F (DetectorFixture, BoundaryErrorsGrowOrShrinkMasks)
+{
+  io::DetectorErrorConfig grow, shrink;
+  grow.boundary_px = 3;
+  shrink.boundary_px = -2;
+  const RGBDFrame& f = *frames[2];
+  const io::DetectionResult big = io::SimulatedDetector (scene, grow, 1).detect (f.instance_mask, 2);
+  const io::DetectionResult small = io::SimulatedDetector (scene, shrink, 1).detect (f.instance_mask, 2);
+  const std::uint16_t ball = idOf ("ball");
+  const int truth = cv::countNonZero (f.instance_mask == ball);
+  auto area_of = [ball] (const io::DetectionResult& r) {
+    for (const io::Detection& d : r.detections)
+      if (d.gt_instances == std::vector<std::uint16_t>{ball})
+        return cv::countNonZero (r.ids == d.id);
+    return -1;
+  };
+  EXPECT_GT (area_of (big), truth);
+  EXPECT_GT (area_of (small), 0);
+  EXPECT_LT (area_of (small), truth);
+  // A leaking mask spills onto the table.
+  EXPECT_GT (cv::countNonZero ((f.instance_mask == idOf ("table")) & (big.ids > 0)), 0);
+}
+
+TEST_F (DetectorFixture, MergeMissAndFalsePositives)
+{
+  io::DetectorErrorConfig merge;
+  merge.merge_probability = 1.0;
+  const io::SimulatedDetector merging (scene, merge, 1);
+  bool merged_boxes = false;
+  for (const RGBDFrame::Ptr& f : frames)
+    for (const io::Detection& d : merging.detect (f->instance_mask, f->index).detections)
+    {
+      const std::set<std::uint16_t> members (d.gt_instances.begin (), d.gt_instances.end ());
+      merged_boxes |= members.count (idOf ("cereal_a")) && members.count (idOf ("cereal_b"));
+    }
+  EXPECT_TRUE (merged_boxes);
+
+  io::DetectorErrorConfig miss;
+  miss.miss_probability = 1.0;
+  EXPECT_TRUE (io::SimulatedDetector (scene, miss, 1).detect (frames[0]->instance_mask, 0).detections.empty ());
+
+  io::DetectorErrorConfig fp;
+  fp.false_positives = 3.0;
+  const io::SimulatedDetector spurious (scene, fp, 5);
+  int false_positives = 0;
+  for (const RGBDFrame::Ptr& f : frames)
+    for (const io::Detection& d : spurious.detect (f->instance_mask, f->index).detections)
+      false_positives += d.gt_instances.empty ();
+  EXPECT_GT (false_positives, 0);
+}
+
+TEST_F (DetectorFixture, SeededAndOrderIndependent)
+{
+  io::DetectorErrorConfig noisy;
+  noisy.boundary_jitter_px = 3;
+  noisy.miss_probability = 0.3;
+  noisy.false_positives = 1.0;
+  const io::SimulatedDetector a (scene, noisy, 11), b (scene, noisy, 11), c (scene, noisy, 12);
+  const io::DetectionResult later = b.detect (frames[3]->instance_mask, 3);
+  EXPECT_FALSE (a.detect (frames[1]->instance_mask, 1).ids.empty ());  // another frame first
+  const io::DetectionResult r3 = a.detect (frames[3]->instance_mask, 3);
+  EXPECT_EQ (cv::norm (r3.ids, later.ids, cv::NORM_INF), 0.0);
+  bool differs = false;
+  for (std::size_t i = 0; i < frames.size (); ++i)
+    differs |= cv::norm (a.detect (frames[i]->instance_mask, i).ids, c.detect (frames[i]->instance_mask, i).ids,
+                         cv::NORM_INF) > 0;
+  EXPECT_TRUE (differs);
+  EXPECT_THROW (io::SimulatedDetector (scene, [] {
+                  io::DetectorErrorConfig bad;
+                  bad.merge_probability = 1.5;
+                  return bad;
+                }(), 1),
+                ParameterError);
+}

@@ -1,0 +1,52 @@
+#pragma once
+
+#include <boost/filesystem.hpp>
+
+#include <fstream>
+#include <string>
+
+namespace cuefusion
+{
+namespace test
+{
+/** A fresh folder under the system temp dir, removed with its contents at scope exit. */
+class TempDir
+{
+public:
+  TempDir ()
+    : path_ (boost::filesystem::temp_directory_path () / boost::filesystem::unique_path ("cuefusion-test-%%%%%%%%"))
+  {
+    boost::filesystem::create_directories (path_);
+  }
+  ~TempDir ()
+  {
+    boost::system::error_code ec;
+    boost::filesystem::remove_all (path_, ec);
+  }
+  std::string str () const { return path_.string (); }
+  std::string operator/ (const std::string& name) const { return (path_ / name).string (); }
+
+private:
+  boost::filesystem::path path_;
+};
+
+inline void
+writeFile (const std::string& path, const std::string& text)
+{
+  std::ofstream (path, std::ios::binary) << text;
+}
+
+inline std::string
+readFile (const std::string& path)
+{
+  std::ifstream in (path, std::ios::binary);
+  return std::string ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
+}
+
+inline std::string
+tabletopScenePath ()
+{
+  return std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/tabletop.scene";
+}
+}  // namespace test
+}  // namespace cuefusion
