@@ -11,6 +11,7 @@
 #include <pcl/filters/voxel_grid.h>
 
 #include <chrono>
+#include <iomanip>
 #include <iostream>
 
 namespace fs = boost::filesystem;
@@ -116,7 +117,7 @@ runRun (const std::vector<std::string>& args)
   io::writeTumTrajectory (trajectory_path, trajectory);
 
   std::cout << "processed " << processed << " frames of " << source << " (" << dataset->formatName () << ") in "
-            << seconds << " s";
+            << std::fixed << std::setprecision (2) << seconds << " s" << std::defaultfloat;
   if (skipped)
     std::cout << ", " << skipped << " without a reference pose skipped";
   std::cout << "\n"

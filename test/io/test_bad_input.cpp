@@ -1,6 +1,6 @@
 // Every kind of bad input gives a cuefusion::Error whose one-line message names the
 // file and what is wrong; none crashes.
-#include "test_utils.h"
+#include "synthetic_fixtures.h"
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/sequence.h>
@@ -20,11 +20,7 @@ protected:
   void
   SetUp () override
   {
-    io::SyntheticSequenceConfig config;
-    config.frames = 3;
-    config.width = 64;
-    config.height = 48;
-    const io::SyntheticSequence seq (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+    const io::SyntheticSequence seq = test::smallTabletop (3, 64, 48);
     io::writeSyntheticSequence (seq, io::DatasetLayout::SevenScenes, dir / "7s");
     io::writeSyntheticSequence (seq, io::DatasetLayout::Redwood, dir / "redwood");
     io::writeSyntheticSequence (seq, io::DatasetLayout::ScanNet, dir / "scannet");
@@ -118,11 +114,7 @@ TEST_F (BadInput, MismatchedCounts)
 
 TEST_F (BadInput, SyntheticOutputIsNeverHalfWritten)
 {
-  io::SyntheticSequenceConfig config;
-  config.frames = 2;
-  config.width = 32;
-  config.height = 24;
-  const io::SyntheticSequence seq (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  const io::SyntheticSequence seq = test::smallTabletop (2, 32, 24);
   // An existing sequence is not overwritten by accident...
   expectError ([&] { io::writeSyntheticSequence (seq, io::DatasetLayout::TUM, dir / "7s"); }, "7s", "already exists");
   EXPECT_TRUE (fs::exists (dir / "7s/frame-000002.depth.png"));

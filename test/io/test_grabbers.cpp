@@ -1,4 +1,4 @@
-#include "test_utils.h"
+#include "synthetic_fixtures.h"
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/sequence.h>
@@ -34,13 +34,8 @@ protected:
   void
   SetUp () override
   {
-    io::SyntheticSequenceConfig config;
-    config.frames = 4;
-    config.width = 160;
-    config.height = 120;
-    config.noise.enabled = true;  // invalid pixels and noisy depth must survive the round trip too
-    config.seed = 3;
-    sequence = std::make_unique<io::SyntheticSequence> (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+    // Noise: invalid pixels and noisy depth must survive the round trip too.
+    sequence = std::make_unique<io::SyntheticSequence> (test::smallTabletop (4, 160, 120, true, 3));
     io::writeSyntheticSequence (*sequence, GetParam ().layout, dir / "seq");
   }
   test::TempDir dir;
@@ -116,12 +111,7 @@ protected:
   void
   SetUp () override
   {
-    io::SyntheticSequenceConfig config;
-    config.frames = 7;
-    config.width = 64;
-    config.height = 48;
-    io::writeSyntheticSequence (io::SyntheticSequence (io::SyntheticScene::load (test::tabletopScenePath ()), config),
-                                io::DatasetLayout::SevenScenes, dir / "seq");
+    io::writeSyntheticSequence (test::smallTabletop (7, 64, 48), io::DatasetLayout::SevenScenes, dir / "seq");
   }
   test::TempDir dir;
 };

@@ -1,4 +1,4 @@
-#include "test_utils.h"
+#include "synthetic_fixtures.h"
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/scene_renderer.h>
@@ -151,11 +151,7 @@ TEST (SceneFile, ErrorsNameTheLine)
 
 TEST (SyntheticSequence, MasksPosesAndGroundTruthCloudAgree)
 {
-  io::SyntheticSequenceConfig config;
-  config.frames = 5;
-  config.width = 160;
-  config.height = 120;
-  const io::SyntheticSequence sequence (tabletop (), config);
+  const io::SyntheticSequence sequence = test::smallTabletop (5, 160, 120);
   const auto cloud = sequence.groundTruthCloud ();
   ASSERT_GT (cloud->size (), 10000u);
   pcl::KdTreeFLANN<pcl::PointXYZRGBL> tree;
@@ -243,12 +239,8 @@ struct DetectorFixture : ::testing::Test
   void
   SetUp () override
   {
-    io::SyntheticSequenceConfig config;
-    config.frames = 6;
-    config.width = 320;
-    config.height = 240;
-    const io::SyntheticSequence sequence (scene, config);
-    for (std::size_t i = 0; i < config.frames; ++i)
+    const io::SyntheticSequence sequence = test::smallTabletop (6, 320, 240);
+    for (std::size_t i = 0; i < sequence.size (); ++i)
       frames.push_back (sequence.frame (i));
   }
   std::uint16_t

@@ -32,11 +32,13 @@ public:
   std::string formatName () const override { return "tum"; }
 };
 
-/** \brief Options of RedwoodGrabber. */
-struct RedwoodGrabberConfig
+/** \brief Options of the grabbers whose layouts store no timestamps
+  * (Redwood, 7-Scenes, ScanNet).
+  */
+struct FolderGrabberConfig
 {
-  std::string intrinsics_path;
-  double fps = 30.0;   ///< timestamps = index / fps (the layout stores none)
+  std::string intrinsics_path;   ///< overrides the folder's intrinsics
+  double fps = 30.0;             ///< timestamps = frame number / fps
 };
 
 /** \brief Redwood / ICL-NUIM folder as Open3D reads it: depth/ (mm), image/ or color/,
@@ -46,16 +48,9 @@ struct RedwoodGrabberConfig
 class RedwoodGrabber : public DatasetGrabber
 {
 public:
-  using Config = RedwoodGrabberConfig;
+  using Config = FolderGrabberConfig;
   explicit RedwoodGrabber (const std::string& root, const Config& config = Config ());
   std::string formatName () const override { return "redwood"; }
-};
-
-/** \brief Options of SevenScenesGrabber. */
-struct SevenScenesGrabberConfig
-{
-  std::string intrinsics_path;
-  double fps = 30.0;
 };
 
 /** \brief Microsoft 7-Scenes layout: frame-NNNNNN.color.{png,jpg}, .depth.png (mm,
@@ -64,16 +59,9 @@ struct SevenScenesGrabberConfig
 class SevenScenesGrabber : public DatasetGrabber
 {
 public:
-  using Config = SevenScenesGrabberConfig;
+  using Config = FolderGrabberConfig;
   explicit SevenScenesGrabber (const std::string& root, const Config& config = Config ());
   std::string formatName () const override { return "7scenes"; }
-};
-
-/** \brief Options of ScanNetGrabber. */
-struct ScanNetGrabberConfig
-{
-  std::string intrinsics_path;   ///< overrides intrinsic_depth.txt
-  double fps = 30.0;
 };
 
 /** \brief ScanNet export as written by SensReader: color/N.jpg, depth/N.png (mm),
@@ -84,7 +72,7 @@ struct ScanNetGrabberConfig
 class ScanNetGrabber : public DatasetGrabber
 {
 public:
-  using Config = ScanNetGrabberConfig;
+  using Config = FolderGrabberConfig;
   explicit ScanNetGrabber (const std::string& root, const Config& config = Config ());
   std::string formatName () const override { return "scannet"; }
 };

@@ -52,7 +52,7 @@ public:
   cv::Vec3b shade (const SceneObject& object, const Eigen::Vector3d& p, const Eigen::Vector3d& n) const;
 
 private:
-  const SyntheticScene& scene_;
+  SyntheticScene scene_;  // a copy: small, and no lifetime ties to the caller
   std::vector<std::uint16_t> class_of_;   ///< object index → class id
 };
 

@@ -63,7 +63,7 @@ public:
   bool mergesPair (std::uint16_t a, std::uint16_t b) const;
 
 private:
-  const SyntheticScene& scene_;
+  SyntheticScene scene_;  // a copy: small, and no lifetime ties to the caller
   DetectorErrorConfig config_;
   std::uint64_t seed_;
 };

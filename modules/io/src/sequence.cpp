@@ -102,6 +102,8 @@ openDataset (const std::string& source, const SequenceOptions& options)
     format = detectSequenceFormat (source);
   else if (!fs::is_directory (source))
     throw Error (source, fs::exists (source) ? "not a folder" : "no such folder");
+  FolderGrabberConfig folder;
+  folder.intrinsics_path = options.intrinsics_path;
   try
   {
     switch (format)
@@ -113,24 +115,9 @@ openDataset (const std::string& source, const SequenceOptions& options)
         c.max_difference = options.tum_max_difference;
         return std::make_shared<TumGrabber> (source, c);
       }
-      case SequenceFormat::Redwood:
-      {
-        RedwoodGrabber::Config c;
-        c.intrinsics_path = options.intrinsics_path;
-        return std::make_shared<RedwoodGrabber> (source, c);
-      }
-      case SequenceFormat::SevenScenes:
-      {
-        SevenScenesGrabber::Config c;
-        c.intrinsics_path = options.intrinsics_path;
-        return std::make_shared<SevenScenesGrabber> (source, c);
-      }
-      case SequenceFormat::ScanNet:
-      {
-        ScanNetGrabber::Config c;
-        c.intrinsics_path = options.intrinsics_path;
-        return std::make_shared<ScanNetGrabber> (source, c);
-      }
+      case SequenceFormat::Redwood: return std::make_shared<RedwoodGrabber> (source, folder);
+      case SequenceFormat::SevenScenes: return std::make_shared<SevenScenesGrabber> (source, folder);
+      case SequenceFormat::ScanNet: return std::make_shared<ScanNetGrabber> (source, folder);
       default: break;
     }
   }
