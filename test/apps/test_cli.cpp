@@ -76,6 +76,12 @@ TEST_F (Cli, BadInputIsOneLineAndExit1)
   r = run ("synth --scene no_such_scene --out " + (dir / "s"));
   EXPECT_EQ (r.code, 1);
   EXPECT_EQ (lines (r.err), 1) << r.err;
+  // A .oni file that is not a recording goes through OpenNI2 and still fails in one line.
+  test::writeFile (dir / "fake.oni", "not a recording");
+  r = run ("info " + (dir / "fake.oni"));
+  EXPECT_EQ (r.code, 1);
+  EXPECT_EQ (lines (r.err), 1) << r.err;
+  EXPECT_NE (r.err.find ("fake.oni"), std::string::npos) << r.err;
 }
 
 TEST_F (Cli, SynthInfoRun)

@@ -22,7 +22,15 @@ OpenNI2FrameGrabber::OpenNI2FrameGrabber (const std::string& device) : device_ (
   }
   catch (const pcl::PCLException& e)
   {
-    throw Error (device.empty () ? "openni2" : device, std::string ("cannot open OpenNI2 device: ") + e.what ());
+    // PCL's message is "function in file @ line : reason", and OpenNI's own log may
+    // follow on further lines; keep the reason's first line.
+    std::string reason = e.what ();
+    const auto colon = reason.find (" : ");
+    if (colon != std::string::npos)
+      reason = reason.substr (colon + 3);
+    reason = reason.substr (0, reason.find ('\n'));
+    const std::string where = boost::algorithm::iends_with (device, ".oni") ? device : "openni2:" + device;
+    throw Error (device.empty () ? "openni2" : where, "cannot open OpenNI2 device: " + reason);
   }
   std::function<pcl::io::OpenNI2Grabber::sig_cb_openni_image_depth_image> callback =
     [this] (const pcl::io::Image::Ptr& image, const pcl::io::DepthImage::Ptr& depth, float rfl) {
