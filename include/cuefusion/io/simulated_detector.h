@@ -64,6 +64,7 @@ public:
 
 private:
   SyntheticScene scene_;  // a copy: small, and no lifetime ties to the caller
+  std::vector<bool> detectable_;   ///< by object id (index 0 unused)
   DetectorErrorConfig config_;
   std::uint64_t seed_;
 };

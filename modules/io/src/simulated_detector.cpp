@@ -38,9 +38,11 @@ DetectorErrorConfig::validate () const
 
 SimulatedDetector::SimulatedDetector (const SyntheticScene& scene, const DetectorErrorConfig& config,
                                       std::uint64_t seed)
-  : scene_ (scene), config_ (config), seed_ (seed)
+  : scene_ (scene), detectable_ (scene.objects.size () + 1, false), config_ (config), seed_ (seed)
 {
   config_.validate ();
+  for (const SceneObject& o : scene_.objects)
+    detectable_[o.id] = o.detectable;
 }
 
 bool
@@ -90,8 +92,7 @@ SimulatedDetector::detect (const cv::Mat& truth, std::size_t frame_index) const
     for (int u = 0; u < truth.cols; ++u)
     {
       const std::uint16_t id = truth.at<std::uint16_t> (v, u);
-      const SceneObject* o = id ? scene_.objectById (id) : nullptr;
-      if (o && o->detectable)
+      if (id < detectable_.size () && detectable_[id])
         ++area[id];
     }
 
