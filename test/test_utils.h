@@ -1,6 +1,9 @@
 #pragma once
 
+#include <cuefusion/common/exceptions.h>
+
 #include <boost/filesystem.hpp>
+#include <gtest/gtest.h>
 
 #include <fstream>
 #include <string>
@@ -41,6 +44,25 @@ readFile (const std::string& path)
 {
   std::ifstream in (path, std::ios::binary);
   return std::string ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
+}
+
+/** Runs \a f and expects a cuefusion::Error whose one-line message mentions \a file and \a what. */
+template <typename F>
+void
+expectError (F f, const std::string& file, const std::string& what)
+{
+  try
+  {
+    f ();
+    ADD_FAILURE () << "no error for " << file;
+  }
+  catch (const Error& e)
+  {
+    const std::string msg = e.what ();
+    EXPECT_NE (msg.find (file), std::string::npos) << msg;
+    EXPECT_NE (msg.find (what), std::string::npos) << msg;
+    EXPECT_EQ (msg.find ('\n'), std::string::npos) << msg;
+  }
 }
 
 inline std::string

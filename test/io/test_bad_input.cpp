@@ -26,38 +26,19 @@ protected:
     io::writeSyntheticSequence (seq, io::DatasetLayout::ScanNet, dir / "scannet");
   }
 
-  /** Runs \a f, expects cuefusion::Error mentioning both \a file and \a what. */
-  template <typename F>
-  void
-  expectError (F f, const std::string& file, const std::string& what)
-  {
-    try
-    {
-      f ();
-      ADD_FAILURE () << "no error for " << file;
-    }
-    catch (const Error& e)
-    {
-      const std::string msg = e.what ();
-      EXPECT_NE (msg.find (file), std::string::npos) << msg;
-      EXPECT_NE (msg.find (what), std::string::npos) << msg;
-      EXPECT_EQ (msg.find ('\n'), std::string::npos) << msg;
-    }
-  }
-
   test::TempDir dir;
 };
 }  // namespace
 
 TEST_F (BadInput, MissingEmptyAndUnrecognisedFolders)
 {
-  expectError ([&] { io::openDataset (dir / "nope"); }, dir / "nope", "no such file or folder");
+  test::expectError ([&] { io::openDataset (dir / "nope"); }, dir / "nope", "no such file or folder");
   fs::create_directories (dir / "empty");
-  expectError ([&] { io::openDataset (dir / "empty"); }, dir / "empty", "folder is empty");
+  test::expectError ([&] { io::openDataset (dir / "empty"); }, dir / "empty", "folder is empty");
   test::writeFile (dir / "empty/readme.txt", "hello");
-  expectError ([&] { io::openDataset (dir / "empty"); }, dir / "empty", "unrecognised sequence layout");
-  expectError ([&] { io::openDataset (dir / "empty/readme.txt"); }, "readme.txt", "not a folder");
-  expectError ([&] { io::openSequence (dir / "missing.oni"); }, "missing.oni", "no such .oni recording");
+  test::expectError ([&] { io::openDataset (dir / "empty"); }, dir / "empty", "unrecognised sequence layout");
+  test::expectError ([&] { io::openDataset (dir / "empty/readme.txt"); }, "readme.txt", "not a folder");
+  test::expectError ([&] { io::openSequence (dir / "missing.oni"); }, "missing.oni", "no such .oni recording");
 }
 
 TEST_F (BadInput, CorruptAndTruncatedImages)
@@ -66,12 +47,12 @@ TEST_F (BadInput, CorruptAndTruncatedImages)
   const std::string depth = dir / "7s/frame-000001.depth.png";
   const std::string bytes = test::readFile (depth);
   test::writeFile (depth, bytes.substr (0, bytes.size () - 30));
-  expectError ([&] { g->readFrame (1); }, "frame-000001.depth.png", "truncated");
+  test::expectError ([&] { g->readFrame (1); }, "frame-000001.depth.png", "truncated");
   test::writeFile (depth, "garbage");
-  expectError ([&] { g->readFrame (1); }, "frame-000001.depth.png", "cannot decode");
+  test::expectError ([&] { g->readFrame (1); }, "frame-000001.depth.png", "cannot decode");
   const std::string color = dir / "7s/frame-000002.color.png";
   test::writeFile (color, "");
-  expectError ([&] { g->readFrame (2); }, "frame-000002.color.png", "empty");
+  test::expectError ([&] { g->readFrame (2); }, "frame-000002.color.png", "empty");
   EXPECT_NO_THROW (g->readFrame (0));
 }
 
@@ -80,43 +61,43 @@ TEST_F (BadInput, DepthSizeDiffersFromIntrinsics)
   test::writeFile (dir / "redwood/camera_intrinsics.json",
                    "{\"width\": 640, \"height\": 480, \"intrinsic_matrix\": [525,0,0,0,525,0,319.5,239.5,1]}");
   const io::DatasetGrabber::Ptr g = io::openDataset (dir / "redwood");
-  expectError ([&] { g->readFrame (0); }, "00000.png", "depth image is 64x48 but the intrinsics are for 640x480");
+  test::expectError ([&] { g->readFrame (0); }, "00000.png", "depth image is 64x48 but the intrinsics are for 640x480");
 }
 
 TEST_F (BadInput, MissingIntrinsics)
 {
   fs::remove (dir / "7s/camera-intrinsics.txt");
-  expectError ([&] { io::openDataset (dir / "7s"); }, "camera-intrinsics.txt", "missing intrinsics");
+  test::expectError ([&] { io::openDataset (dir / "7s"); }, "camera-intrinsics.txt", "missing intrinsics");
   fs::remove (dir / "scannet/intrinsic/intrinsic_depth.txt");
-  expectError ([&] { io::openDataset (dir / "scannet"); }, "intrinsic_depth.txt", "missing intrinsics");
+  test::expectError ([&] { io::openDataset (dir / "scannet"); }, "intrinsic_depth.txt", "missing intrinsics");
   test::writeFile (dir / "redwood/camera_intrinsics.json", "{\"width\": 640");
-  expectError ([&] { io::openDataset (dir / "redwood"); }, "camera_intrinsics.json", "not valid JSON");
+  test::expectError ([&] { io::openDataset (dir / "redwood"); }, "camera_intrinsics.json", "not valid JSON");
 }
 
 TEST_F (BadInput, PoseThatIsNot4x4)
 {
   test::writeFile (dir / "7s/frame-000001.pose.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n");
   const io::DatasetGrabber::Ptr g = io::openDataset (dir / "7s");
-  expectError ([&] { g->readFrame (1); }, "frame-000001.pose.txt", "expected a 4x4 pose matrix (16 numbers), found 12");
+  test::expectError ([&] { g->readFrame (1); }, "frame-000001.pose.txt", "expected a 4x4 pose matrix (16 numbers), found 12");
   test::writeFile (dir / "7s/frame-000001.pose.txt", "1 0 0 0\n0 1 0 0\n0 0 1 x\n0 0 0 1\n");
-  expectError ([&] { g->readFrame (1); }, "frame-000001.pose.txt", "not a number");
+  test::expectError ([&] { g->readFrame (1); }, "frame-000001.pose.txt", "not a number");
   test::writeFile (dir / "redwood/trajectory.log", "0 0 1\n1 0 0 0\n0 1 0 0\n0 0 1 0\n");
-  expectError ([&] { io::openDataset (dir / "redwood"); }, "trajectory.log", "inside a 4x4 matrix");
+  test::expectError ([&] { io::openDataset (dir / "redwood"); }, "trajectory.log", "inside a 4x4 matrix");
 }
 
 TEST_F (BadInput, MismatchedCounts)
 {
   fs::remove (dir / "redwood/image/00002.png");
-  expectError ([&] { io::openDataset (dir / "redwood"); }, "redwood", "3 depth images but 2 colour images");
+  test::expectError ([&] { io::openDataset (dir / "redwood"); }, "redwood", "3 depth images but 2 colour images");
   fs::remove (dir / "7s/frame-000001.color.png");
-  expectError ([&] { io::openDataset (dir / "7s"); }, "frame-000001", "missing colour image");
+  test::expectError ([&] { io::openDataset (dir / "7s"); }, "frame-000001", "missing colour image");
 }
 
 TEST_F (BadInput, SyntheticOutputIsNeverHalfWritten)
 {
   const io::SyntheticSequence seq = test::smallTabletop (2, 32, 24);
   // An existing sequence is not overwritten by accident...
-  expectError ([&] { io::writeSyntheticSequence (seq, io::DatasetLayout::TUM, dir / "7s"); }, "7s", "already exists");
+  test::expectError ([&] { io::writeSyntheticSequence (seq, io::DatasetLayout::TUM, dir / "7s"); }, "7s", "already exists");
   EXPECT_TRUE (fs::exists (dir / "7s/frame-000002.depth.png"));
   // ...and replaced whole when asked.
   io::writeSyntheticSequence (seq, io::DatasetLayout::TUM, dir / "7s", true);

@@ -2,6 +2,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,14 @@ depthToRaw (const cv::Mat& depth_m, double units_per_metre);
   */
 void
 writeImageAtomic (const std::string& path, const cv::Mat& image, const std::vector<int>& params = {});
+
+/** \brief Atomic replacement of \a path: \a write fills a temporary file in the same
+  * folder (returning false on failure), which is then renamed over \a path. On any
+  * failure the temporary file is removed, \a path is untouched, and cuefusion::Error
+  * names \a path.
+  */
+void
+writeFileAtomic (const std::string& path, const std::function<bool (const std::string& temporary)>& write);
 
 /** \brief Writes text atomically (temporary file, then rename). */
 void

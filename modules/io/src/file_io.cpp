@@ -123,27 +123,17 @@ depthToRaw (const cv::Mat& depth_m, double units_per_metre)
   return raw;
 }
 
-namespace
-{
 void
-writeBytesAtomic (const std::string& path, const char* data, std::size_t size)
+writeFileAtomic (const std::string& path, const std::function<bool (const std::string& temporary)>& write)
 {
   const fs::path target (path);
   const fs::path tmp = target.parent_path () / fs::unique_path (".tmp-%%%%%%%%-" + target.filename ().string ());
-  {
-    std::ofstream out (tmp.string (), std::ios::binary | std::ios::trunc);
-    if (!out)
-      throw Error (path, std::string ("cannot write: ") + std::strerror (errno));
-    out.write (data, static_cast<std::streamsize> (size));
-    out.flush ();
-    if (!out)
-    {
-      boost::system::error_code ignored;
-      fs::remove (tmp, ignored);
-      throw Error (path, "write failed (disk full?)");
-    }
-  }
   boost::system::error_code ec;
+  if (!write (tmp.string ()))
+  {
+    fs::remove (tmp, ec);
+    throw Error (path, "write failed (folder missing or read-only, or disk full?)");
+  }
   fs::rename (tmp, target, ec);
   if (ec)
   {
@@ -151,6 +141,19 @@ writeBytesAtomic (const std::string& path, const char* data, std::size_t size)
     fs::remove (tmp, ignored);
     throw Error (path, "cannot replace file: " + ec.message ());
   }
+}
+
+namespace
+{
+void
+writeBytesAtomic (const std::string& path, const char* data, std::size_t size)
+{
+  writeFileAtomic (path, [data, size] (const std::string& tmp) {
+    std::ofstream out (tmp, std::ios::binary | std::ios::trunc);
+    out.write (data, static_cast<std::streamsize> (size));
+    out.flush ();
+    return static_cast<bool> (out);
+  });
 }
 }  // namespace
 
