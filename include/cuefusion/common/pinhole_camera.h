@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cuefusion/common/fast_math.h>
+
 #include <Eigen/Core>
 #include <cmath>
 #include <string>
@@ -38,8 +40,10 @@ struct PinholeCamera
     if (!(p.z () > 0.f))
       return false;
     const Eigen::Vector2f uv = project (p);
-    u = static_cast<int> (std::floor (uv.x () + 0.5f));
-    v = static_cast<int> (std::floor (uv.y () + 0.5f));
+    if (!(uv.x () > -1.f && uv.y () > -1.f && uv.x () < width && uv.y () < height))  // also keeps NaN and huge values out of the int conversion
+      return false;
+    u = fastFloor (uv.x () + 0.5f);
+    v = fastFloor (uv.y () + 0.5f);
     return u >= 0 && v >= 0 && u < width && v < height;
   }
 

@@ -1,0 +1,57 @@
+#pragma once
+
+#include <cuefusion/reconstruction/projective_icp.h>
+
+#include <Eigen/Geometry>
+
+#include <string>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+/** \brief Camera tracking with failure detection (§4.1.3). */
+struct CameraTrackerConfig
+{
+  ProjectiveICPConfig icp;
+  double min_inlier_fraction = 0.25;   ///< of the frame's valid vertices
+  std::size_t min_inliers = 300;
+  double max_rmse = 0.02;              ///< point-to-plane RMS (metres)
+  double max_translation = 0.20;       ///< per frame, metres
+  double max_rotation_deg = 20.0;      ///< per frame
+
+  void validate () const;
+};
+
+/** \brief Outcome of CameraTracker::track. */
+struct TrackingResult
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();  ///< camera-to-world; the guess when lost
+  bool tracked = false;
+  std::string failure;     ///< why tracking was rejected (empty when tracked)
+  ICPResult icp;
+};
+
+/** \brief Frame-to-model tracking: aligns the frame's pyramid to the model pyramid rendered
+  * at \a model_pose, starting from \a guess (camera-to-world), and rejects the result when
+  * too few points agree, the residual is too large or the motion implausible for one
+  * frame. A rejected frame keeps the guess as its pose, so the caller can skip it and
+  * retry the next frame from the last good pose.
+  */
+class CameraTracker
+{
+public:
+  explicit CameraTracker (const CameraTrackerConfig& config = CameraTrackerConfig ());
+
+  const CameraTrackerConfig& config () const { return config_; }
+
+  TrackingResult
+  track (const FramePyramid& frame, const FramePyramid& model, const Eigen::Isometry3d& model_pose,
+         const Eigen::Isometry3d& guess) const;
+
+private:
+  CameraTrackerConfig config_;
+  ProjectiveICP icp_;
+};
+}  // namespace reconstruction
+}  // namespace cuefusion

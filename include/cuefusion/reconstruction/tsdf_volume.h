@@ -1,0 +1,187 @@
+#pragma once
+
+#include <cuefusion/common/pinhole_camera.h>
+#include <cuefusion/common/rgbd_frame.h>
+#include <cuefusion/reconstruction/voxel.h>
+#include <cuefusion/reconstruction/voxel_block_hash.h>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+#include <pcl/PolygonMesh.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+/** \brief TSDF volume parameters (§4.1.4). */
+struct TSDFVolumeConfig
+{
+  double voxel_size = 0.01;          ///< metres
+  double truncation_voxels = 4.0;    ///< truncation distance τ in voxels
+  float max_weight = 100.f;          ///< w_max of §4.1.4
+  double min_depth = 0.1;            ///< depth measurements outside [min, max] are not fused
+  double max_depth = 5.0;
+  std::optional<Eigen::AlignedBox3d> bounds;  ///< when set, no block is allocated outside it
+
+  double truncation () const { return voxel_size * truncation_voxels; }
+  double blockSize () const { return voxel_size * kBlockSide; }
+
+  /** \brief Throws ParameterError naming the offending field. */
+  void validate () const;
+};
+
+/** \brief What the volume looks like from a camera (§4.1.5, §4.2.2.1): the model maps
+  * V^m, N^m and L^m, all organized like the camera's image and in that camera's frame.
+  * Pixels where the ray hits no surface hold NaN vertices and normals, label 0.
+  */
+struct RaycastResult
+{
+  PinholeCamera camera;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();  ///< camera-to-world of the view
+  cv::Mat vertices;   ///< CV_32FC3, camera frame (metres)
+  cv::Mat normals;    ///< CV_32FC3, camera frame, unit, facing the camera
+  cv::Mat colors;     ///< CV_8UC3 BGR
+  cv::Mat labels;     ///< CV_32S segment label of the voxel hit (0 = none)
+
+  /** \brief CV_32F z-depth of the vertices (0 where there is no surface). */
+  cv::Mat depth () const;
+};
+
+/** \brief Truncated signed distance volume on sparse voxel hashing (Nießner et al. 2013,
+  * InfiniTAM / Kähler et al. 2015): 8³-voxel blocks are allocated only inside the
+  * truncation band of observed surfaces, found through a hash of block coordinates.
+  * Memory therefore grows with the observed surface, not with the bounding volume.
+  *
+  * Voxel (i, j, k) is the lattice point (i, j, k) · voxel_size in world coordinates.
+  * Each voxel carries a distance, weight, colour and a segment label with confidence
+  * (the label layer the global segment map writes).
+  *
+  * integrate() and raycast() run their per-block and per-pixel loops in parallel
+  * (OpenMP); the volume is not safe to modify from several threads at once.
+  */
+class TSDFVolume
+{
+public:
+  using Ptr = std::shared_ptr<TSDFVolume>;
+  using ConstPtr = std::shared_ptr<const TSDFVolume>;
+
+  explicit TSDFVolume (const TSDFVolumeConfig& config = TSDFVolumeConfig ());
+
+  const TSDFVolumeConfig& config () const { return config_; }
+
+  /** \brief Fuses one depth map (CV_32F metres, 0/NaN invalid) and its registered colour
+    * (CV_8UC3 BGR of the same size, or empty) seen by \a camera at camera-to-world
+    * \a pose: allocates the blocks in the band around the measured surface, then updates
+    * their voxels by the running average of §4.1.4.
+    */
+  void
+  integrate (const cv::Mat& depth, const cv::Mat& color, const PinholeCamera& camera, const Eigen::Isometry3d& pose);
+
+  /** \brief Renders the model from \a camera at camera-to-world \a pose. Rays start and
+    * stop at the depth range of the allocated blocks covering each 8×8 tile, skip
+    * unallocated blocks a block at a time, and locate the zero crossing by trilinear
+    * interpolation. \a out's buffers are reused when their size fits.
+    */
+  void
+  raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out) const;
+
+  RaycastResult
+  raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose) const;
+
+  /** \brief Surface points: the zero crossings along the x, y and z voxel edges, with
+    * interpolated colour and the label of the nearer voxel; \a normals (when given) gets
+    * the normalised TSDF gradient at each point.
+    */
+  void
+  extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::PointCloud<pcl::Normal>* normals = nullptr) const;
+
+  /** \brief Triangle mesh by marching cubes over every allocated block, vertices shared
+    * between neighbouring cubes. The mesh cloud has fields x y z rgba label normal_x
+    * normal_y normal_z; triangles wind counter-clockwise seen from outside.
+    */
+  pcl::PolygonMesh
+  extractMesh () const;
+
+  /** \brief Writes the whole volume (config, blocks, voxels) in a versioned binary format;
+    * atomic (temporary file, then rename). Throws cuefusion::Error naming the file.
+    */
+  void
+  save (const std::string& path) const;
+
+  /** \brief Reads a volume written by save(); throws cuefusion::Error naming the file when
+    * it is missing, of another format or version, or truncated.
+    */
+  static TSDFVolume
+  load (const std::string& path);
+
+  /** \brief Drops every block (the configuration stays). */
+  void
+  reset ();
+
+  std::size_t blockCount () const { return blocks_.size (); }
+
+  /** \brief Bytes held by blocks and the hash table. */
+  std::size_t memoryUsage () const;
+
+  /** \brief Blocks allocated or updated by the last integrate() call. */
+  const std::vector<std::int32_t>& lastIntegratedBlocks () const { return integrated_blocks_; }
+
+  /** \brief Block storage, indexed by block id (for the segment map and tests). */
+  const std::vector<std::unique_ptr<VoxelBlock>>& blocks () const { return blocks_; }
+
+  /** \brief Writable voxels of block \a id (e.g. for the label layer); block coordinates
+    * stay fixed.
+    */
+  std::array<TsdfVoxel, kBlockVoxels>& voxels (std::size_t id) { return blocks_[id]->voxels; }
+
+  /** \brief Id (position in blocks()) of the block with block coordinates \a index, or
+    * VoxelBlockHash::kNone when it is not allocated.
+    */
+  std::int32_t
+  findBlock (const Eigen::Vector3i& index) const
+  {
+    return inBlockRange (index) ? hash_.find (packBlockIndex (index)) : VoxelBlockHash::kNone;
+  }
+
+  /** \brief Voxel with global index \a v, or nullptr when its block is not allocated. */
+  const TsdfVoxel* findVoxel (const Eigen::Vector3i& v) const;
+  TsdfVoxel* findVoxel (const Eigen::Vector3i& v);
+
+  /** \brief Trilinearly interpolated distance (metres) at world point \a p; false when a
+    * corner voxel is unallocated or unobserved.
+    */
+  bool
+  interpolateSdf (const Eigen::Vector3f& p, float& sdf) const;
+
+  /** \brief World position of voxel \a v. */
+  Eigen::Vector3f
+  voxelPosition (const Eigen::Vector3i& v) const
+  {
+    return v.cast<float> () * static_cast<float> (config_.voxel_size);
+  }
+
+private:
+  /** \brief Ids of the blocks the band around \a depth touches, allocating missing ones. */
+  void
+  allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, const Eigen::Isometry3d& pose);
+
+  std::int32_t
+  allocateBlock (const Eigen::Vector3i& index);
+
+  TSDFVolumeConfig config_;
+  VoxelBlockHash hash_;
+  std::vector<std::unique_ptr<VoxelBlock>> blocks_;
+  std::vector<Eigen::Vector3i> block_indices_;  ///< blocks_[i]->index, packed for the per-frame culling pass
+  std::vector<std::int32_t> integrated_blocks_;
+  std::vector<std::uint32_t> block_stamp_;  ///< frame counter that last listed each block
+  std::uint32_t stamp_ = 0;
+};
+}  // namespace reconstruction
+}  // namespace cuefusion

@@ -1,0 +1,58 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/reconstruction/camera_tracker.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+void
+CameraTrackerConfig::validate () const
+{
+  icp.validate ();
+  if (!(min_inlier_fraction >= 0.0 && min_inlier_fraction <= 1.0))
+    throw ParameterError ("tracking.min_inlier_fraction", "must lie in [0, 1]");
+  if (!(max_rmse > 0.0))
+    throw ParameterError ("tracking.max_rmse", "must be positive");
+  if (!(max_translation > 0.0 && max_rotation_deg > 0.0))
+    throw ParameterError ("tracking.max_translation", "motion limits must be positive");
+}
+
+CameraTracker::CameraTracker (const CameraTrackerConfig& config) : config_ (config), icp_ (config.icp)
+{
+  config_.validate ();
+}
+
+TrackingResult
+CameraTracker::track (const FramePyramid& frame, const FramePyramid& model, const Eigen::Isometry3d& model_pose,
+                      const Eigen::Isometry3d& guess) const
+{
+  TrackingResult result;
+  result.pose = guess;
+  result.icp = icp_.align (frame, model, model_pose.inverse () * guess);
+  const ICPResult& icp = result.icp;
+  const Eigen::Isometry3d pose = model_pose * icp.transform;
+  const Eigen::Isometry3d motion = guess.inverse () * pose;
+  const double translation = motion.translation ().norm ();
+  const double rotation_deg = Eigen::AngleAxisd (motion.rotation ()).angle () * 180.0 / M_PI;
+  const double fraction = icp.source_points ? static_cast<double> (icp.inliers) / static_cast<double> (icp.source_points) : 0.0;
+
+  std::ostringstream why;
+  if (!icp.solved)
+    why << "ICP system degenerate (too few or ill-conditioned correspondences)";
+  else if (icp.inliers < config_.min_inliers || fraction < config_.min_inlier_fraction)
+    why << "too few inliers (" << icp.inliers << " of " << icp.source_points << ")";
+  else if (icp.rmse > config_.max_rmse)
+    why << "residual too large (" << icp.rmse * 1000.0 << " mm RMS)";
+  else if (translation > config_.max_translation || rotation_deg > config_.max_rotation_deg)
+    why << "implausible motion (" << translation * 100.0 << " cm, " << rotation_deg << " deg)";
+  result.failure = why.str ();
+  result.tracked = result.failure.empty ();
+  if (result.tracked)
+    result.pose = pose;
+  return result;
+}
+}  // namespace reconstruction
+}  // namespace cuefusion

@@ -1,0 +1,245 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/reconstruction/preprocessing.h>
+#include <cuefusion/reconstruction/vertex_maps.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <limits>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+namespace
+{
+const float kNaN = std::numeric_limits<float>::quiet_NaN ();
+
+/** \brief Normal from the four neighbours, or false across a gap or depth edge. */
+inline bool
+centralDifferenceNormal (const Eigen::Vector3f& c, const Eigen::Vector3f& l, const Eigen::Vector3f& r,
+                         const Eigen::Vector3f& u, const Eigen::Vector3f& d, float max_jump, Eigen::Vector3f& n)
+{
+  if (!isValidVertex (c) || !isValidVertex (l) || !isValidVertex (r) || !isValidVertex (u) || !isValidVertex (d))
+    return false;
+  const float limit = max_jump * c.z ();
+  if (std::abs (l.z () - c.z ()) > limit || std::abs (r.z () - c.z ()) > limit || std::abs (u.z () - c.z ()) > limit ||
+      std::abs (d.z () - c.z ()) > limit)
+    return false;
+  n = (r - l).cross (d - u);
+  const float norm = n.norm ();
+  if (!(norm > 0.f))
+    return false;
+  n /= norm;
+  if (n.dot (c) > 0.f)
+    n = -n;
+  return true;
+}
+
+/** \brief Which of a 2×2 block's samples to average: valid and near the nearest one. */
+inline int
+blockSelection (const float z[4], float max_jump)
+{
+  float nearest = std::numeric_limits<float>::infinity ();
+  for (int i = 0; i < 4; ++i)
+    if (z[i] > 0.f && z[i] < nearest)
+      nearest = z[i];
+  int mask = 0;
+  if (std::isinf (nearest))
+    return mask;
+  for (int i = 0; i < 4; ++i)
+    if (z[i] > 0.f && z[i] - nearest <= max_jump * nearest)
+      mask |= 1 << i;
+  return mask;
+}
+}  // namespace
+
+void
+computeVertexMap (const cv::Mat& depth, const PinholeCamera& camera, cv::Mat& vertices)
+{
+  vertices.create (depth.size (), CV_32FC3);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < depth.rows; ++v)
+  {
+    const float* d = depth.ptr<float> (v);
+    cv::Vec3f* out = vertices.ptr<cv::Vec3f> (v);
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      if (d[u] > 0.f && std::isfinite (d[u]))
+      {
+        const Eigen::Vector3f p = camera.backProject (static_cast<float> (u), static_cast<float> (v), d[u]);
+        out[u] = cv::Vec3f (p.x (), p.y (), p.z ());
+      }
+      else
+        out[u] = cv::Vec3f (kNaN, kNaN, kNaN);
+    }
+  }
+}
+
+void
+computeNormalMap (const cv::Mat& vertices, cv::Mat& normals, float max_depth_jump)
+{
+  normals.create (vertices.size (), CV_32FC3);
+  const int w = vertices.cols, h = vertices.rows;
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y)
+  {
+    cv::Vec3f* out = normals.ptr<cv::Vec3f> (y);
+    for (int x = 0; x < w; ++x)
+    {
+      Eigen::Vector3f n;
+      if (x > 0 && y > 0 && x + 1 < w && y + 1 < h &&
+          centralDifferenceNormal (vertexAt (vertices, x, y), vertexAt (vertices, x - 1, y), vertexAt (vertices, x + 1, y),
+                                   vertexAt (vertices, x, y - 1), vertexAt (vertices, x, y + 1), max_depth_jump, n))
+        out[x] = cv::Vec3f (n.x (), n.y (), n.z ());
+      else
+        out[x] = cv::Vec3f (kNaN, kNaN, kNaN);
+    }
+  }
+}
+
+void
+downsampleDepth (const cv::Mat& depth, cv::Mat& half, float max_jump)
+{
+  half.create (depth.rows / 2, depth.cols / 2, CV_32F);
+  for (int y = 0; y < half.rows; ++y)
+  {
+    const float* r0 = depth.ptr<float> (2 * y);
+    const float* r1 = depth.ptr<float> (2 * y + 1);
+    float* out = half.ptr<float> (y);
+    for (int x = 0; x < half.cols; ++x)
+    {
+      const float z[4] = {r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]};
+      const int mask = blockSelection (z, max_jump);
+      float sum = 0.f;
+      int count = 0;
+      for (int i = 0; i < 4; ++i)
+        if (mask & (1 << i))
+        {
+          sum += z[i];
+          ++count;
+        }
+      out[x] = count ? sum / static_cast<float> (count) : 0.f;
+    }
+  }
+}
+
+void
+downsampleVertexNormalMaps (const cv::Mat& vertices, const cv::Mat& normals, cv::Mat& half_vertices,
+                            cv::Mat& half_normals, float max_jump)
+{
+  half_vertices.create (vertices.rows / 2, vertices.cols / 2, CV_32FC3);
+  half_normals.create (half_vertices.size (), CV_32FC3);
+  for (int y = 0; y < half_vertices.rows; ++y)
+    for (int x = 0; x < half_vertices.cols; ++x)
+    {
+      const Eigen::Vector3f* v[4] = {&vertexAt (vertices, 2 * x, 2 * y), &vertexAt (vertices, 2 * x + 1, 2 * y),
+                                     &vertexAt (vertices, 2 * x, 2 * y + 1), &vertexAt (vertices, 2 * x + 1, 2 * y + 1)};
+      const Eigen::Vector3f* n[4] = {&vertexAt (normals, 2 * x, 2 * y), &vertexAt (normals, 2 * x + 1, 2 * y),
+                                     &vertexAt (normals, 2 * x, 2 * y + 1), &vertexAt (normals, 2 * x + 1, 2 * y + 1)};
+      float z[4];
+      for (int i = 0; i < 4; ++i)
+        z[i] = (isValidVertex (*v[i]) && isValidVertex (*n[i])) ? v[i]->z () : 0.f;
+      const int mask = blockSelection (z, max_jump);
+      Eigen::Vector3f vs = Eigen::Vector3f::Zero (), ns = Eigen::Vector3f::Zero ();
+      for (int i = 0; i < 4; ++i)
+        if (mask & (1 << i))
+        {
+          vs += *v[i];
+          ns += *n[i];
+        }
+      const float norm = ns.norm ();
+      if (mask == 0 || !(norm > 0.f))
+      {
+        half_vertices.at<cv::Vec3f> (y, x) = cv::Vec3f (kNaN, kNaN, kNaN);
+        half_normals.at<cv::Vec3f> (y, x) = cv::Vec3f (kNaN, kNaN, kNaN);
+        continue;
+      }
+      vs /= static_cast<float> (__builtin_popcount (static_cast<unsigned> (mask)));
+      ns /= norm;
+      half_vertices.at<cv::Vec3f> (y, x) = cv::Vec3f (vs.x (), vs.y (), vs.z ());
+      half_normals.at<cv::Vec3f> (y, x) = cv::Vec3f (ns.x (), ns.y (), ns.z ());
+    }
+}
+
+void
+buildModelPyramid (const cv::Mat& vertices, const cv::Mat& normals, const PinholeCamera& camera, int levels,
+                   float max_jump, FramePyramid& pyramid)
+{
+  pyramid.resize (static_cast<std::size_t> (levels));
+  pyramid[0].camera = camera;
+  pyramid[0].vertices = vertices;
+  pyramid[0].normals = normals;
+  for (std::size_t l = 1; l < pyramid.size (); ++l)
+  {
+    const PyramidLevel& finer = pyramid[l - 1];
+    PyramidLevel& level = pyramid[l];
+    downsampleVertexNormalMaps (finer.vertices, finer.normals, level.vertices, level.normals, max_jump);
+    level.camera = finer.camera.scaled (level.vertices.cols, level.vertices.rows);
+  }
+}
+
+void
+DepthPreprocessingConfig::validate () const
+{
+  if (bilateral_filter && !(bilateral_diameter >= 1 && bilateral_diameter <= 31))
+    throw ParameterError ("bilateral_diameter", "must lie in [1, 31] pixels");
+  if (bilateral_filter && !(sigma_depth > 0.0 && sigma_space > 0.0))
+    throw ParameterError ("sigma_depth", "bilateral sigmas must be positive");
+  if (!(pyramid_levels >= 1 && pyramid_levels <= 6))
+    throw ParameterError ("pyramid_levels", "must lie in [1, 6]");
+  if (!(min_depth >= 0.0 && max_depth > min_depth))
+    throw ParameterError ("max_depth", "depth range must satisfy 0 <= min < max");
+  if (!(max_depth_jump > 0.0))
+    throw ParameterError ("max_depth_jump", "must be positive");
+}
+
+DepthPreprocessor::DepthPreprocessor (const DepthPreprocessingConfig& config) : config_ (config)
+{
+  config_.validate ();
+}
+
+void
+DepthPreprocessor::compute (const cv::Mat& depth, const PinholeCamera& camera, FramePyramid& pyramid) const
+{
+  if (depth.type () != CV_32F || depth.cols != camera.width || depth.rows != camera.height)
+    throw Error ("DepthPreprocessor", "depth must be CV_32F of the camera's image size");
+  const float lo = static_cast<float> (config_.min_depth), hi = static_cast<float> (config_.max_depth);
+  const float jump = static_cast<float> (config_.max_depth_jump);
+  pyramid.resize (static_cast<std::size_t> (config_.pyramid_levels));
+
+  // Invalid and out-of-range samples become 0; the bilateral filter's range kernel then
+  // gives them no weight next to real surfaces (|0 − z| ≫ σ), and they are masked again
+  // afterwards so the filter cannot invent depth in holes.
+  cv::Mat clean (depth.size (), CV_32F);
+  for (int v = 0; v < depth.rows; ++v)
+  {
+    const float* in = depth.ptr<float> (v);
+    float* out = clean.ptr<float> (v);
+    for (int u = 0; u < depth.cols; ++u)
+      out[u] = (in[u] >= lo && in[u] <= hi) ? in[u] : 0.f;
+  }
+  PyramidLevel& base = pyramid[0];
+  base.camera = camera;
+  if (config_.bilateral_filter)
+  {
+    cv::bilateralFilter (clean, base.depth, config_.bilateral_diameter, config_.sigma_depth, config_.sigma_space);
+    base.depth.setTo (0.f, clean == 0.f);
+  }
+  else
+    base.depth = clean;
+
+  for (std::size_t l = 0; l < pyramid.size (); ++l)
+  {
+    PyramidLevel& level = pyramid[l];
+    if (l > 0)
+    {
+      downsampleDepth (pyramid[l - 1].depth, level.depth, jump);
+      level.camera = pyramid[l - 1].camera.scaled (level.depth.cols, level.depth.rows);
+    }
+    computeVertexMap (level.depth, level.camera, level.vertices);
+    computeNormalMap (level.vertices, level.normals, jump);
+  }
+}
+}  // namespace reconstruction
+}  // namespace cuefusion

@@ -1,0 +1,636 @@
+#include "voxel_access.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/reconstruction/tsdf_volume.h>
+#include <cuefusion/reconstruction/vertex_maps.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+namespace
+{
+int
+threadCount ()
+{
+#ifdef _OPENMP
+  return omp_get_max_threads ();
+#else
+  return 1;
+#endif
+}
+
+int
+threadId ()
+{
+#ifdef _OPENMP
+  return omp_get_thread_num ();
+#else
+  return 0;
+#endif
+}
+
+/** \brief Per-thread filter of recently seen block keys (direct-mapped): neighbouring
+  * pixels touch the same few blocks, so this drops most repeats before the serial merge.
+  */
+class RecentKeys
+{
+public:
+  RecentKeys () { slots_.fill (~std::uint64_t{0}); }
+
+  bool
+  seen (std::uint64_t key)
+  {
+    std::uint64_t& slot = slots_[(key * 0x9E3779B97F4A7C15ull) >> 52];
+    if (slot == key)
+      return true;
+    slot = key;
+    return false;
+  }
+
+private:
+  std::array<std::uint64_t, 4096> slots_;
+};
+
+/** \brief Depth of a valid measurement inside the fusion range, else 0. */
+inline float
+usableDepth (float z, float min_depth, float max_depth)
+{
+  return (z >= min_depth && z <= max_depth) ? z : 0.f;  // NaN fails both comparisons
+}
+
+/** \brief Depth seen along the voxel's own ray: bilinear between the four pixels around
+  * (uf, vf) when all are valid and on one surface (within 2 % of each other), else the
+  * nearest pixel (u, v). Looking up only the nearest pixel leaves a staircase of up to
+  * half a pixel's depth slope in the distances, which on slanted surfaces far away is
+  * several millimetres.
+  */
+inline float
+interpolatedDepth (const cv::Mat& depth, float uf, float vf, int u, int v, float min_depth, float max_depth)
+{
+  const float nearest = usableDepth (depth.at<float> (v, u), min_depth, max_depth);
+  const int u0 = fastFloor (uf), v0 = fastFloor (vf);
+  if (nearest == 0.f || u0 < 0 || v0 < 0 || u0 + 1 >= depth.cols || v0 + 1 >= depth.rows)
+    return nearest;
+  const float* r0 = depth.ptr<float> (v0);
+  const float* r1 = depth.ptr<float> (v0 + 1);
+  const float d00 = r0[u0], d01 = r0[u0 + 1], d10 = r1[u0], d11 = r1[u0 + 1];
+  const float lo = std::min (std::min (d00, d01), std::min (d10, d11));
+  const float hi = std::max (std::max (d00, d01), std::max (d10, d11));
+  if (!(lo >= min_depth && hi <= max_depth && hi - lo <= 0.02f * lo))  // NaN fails too
+    return nearest;
+  const float a = uf - static_cast<float> (u0), b = vf - static_cast<float> (v0);
+  return (d00 * (1.f - a) + d01 * a) * (1.f - b) + (d10 * (1.f - a) + d11 * a) * b;
+}
+
+/** \brief Integrates one block: every voxel projected into the depth map (§4.1.4). */
+inline void
+integrateBlock (VoxelBlock& block, const cv::Mat& depth, const cv::Mat& color, const PinholeCamera& camera,
+                const Eigen::Matrix3f& R_cw, const Eigen::Vector3f& t_cw, float voxel_size, float truncation,
+                float min_depth, float max_depth, float max_weight)
+{
+  const Eigen::Vector3f origin = R_cw * (block.index.cast<float> () * (kBlockSide * voxel_size)) + t_cw;
+  const Eigen::Vector3f dx = R_cw.col (0) * voxel_size;
+  const Eigen::Vector3f dy = R_cw.col (1) * voxel_size;
+  const Eigen::Vector3f dz = R_cw.col (2) * voxel_size;
+  const float fx = static_cast<float> (camera.fx), fy = static_cast<float> (camera.fy);
+  const float cx = static_cast<float> (camera.cx), cy = static_cast<float> (camera.cy);
+  const bool has_color = !color.empty ();
+  for (int z = 0; z < kBlockSide; ++z)
+    for (int y = 0; y < kBlockSide; ++y)
+    {
+      Eigen::Vector3f p = origin + dy * static_cast<float> (y) + dz * static_cast<float> (z);
+      TsdfVoxel* voxel = &block.voxels[static_cast<std::size_t> (localVoxelIndex (0, y, z))];
+      for (int x = 0; x < kBlockSide; ++x, p += dx, ++voxel)
+      {
+        if (p.z () <= 0.f)
+          continue;
+        const float inv_z = 1.f / p.z ();
+        const float uf = fx * p.x () * inv_z + cx, vf = fy * p.y () * inv_z + cy;
+        const int u = fastFloor (uf + 0.5f), v = fastFloor (vf + 0.5f);
+        if (u < 0 || v < 0 || u >= camera.width || v >= camera.height)
+          continue;
+        const float d = interpolatedDepth (depth, uf, vf, u, v, min_depth, max_depth);
+        float tsdf;
+        if (d == 0.f || !projectiveTsdf (d, p.z (), truncation, tsdf))
+          continue;
+        updateVoxel (*voxel, tsdf, has_color ? color.ptr<std::uint8_t> (v) + 3 * u : nullptr, max_weight);
+      }
+    }
+}
+
+/** \brief Conservative depth range of a block seen from a camera, per 8×8 pixel tile. */
+struct RangeTiles
+{
+  static constexpr int kTile = 8;
+  int cols = 0, rows = 0;
+  std::vector<float> zmin, zmax;
+
+  void
+  reset (int width, int height)
+  {
+    cols = (width + kTile - 1) / kTile;
+    rows = (height + kTile - 1) / kTile;
+    zmin.assign (static_cast<std::size_t> (cols * rows), std::numeric_limits<float>::infinity ());
+    zmax.assign (static_cast<std::size_t> (cols * rows), 0.f);
+  }
+
+  void
+  merge (const RangeTiles& other)
+  {
+    for (std::size_t i = 0; i < zmin.size (); ++i)
+    {
+      zmin[i] = std::min (zmin[i], other.zmin[i]);
+      zmax[i] = std::max (zmax[i], other.zmax[i]);
+    }
+  }
+
+  void
+  add (int c0, int r0, int c1, int r1, float lo, float hi)
+  {
+    for (int r = std::max (r0, 0); r <= std::min (r1, rows - 1); ++r)
+      for (int c = std::max (c0, 0); c <= std::min (c1, cols - 1); ++c)
+      {
+        const std::size_t i = static_cast<std::size_t> (r * cols + c);
+        zmin[i] = std::min (zmin[i], lo);
+        zmax[i] = std::max (zmax[i], hi);
+      }
+  }
+};
+
+/** \brief Projects the eight corners of a block into tile coordinates. False when it is
+  * wholly behind the camera or outside the image.
+  */
+inline bool
+blockFootprint (const Eigen::Vector3f& corner0, const Eigen::Matrix3f& R_cw_scaled, const PinholeCamera& camera,
+                float near, int& c0, int& r0, int& c1, int& r1, float& lo, float& hi)
+{
+  // Cheap rejection of blocks wholly behind the camera (most of a room, seen from inside).
+  const Eigen::Vector3f center = corner0 + 0.5f * R_cw_scaled.rowwise ().sum ();
+  if (center.z () + 0.87f * R_cw_scaled.col (0).norm () < near)
+    return false;
+  const float fx = static_cast<float> (camera.fx), fy = static_cast<float> (camera.fy);
+  const float cx = static_cast<float> (camera.cx), cy = static_cast<float> (camera.cy);
+  float umin = std::numeric_limits<float>::infinity (), vmin = umin, umax = -umin, vmax = -umin;
+  lo = std::numeric_limits<float>::infinity ();
+  hi = -lo;
+  bool clipped = false;
+  for (int i = 0; i < 8; ++i)
+  {
+    const Eigen::Vector3f p = corner0 + R_cw_scaled.col (0) * static_cast<float> (i & 1) +
+                              R_cw_scaled.col (1) * static_cast<float> ((i >> 1) & 1) +
+                              R_cw_scaled.col (2) * static_cast<float> ((i >> 2) & 1);
+    lo = std::min (lo, p.z ());
+    hi = std::max (hi, p.z ());
+    if (p.z () < near)
+    {
+      clipped = true;
+      continue;
+    }
+    const float inv_z = 1.f / p.z ();
+    const float u = fx * p.x () * inv_z + cx, v = fy * p.y () * inv_z + cy;
+    umin = std::min (umin, u);
+    umax = std::max (umax, u);
+    vmin = std::min (vmin, v);
+    vmax = std::max (vmax, v);
+  }
+  if (hi < near)
+    return false;
+  lo = std::max (lo, near);
+  if (clipped)  // straddles the near plane: may cover anything
+  {
+    umin = vmin = -1.f;
+    umax = static_cast<float> (camera.width);
+    vmax = static_cast<float> (camera.height);
+  }
+  if (umax < -0.5f || vmax < -0.5f || umin > camera.width - 0.5f || vmin > camera.height - 0.5f)
+    return false;
+  const float inv_tile = 1.f / static_cast<float> (RangeTiles::kTile);
+  c0 = fastFloor ((std::max (umin, -1.f) + 0.5f) * inv_tile);
+  r0 = fastFloor ((std::max (vmin, -1.f) + 0.5f) * inv_tile);
+  c1 = fastFloor ((std::min (umax, static_cast<float> (camera.width)) + 0.5f) * inv_tile);
+  r1 = fastFloor ((std::min (vmax, static_cast<float> (camera.height)) + 0.5f) * inv_tile);
+  return true;
+}
+
+/** \brief Distance (in ray parameter) from \a g to where the ray leaves the block that
+  * holds it; \a g and \a dir are in voxel units.
+  */
+inline float
+blockExit (const Eigen::Vector3f& g, const Eigen::Vector3f& dir)
+{
+  float t = std::numeric_limits<float>::infinity ();
+  for (int a = 0; a < 3; ++a)
+  {
+    if (dir[a] == 0.f)
+      continue;
+    const float lower = static_cast<float> (fastFloor (g[a] / kBlockSide) * kBlockSide);
+    const float face = dir[a] > 0.f ? lower + kBlockSide : lower;
+    t = std::min (t, (face - g[a]) / dir[a]);
+  }
+  return t;
+}
+
+/** \brief Marches one ray (§4.1.5). \a origin and \a dir are in voxel units, \a dir the
+  * camera-frame ray with z = 1 turned into the world, so the ray parameter is the
+  * z-depth. Returns the depth of the first front-facing zero crossing, or 0.
+  */
+inline float
+castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float z_start,
+         float z_end, float truncation_voxels, const TsdfVoxel** hit)
+{
+  const float voxels_per_z = dir.norm ();
+  const float one_voxel = 1.f / voxels_per_z;
+  float z = z_start;
+  float z_prev = 0.f, sdf_prev = 1.f;
+  bool prev_in_front = false;
+  while (z < z_end)
+  {
+    const Eigen::Vector3f g = origin + dir * z;
+    if (access.block (blockOfVoxel (fastFloor (g))) == nullptr)
+    {
+      // Unallocated block: empty space; jump to just past the block's far side.
+      prev_in_front = false;
+      z += std::max (blockExit (g, dir), 0.f) + 0.1f * one_voxel;
+      continue;
+    }
+    const TsdfVoxel* voxel = access.get (nearestVoxel (g));
+    if (voxel == nullptr || voxel->weight <= 0.f)
+    {
+      prev_in_front = false;
+      z += one_voxel;
+      continue;
+    }
+    if (voxel->sdf <= 0.f)
+    {
+      if (prev_in_front)
+      {
+        // Crossing between z_prev and z by the nearest voxels; the interpolated field can
+        // cross up to half a voxel earlier, so first walk the lower end back until the
+        // interpolated value is positive. Ends whose cell reaches into an unobserved voxel
+        // keep the nearest voxel's value. The Illinois variant of regula falsi on the
+        // interpolated field then places the crossing.
+        float z_lo = z_prev, z_hi = z, f_lo, f_hi;
+        if (!access.interpolate (g, f_hi) || !(f_hi <= 0.f))
+          f_hi = voxel->sdf;
+        bool interpolated = access.interpolate (origin + dir * z_lo, f_lo);
+        for (int back = 0; interpolated && f_lo <= 0.f && back < 3; ++back)
+        {
+          z_hi = z_lo;
+          f_hi = f_lo;
+          z_lo -= one_voxel;
+          interpolated = access.interpolate (origin + dir * z_lo, f_lo);
+        }
+        if (!interpolated || !(f_lo > 0.f))
+          f_lo = std::max (sdf_prev, 1e-6f);
+        float z_hit = z_lo + (z_hi - z_lo) * zeroCrossing (f_lo, f_hi);
+        int last_side = 0;
+        for (int refine = 0; refine < 3; ++refine)
+        {
+          float f_hit;
+          if (!access.interpolate (origin + dir * z_hit, f_hit) || std::abs (f_hit) < 2e-3f)
+            break;
+          if (f_hit > 0.f)
+          {
+            z_lo = z_hit;
+            f_lo = f_hit;
+            if (last_side > 0)
+              f_hi *= 0.5f;
+            last_side = 1;
+          }
+          else
+          {
+            z_hi = z_hit;
+            f_hi = f_hit;
+            if (last_side < 0)
+              f_lo *= 0.5f;
+            last_side = -1;
+          }
+          z_hit = z_lo + (z_hi - z_lo) * zeroCrossing (f_lo, f_hi);
+        }
+        *hit = access.get (nearestVoxel (origin + dir * z_hit));
+        if (*hit == nullptr)
+          *hit = voxel;
+        return z_hit;
+      }
+      prev_in_front = false;  // behind a surface (or a back face): keep looking
+      z += one_voxel;
+      continue;
+    }
+    prev_in_front = true;
+    z_prev = z;
+    sdf_prev = voxel->sdf;
+    // The nearest voxel's distance bounds the free space ahead (less a voxel for the
+    // distance to that voxel).
+    z += std::max (1.f, voxel->sdf * truncation_voxels - 1.f) * one_voxel;
+  }
+  return 0.f;
+}
+}  // namespace
+
+void
+TSDFVolumeConfig::validate () const
+{
+  if (!(voxel_size > 0.0005 && voxel_size <= 1.0))
+    throw ParameterError ("voxel_size", "must lie in (0.0005, 1] metres");
+  if (!(truncation_voxels >= 1.0 && truncation_voxels <= 64.0))
+    throw ParameterError ("truncation", "must lie in [1, 64] voxels");
+  if (!(max_weight >= 1.f && max_weight <= 1e6f))
+    throw ParameterError ("max_weight", "must lie in [1, 1e6]");
+  if (!(min_depth >= 0.0 && max_depth > min_depth && std::isfinite (max_depth)))
+    throw ParameterError ("max_depth", "depth range must satisfy 0 <= min < max < inf");
+  if (bounds && (bounds->isEmpty () || !bounds->min ().allFinite () || !bounds->max ().allFinite ()))
+    throw ParameterError ("bounds", "must be a finite, non-empty box");
+}
+
+cv::Mat
+RaycastResult::depth () const
+{
+  cv::Mat out (vertices.size (), CV_32F);
+  for (int y = 0; y < vertices.rows; ++y)
+  {
+    const cv::Vec3f* v = vertices.ptr<cv::Vec3f> (y);
+    float* d = out.ptr<float> (y);
+    for (int x = 0; x < vertices.cols; ++x)
+      d[x] = std::isnan (v[x][0]) ? 0.f : v[x][2];
+  }
+  return out;
+}
+
+TSDFVolume::TSDFVolume (const TSDFVolumeConfig& config) : config_ (config)
+{
+  config_.validate ();
+}
+
+void
+TSDFVolume::reset ()
+{
+  hash_.clear ();
+  blocks_.clear ();
+  blocks_.shrink_to_fit ();
+  block_indices_.clear ();
+  block_indices_.shrink_to_fit ();
+  integrated_blocks_.clear ();
+  block_stamp_.clear ();
+  stamp_ = 0;
+}
+
+std::size_t
+TSDFVolume::memoryUsage () const
+{
+  return blocks_.size () * (sizeof (VoxelBlock) + sizeof (std::unique_ptr<VoxelBlock>) + sizeof (std::uint32_t) +
+                            sizeof (Eigen::Vector3i)) +
+         hash_.memoryBytes ();
+}
+
+std::int32_t
+TSDFVolume::allocateBlock (const Eigen::Vector3i& index)
+{
+  const auto id = static_cast<std::int32_t> (blocks_.size ());
+  const auto inserted = hash_.insert (packBlockIndex (index), id);
+  if (inserted.second)
+  {
+    blocks_.push_back (std::make_unique<VoxelBlock> ());
+    blocks_.back ()->index = index;
+    block_indices_.push_back (index);
+    block_stamp_.push_back (0);
+  }
+  return inserted.first;
+}
+
+const TsdfVoxel*
+TSDFVolume::findVoxel (const Eigen::Vector3i& v) const
+{
+  const Eigen::Vector3i b = blockOfVoxel (v);
+  const std::int32_t id = findBlock (b);
+  if (id < 0)
+    return nullptr;
+  const Eigen::Vector3i l = v - b * kBlockSide;
+  return &blocks_[static_cast<std::size_t> (id)]->voxels[static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ()))];
+}
+
+TsdfVoxel*
+TSDFVolume::findVoxel (const Eigen::Vector3i& v)
+{
+  return const_cast<TsdfVoxel*> (static_cast<const TSDFVolume*> (this)->findVoxel (v));
+}
+
+bool
+TSDFVolume::interpolateSdf (const Eigen::Vector3f& p, float& sdf) const
+{
+  detail::VoxelAccessor access (*this);
+  if (!access.interpolate (p / static_cast<float> (config_.voxel_size), sdf))
+    return false;
+  sdf *= static_cast<float> (config_.truncation ());
+  return true;
+}
+
+void
+TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, const Eigen::Isometry3d& pose)
+{
+  const float truncation = static_cast<float> (config_.truncation ());
+  const float inv_block = static_cast<float> (1.0 / config_.blockSize ());
+  const float min_depth = static_cast<float> (config_.min_depth), max_depth = static_cast<float> (config_.max_depth);
+  const Eigen::Matrix3f R = pose.linear ().cast<float> ();
+  const Eigen::Vector3f t = pose.translation ().cast<float> ();
+  // Samples along each ray through the band [d − τ, d + τ], at most half a block apart,
+  // and every second pixel: at 5 m a pixel of a 525 px focal length spans 1 cm, far
+  // below the 8 cm of a block.
+  const int samples = 1 + static_cast<int> (std::ceil (2.f * truncation * inv_block * 2.f));
+  const float step = 2.f * truncation / static_cast<float> (samples - 1);
+  constexpr int kPixelStride = 2;
+
+  std::vector<std::vector<std::uint64_t>> candidates (static_cast<std::size_t> (threadCount ()));
+#pragma omp parallel
+  {
+    std::vector<std::uint64_t>& mine = candidates[static_cast<std::size_t> (threadId ())];
+    RecentKeys recent;
+#pragma omp for schedule(static)
+    for (int v = 0; v < depth.rows; v += kPixelStride)
+    {
+      const float* row = depth.ptr<float> (v);
+      for (int u = 0; u < depth.cols; u += kPixelStride)
+      {
+        const float d = usableDepth (row[u], min_depth, max_depth);
+        if (d == 0.f)
+          continue;
+        const Eigen::Vector3f ray = R * camera.backProject (static_cast<float> (u), static_cast<float> (v), 1.f);
+        for (int s = 0; s < samples; ++s)
+        {
+          const float z = d - truncation + step * static_cast<float> (s);
+          if (z <= 0.f)
+            continue;
+          const Eigen::Vector3f b = (t + ray * z) * inv_block;
+          const Eigen::Vector3i index = fastFloor (b);
+          if (!inBlockRange (index))
+            continue;
+          const std::uint64_t key = packBlockIndex (index);
+          if (!recent.seen (key))
+            mine.push_back (key);
+        }
+      }
+    }
+  }
+
+  ++stamp_;
+  integrated_blocks_.clear ();
+  const double block_size = config_.blockSize ();
+  for (const auto& keys : candidates)
+    for (const std::uint64_t key : keys)
+    {
+      std::int32_t id = hash_.find (key);
+      if (id == VoxelBlockHash::kNone)
+      {
+        const Eigen::Vector3i index = unpackBlockIndex (key);
+        if (config_.bounds)
+        {
+          const Eigen::AlignedBox3d box (index.cast<double> () * block_size, (index.cast<double> ().array () + 1.0).matrix () * block_size);
+          if (!config_.bounds->intersects (box))
+            continue;
+        }
+        id = allocateBlock (index);
+      }
+      if (block_stamp_[static_cast<std::size_t> (id)] != stamp_)
+      {
+        block_stamp_[static_cast<std::size_t> (id)] = stamp_;
+        integrated_blocks_.push_back (id);
+      }
+    }
+}
+
+void
+TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const PinholeCamera& camera,
+                       const Eigen::Isometry3d& pose)
+{
+  if (depth.type () != CV_32F || depth.empty ())
+    throw Error ("TSDFVolume::integrate", "depth must be a non-empty CV_32F image");
+  if (depth.cols != camera.width || depth.rows != camera.height)
+    throw Error ("TSDFVolume::integrate", "depth size differs from the camera's image size");
+  if (!color.empty () && (color.type () != CV_8UC3 || color.size () != depth.size ()))
+    throw Error ("TSDFVolume::integrate", "colour must be CV_8UC3 of the depth's size (or empty)");
+  if (!pose.matrix ().allFinite ())
+    throw Error ("TSDFVolume::integrate", "pose is not finite");
+
+  allocateBlocks (depth, camera, pose);
+
+  const Eigen::Isometry3f world_to_camera = pose.inverse ().cast<float> ();
+  const Eigen::Matrix3f R_cw = world_to_camera.linear ();
+  const Eigen::Vector3f t_cw = world_to_camera.translation ();
+  const float voxel_size = static_cast<float> (config_.voxel_size);
+  const float truncation = static_cast<float> (config_.truncation ());
+  const float min_depth = static_cast<float> (config_.min_depth), max_depth = static_cast<float> (config_.max_depth);
+  const int n = static_cast<int> (integrated_blocks_.size ());
+#pragma omp parallel for schedule(dynamic, 16)
+  for (int i = 0; i < n; ++i)
+    integrateBlock (*blocks_[static_cast<std::size_t> (integrated_blocks_[static_cast<std::size_t> (i)])], depth, color,
+                    camera, R_cw, t_cw, voxel_size, truncation, min_depth, max_depth, config_.max_weight);
+}
+
+RaycastResult
+TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose) const
+{
+  RaycastResult out;
+  raycast (camera, pose, out);
+  return out;
+}
+
+void
+TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out) const
+{
+  camera.validate ("TSDFVolume::raycast");
+  out.camera = camera;
+  out.pose = pose;
+  const cv::Size size (camera.width, camera.height);
+  out.vertices.create (size, CV_32FC3);
+  out.normals.create (size, CV_32FC3);
+  out.colors.create (size, CV_8UC3);
+  out.labels.create (size, CV_32S);
+  out.vertices.setTo (cv::Scalar::all (std::numeric_limits<float>::quiet_NaN ()));
+  out.normals.setTo (cv::Scalar::all (std::numeric_limits<float>::quiet_NaN ()));
+  out.colors.setTo (cv::Scalar::all (0));
+  out.labels.setTo (cv::Scalar::all (0));
+
+  const float voxel_size = static_cast<float> (config_.voxel_size);
+  const float block_size = static_cast<float> (config_.blockSize ());
+  const Eigen::Isometry3f world_to_camera = pose.inverse ().cast<float> ();
+  const Eigen::Matrix3f R_cw_block = world_to_camera.linear () * block_size;
+  const float near = static_cast<float> (std::max (config_.min_depth, 0.01));
+
+  // Depth range of the allocated blocks per tile: rays start at the nearest block of their
+  // tile instead of at the camera, and stop behind the farthest.
+  RangeTiles tiles;
+  tiles.reset (camera.width, camera.height);
+  const int block_count = static_cast<int> (blocks_.size ());
+#pragma omp parallel
+  {
+    RangeTiles mine;
+    mine.reset (camera.width, camera.height);
+#pragma omp for schedule(static) nowait
+    for (int i = 0; i < block_count; ++i)
+    {
+      const Eigen::Vector3f corner0 = world_to_camera * (block_indices_[static_cast<std::size_t> (i)].cast<float> () * block_size);
+      int c0, r0, c1, r1;
+      float lo, hi;
+      if (blockFootprint (corner0, R_cw_block, camera, near, c0, r0, c1, r1, lo, hi))
+        mine.add (c0, r0, c1, r1, lo, hi);
+    }
+#pragma omp critical
+    tiles.merge (mine);
+  }
+
+  const Eigen::Matrix3f R = pose.linear ().cast<float> ();
+  const Eigen::Matrix3f R_cw = R.transpose ();
+  const float inv_voxel = 1.f / voxel_size;
+  const Eigen::Vector3f origin_voxels = pose.translation ().cast<float> () * inv_voxel;
+  const float truncation_voxels = static_cast<float> (config_.truncation_voxels);
+#pragma omp parallel
+  {
+    detail::VoxelAccessor access (*this);
+#pragma omp for schedule(dynamic, 4)
+    for (int v = 0; v < camera.height; ++v)
+    {
+      cv::Vec3f* vertex_row = out.vertices.ptr<cv::Vec3f> (v);
+      cv::Vec3f* normal_row = out.normals.ptr<cv::Vec3f> (v);
+      cv::Vec3b* color_row = out.colors.ptr<cv::Vec3b> (v);
+      std::int32_t* label_row = out.labels.ptr<std::int32_t> (v);
+      for (int u = 0; u < camera.width; ++u)
+      {
+        const std::size_t tile = static_cast<std::size_t> ((v / RangeTiles::kTile) * tiles.cols + u / RangeTiles::kTile);
+        if (!(tiles.zmax[tile] > tiles.zmin[tile]))
+          continue;
+        const Eigen::Vector3f ray_c = camera.backProject (static_cast<float> (u), static_cast<float> (v), 1.f);
+        const TsdfVoxel* hit = nullptr;
+        const float z = castRay (access, origin_voxels, R * ray_c * inv_voxel, tiles.zmin[tile], tiles.zmax[tile],
+                                 truncation_voxels, &hit);
+        if (z <= 0.f)
+          continue;
+        const Eigen::Vector3f p = ray_c * z;
+        vertex_row[u] = cv::Vec3f (p.x (), p.y (), p.z ());
+        // Normal from the TSDF gradient at the hit (KinectFusion); differences of
+        // neighbouring raycast vertices, one pixel apart, would amplify their sub-millimetre
+        // noise into degrees.
+        Eigen::Vector3f grad;
+        if (access.gradient (origin_voxels + R * ray_c * (inv_voxel * z), grad) && grad.squaredNorm () > 0.f)
+        {
+          Eigen::Vector3f n = (R_cw * grad).normalized ();
+          if (n.dot (p) > 0.f)
+            n = -n;
+          normal_row[u] = cv::Vec3f (n.x (), n.y (), n.z ());
+        }
+        color_row[u] = cv::Vec3b (hit->b, hit->g, hit->r);
+        label_row[u] = static_cast<std::int32_t> (hit->label);
+      }
+    }
+  }
+}
+}  // namespace reconstruction
+}  // namespace cuefusion

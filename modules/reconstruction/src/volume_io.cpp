@@ -1,0 +1,134 @@
+// Binary volume files: a fixed little-endian header, then every block with its voxels.
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/reconstruction/tsdf_volume.h>
+
+#include <boost/filesystem.hpp>
+
+#include <cstring>
+#include <fstream>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+namespace
+{
+constexpr char kMagic[8] = {'C', 'F', 'T', 'S', 'D', 'F', '\r', '\n'};
+constexpr std::uint32_t kVersion = 1;
+
+#pragma pack(push, 1)
+struct VolumeHeader
+{
+  char magic[8];
+  std::uint32_t version;
+  std::uint32_t voxel_bytes;      ///< sizeof (TsdfVoxel)
+  std::uint32_t block_side;       ///< kBlockSide
+  double voxel_size;
+  double truncation_voxels;
+  float max_weight;
+  double min_depth, max_depth;
+  std::uint8_t has_bounds;
+  double bounds[6];
+  std::uint64_t block_count;
+};
+#pragma pack(pop)
+
+constexpr std::size_t kBlockRecordBytes = 3 * sizeof (std::int32_t) + sizeof (TsdfVoxel) * kBlockVoxels;
+
+static_assert (sizeof (float) == 4 && sizeof (double) == 8, "volume files assume IEEE-754 floats");
+}  // namespace
+
+void
+TSDFVolume::save (const std::string& path) const
+{
+  VolumeHeader header{};
+  std::memcpy (header.magic, kMagic, sizeof kMagic);
+  header.version = kVersion;
+  header.voxel_bytes = sizeof (TsdfVoxel);
+  header.block_side = kBlockSide;
+  header.voxel_size = config_.voxel_size;
+  header.truncation_voxels = config_.truncation_voxels;
+  header.max_weight = config_.max_weight;
+  header.min_depth = config_.min_depth;
+  header.max_depth = config_.max_depth;
+  header.has_bounds = config_.bounds ? 1 : 0;
+  if (config_.bounds)
+    for (int i = 0; i < 3; ++i)
+    {
+      header.bounds[i] = config_.bounds->min ()[i];
+      header.bounds[3 + i] = config_.bounds->max ()[i];
+    }
+  header.block_count = blocks_.size ();
+  io::writeFileAtomic (path, [&] (const std::string& temporary) {
+    std::ofstream out (temporary, std::ios::binary);
+    out.write (reinterpret_cast<const char*> (&header), sizeof header);
+    for (const auto& block : blocks_)
+    {
+      const std::int32_t index[3] = {block->index.x (), block->index.y (), block->index.z ()};
+      out.write (reinterpret_cast<const char*> (index), sizeof index);
+      out.write (reinterpret_cast<const char*> (block->voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
+    }
+    out.close ();
+    return static_cast<bool> (out);
+  });
+}
+
+TSDFVolume
+TSDFVolume::load (const std::string& path)
+{
+  std::ifstream in (path, std::ios::binary);
+  if (!in)
+    throw Error (path, "cannot open volume file");
+  VolumeHeader header{};
+  in.read (reinterpret_cast<char*> (&header), sizeof header);
+  if (!in || std::memcmp (header.magic, kMagic, sizeof kMagic) != 0)
+    throw Error (path, "not a cuefusion volume file");
+  if (header.version != kVersion)
+    throw Error (path, "volume file version " + std::to_string (header.version) + " (this build reads version " +
+                         std::to_string (kVersion) + ")");
+  if (header.voxel_bytes != sizeof (TsdfVoxel) || header.block_side != kBlockSide)
+    throw Error (path, "volume file has another voxel layout");
+  boost::system::error_code ec;
+  const std::uint64_t size = boost::filesystem::file_size (path, ec);
+  if (ec || header.block_count > (size - sizeof header) / kBlockRecordBytes ||
+      size != sizeof header + header.block_count * kBlockRecordBytes)
+    throw Error (path, "volume file is truncated or has trailing data");
+
+  TSDFVolumeConfig config;
+  config.voxel_size = header.voxel_size;
+  config.truncation_voxels = header.truncation_voxels;
+  config.max_weight = header.max_weight;
+  config.min_depth = header.min_depth;
+  config.max_depth = header.max_depth;
+  if (header.has_bounds)
+    config.bounds = Eigen::AlignedBox3d (Eigen::Vector3d (header.bounds[0], header.bounds[1], header.bounds[2]),
+                                         Eigen::Vector3d (header.bounds[3], header.bounds[4], header.bounds[5]));
+  try
+  {
+    config.validate ();
+  }
+  catch (const Error& e)
+  {
+    throw Error (path, std::string ("volume file holds an invalid configuration: ") + e.what ());
+  }
+  TSDFVolume volume (config);
+  volume.blocks_.reserve (header.block_count);
+  for (std::uint64_t i = 0; i < header.block_count; ++i)
+  {
+    std::int32_t index[3];
+    in.read (reinterpret_cast<char*> (index), sizeof index);
+    const Eigen::Vector3i b (index[0], index[1], index[2]);
+    if (!in || !inBlockRange (b))
+      throw Error (path, "volume file has a corrupt block record " + std::to_string (i));
+    if (volume.findBlock (b) != VoxelBlockHash::kNone)
+      throw Error (path, "volume file lists block " + std::to_string (i) + " twice");
+    VoxelBlock& block = *volume.blocks_[static_cast<std::size_t> (volume.allocateBlock (b))];
+    in.read (reinterpret_cast<char*> (block.voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
+    if (!in)
+      throw Error (path, "volume file is truncated in block " + std::to_string (i));
+  }
+  return volume;
+}
+}  // namespace reconstruction
+}  // namespace cuefusion

@@ -1,0 +1,119 @@
+#pragma once
+
+#include <cuefusion/reconstruction/tsdf_volume.h>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+namespace detail
+{
+/** \brief Reads voxels by global index, remembering the last block it looked up: loops
+  * that walk through space (rays, marching cubes) mostly stay inside one block, so most
+  * reads skip the hash. One accessor per thread.
+  */
+class VoxelAccessor
+{
+public:
+  explicit VoxelAccessor (const TSDFVolume& volume) : volume_ (volume) {}
+
+  /** \brief First voxel of block \a b, or nullptr when it is not allocated. */
+  inline const TsdfVoxel*
+  block (const Eigen::Vector3i& b)
+  {
+    if (!valid_ || b != block_)
+    {
+      block_ = b;
+      valid_ = true;
+      const std::int32_t id = volume_.findBlock (b);
+      data_ = id >= 0 ? volume_.blocks ()[static_cast<std::size_t> (id)]->voxels.data () : nullptr;
+    }
+    return data_;
+  }
+
+  inline const TsdfVoxel*
+  get (const Eigen::Vector3i& v)
+  {
+    const Eigen::Vector3i b = blockOfVoxel (v);
+    if (block (b) == nullptr)
+      return nullptr;
+    const Eigen::Vector3i l = v - b * kBlockSide;
+    return data_ + localVoxelIndex (l.x (), l.y (), l.z ());
+  }
+
+  /** \brief The eight voxels of the cell with lower corner \a v (corner i at offset
+    * (i&1, (i>>1)&1, (i>>2)&1)); false when any is unallocated or unobserved.
+    */
+  inline bool
+  cell (const Eigen::Vector3i& v, std::array<const TsdfVoxel*, 8>& corners)
+  {
+    const Eigen::Vector3i l = v - blockOfVoxel (v) * kBlockSide;
+    if (l.x () < kBlockSide - 1 && l.y () < kBlockSide - 1 && l.z () < kBlockSide - 1)
+    {
+      // The whole cell lies in one block: one lookup, then fixed strides.
+      const TsdfVoxel* base = get (v);
+      if (base == nullptr)
+        return false;
+      constexpr int dy = kBlockSide, dz = kBlockSide * kBlockSide;
+      const int offsets[8] = {0, 1, dy, dy + 1, dz, dz + 1, dz + dy, dz + dy + 1};
+      for (int i = 0; i < 8; ++i)
+      {
+        corners[static_cast<std::size_t> (i)] = base + offsets[i];
+        if (!(base[offsets[i]].weight > 0.f))
+          return false;
+      }
+      return true;
+    }
+    for (int i = 0; i < 8; ++i)
+    {
+      const TsdfVoxel* voxel = get (v + Eigen::Vector3i (i & 1, (i >> 1) & 1, (i >> 2) & 1));
+      if (voxel == nullptr || voxel->weight <= 0.f)
+        return false;
+      corners[static_cast<std::size_t> (i)] = voxel;
+    }
+    return true;
+  }
+
+  /** \brief Trilinear distance (truncation units) at continuous voxel coordinates \a g. */
+  inline bool
+  interpolate (const Eigen::Vector3f& g, float& sdf)
+  {
+    const Eigen::Vector3i lower = fastFloor (g);
+    std::array<const TsdfVoxel*, 8> corners;
+    if (!cell (lower, corners))
+      return false;
+    std::array<float, 8> values;
+    for (std::size_t i = 0; i < 8; ++i)
+      values[i] = corners[i]->sdf;
+    sdf = trilinear (values, g - lower.cast<float> ());
+    return true;
+  }
+
+  /** \brief Gradient of the trilinear field in the cell holding \a g (truncation units per
+    * voxel); false when a corner is unobserved.
+    */
+  inline bool
+  gradient (const Eigen::Vector3f& g, Eigen::Vector3f& grad)
+  {
+    const Eigen::Vector3i lower = fastFloor (g);
+    std::array<const TsdfVoxel*, 8> c;
+    if (!cell (lower, c))
+      return false;
+    const Eigen::Vector3f f = g - lower.cast<float> ();
+    const auto v = [&c] (int i) { return c[static_cast<std::size_t> (i)]->sdf; };
+    const auto lerp = [] (float a, float b, float t) { return a + (b - a) * t; };
+    grad.x () = lerp (lerp (v (1) - v (0), v (3) - v (2), f.y ()), lerp (v (5) - v (4), v (7) - v (6), f.y ()), f.z ());
+    grad.y () = lerp (lerp (v (2) - v (0), v (3) - v (1), f.x ()), lerp (v (6) - v (4), v (7) - v (5), f.x ()), f.z ());
+    grad.z () = lerp (lerp (v (4) - v (0), v (5) - v (1), f.x ()), lerp (v (6) - v (2), v (7) - v (3), f.x ()), f.y ());
+    return true;
+  }
+
+private:
+  const TSDFVolume& volume_;
+  Eigen::Vector3i block_ = Eigen::Vector3i::Zero ();
+  const TsdfVoxel* data_ = nullptr;
+  bool valid_ = false;
+};
+}  // namespace detail
+}  // namespace reconstruction
+}  // namespace cuefusion

@@ -1,0 +1,326 @@
+#include "reconstruction_fixtures.h"
+
+#include <cuefusion/io/map_io.h>
+#include <cuefusion/reconstruction/tsdf_volume.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <pcl/conversions.h>
+#include <pcl/io/ply_io.h>
+
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+
+using namespace cuefusion;
+using namespace cuefusion::reconstruction;
+
+namespace
+{
+double
+quantile (std::vector<double> v, double q)
+{
+  std::sort (v.begin (), v.end ());
+  return v[static_cast<std::size_t> (q * static_cast<double> (v.size () - 1))];
+}
+
+/** Distance to the nearer of the two solids and its outward normal. */
+void
+analyticSurface (const io::SyntheticScene& scene, const Eigen::Vector3d& p, double& distance, Eigen::Vector3d& normal)
+{
+  const io::Primitive& sphere = scene.objects[0].parts[0];
+  const io::Primitive& box = scene.objects[1].parts[0];
+  const double ds = (p - sphere.center).norm () - sphere.half_size.x ();
+  const double db = test::boxDistance (box, p);
+  if (std::abs (ds) < std::abs (db))
+  {
+    distance = ds;
+    normal = (p - sphere.center).normalized ();
+    return;
+  }
+  distance = db;
+  const double h = 1e-4;
+  Eigen::Vector3d g;
+  for (int k = 0; k < 3; ++k)
+    g[k] = test::boxDistance (box, p + h * Eigen::Vector3d::Unit (k)) - test::boxDistance (box, p - h * Eigen::Vector3d::Unit (k));
+  normal = g.normalized ();
+}
+}  // namespace
+
+TEST (TSDFVolume, SurfacePointsLieOnTheAnalyticSurface)
+{
+  const io::SyntheticScene scene = test::sphereAndBoxScene ();
+  TSDFVolume volume;
+  test::integrateOrbit (scene, 16, volume);
+  pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+  pcl::PointCloud<pcl::Normal> normals;
+  volume.extractPointCloud (cloud, &normals);
+  ASSERT_EQ (cloud.size (), normals.size ());
+  ASSERT_GT (cloud.size (), 5000u);
+  std::vector<double> distance, sphere_distance, angle;
+  for (std::size_t i = 0; i < cloud.size (); ++i)
+  {
+    double d;
+    Eigen::Vector3d n;
+    analyticSurface (scene, cloud[i].getVector3fMap ().cast<double> (), d, n);
+    distance.push_back (std::abs (d));
+    if (cloud[i].label == 0 && (cloud[i].getVector3fMap ().cast<double> () - scene.objects[0].parts[0].center).norm () < 0.2)
+      sphere_distance.push_back (std::abs (d));
+    if (std::isfinite (normals[i].normal_x))
+      angle.push_back (std::acos (std::clamp (n.dot (normals[i].getNormalVector3fMap ().cast<double> ()), -1.0, 1.0)) * 180.0 / M_PI);
+  }
+  const double voxel = volume.config ().voxel_size;
+  EXPECT_LT (quantile (sphere_distance, 0.99), 0.5 * voxel);
+  // The cube's edges bevel: projective distances near a silhouette edge are too short.
+  EXPECT_LT (quantile (distance, 0.5), 0.15 * voxel);
+  EXPECT_LT (quantile (distance, 0.9), 0.75 * voxel);
+  // Gradient normals of a projective TSDF are noisier than its zero crossings.
+  EXPECT_LT (quantile (angle, 0.5), 8.0);
+}
+
+TEST (TSDFVolume, RaycastDepthMatchesRenderedDepth)
+{
+  const io::SyntheticScene scene = test::sphereAndBoxScene ();
+  TSDFVolume volume;
+  test::integrateOrbit (scene, 16, volume);
+  const io::SceneRenderer renderer (scene);
+  // A view between the integrated ones.
+  const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.53);
+  const io::RenderedView truth = renderer.render (scene.camera, pose);
+  const RaycastResult model = volume.raycast (scene.camera, pose);
+  const cv::Mat depth = model.depth ();
+  std::vector<double> error;
+  std::size_t rendered = 0, missing = 0, spurious = 0;
+  for (int v = 0; v < depth.rows; ++v)
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      const float z = truth.depth.at<float> (v, u), m = depth.at<float> (v, u);
+      if (z > 0.f)
+      {
+        ++rendered;
+        if (m > 0.f)
+          error.push_back (std::abs (z - m));
+        else
+          ++missing;
+      }
+      else if (m > 0.f)
+        ++spurious;
+    }
+  ASSERT_GT (rendered, 5000u);
+  EXPECT_LT (static_cast<double> (missing), 0.02 * static_cast<double> (rendered));
+  // The model extends a little past silhouettes (the TSDF bevels them).
+  EXPECT_LT (static_cast<double> (spurious), 0.05 * static_cast<double> (rendered));
+  EXPECT_LT (quantile (error, 0.5), 0.002);
+  EXPECT_LT (quantile (error, 0.8), 0.005);
+  // Normals: unit length, facing the camera, close to the analytic ones.
+  std::vector<double> angle;
+  for (int v = 0; v < depth.rows; ++v)
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      const cv::Vec3f n = model.normals.at<cv::Vec3f> (v, u), p = model.vertices.at<cv::Vec3f> (v, u);
+      const cv::Vec3f t = truth.normals.at<cv::Vec3f> (v, u);
+      if (std::isnan (n[0]) || truth.depth.at<float> (v, u) <= 0.f)
+        continue;
+      ASSERT_NEAR (cv::norm (n), 1.0, 1e-4);
+      ASSERT_LT (n.dot (p), 0.f);
+      angle.push_back (std::acos (std::clamp (static_cast<double> (n.dot (t)), -1.0, 1.0)) * 180.0 / M_PI);
+    }
+  // Fusing projective distances from views at different incidence angles tilts the
+  // field's gradient by a few degrees (a single view gives ~1°; see the next test).
+  EXPECT_LT (quantile (angle, 0.5), 7.0);
+  EXPECT_LT (quantile (angle, 0.9), 20.0);
+}
+
+TEST (TSDFVolume, RaycastOfAnIntegratedViewReproducesIt)
+{
+  const io::SyntheticScene scene = io::SyntheticScene::load (test::tabletopScenePath ());
+  const io::SceneRenderer renderer (scene);
+  const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.0);
+  const io::RenderedView truth = renderer.render (scene.camera, pose);
+  TSDFVolume volume;
+  volume.integrate (truth.depth, truth.color, scene.camera, pose);
+  const cv::Mat depth = volume.raycast (scene.camera, pose).depth ();
+  std::size_t valid = 0, matched = 0;
+  std::vector<double> error;
+  for (int v = 0; v < depth.rows; ++v)
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      const float z = truth.depth.at<float> (v, u);
+      if (z > 0.f && z < volume.config ().max_depth)
+      {
+        ++valid;
+        matched += std::abs (depth.at<float> (v, u) - z) < 0.003f;
+        error.push_back (depth.at<float> (v, u) > 0.f ? std::abs (depth.at<float> (v, u) - z) : 1.0);
+      }
+    }
+  // Silhouettes and the edges of thin objects bevel by up to a voxel; elsewhere the raycast
+  // lands on the rendered surface.
+  EXPECT_GT (static_cast<double> (matched), 0.90 * static_cast<double> (valid));
+  EXPECT_LT (quantile (error, 0.5), 0.0001);
+}
+
+TEST (TSDFVolume, RaycastNormalsOfASingleViewMatchTheSurface)
+{
+  const io::SyntheticScene scene = test::sphereAndBoxScene ();
+  const io::SceneRenderer renderer (scene);
+  const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.3);
+  const io::RenderedView truth = renderer.render (scene.camera, pose);
+  TSDFVolume volume;
+  volume.integrate (truth.depth, truth.color, scene.camera, pose);
+  const RaycastResult model = volume.raycast (scene.camera, pose);
+  std::vector<double> angle;
+  for (int v = 0; v < truth.depth.rows; ++v)
+    for (int u = 0; u < truth.depth.cols; ++u)
+    {
+      const cv::Vec3f n = model.normals.at<cv::Vec3f> (v, u), t = truth.normals.at<cv::Vec3f> (v, u);
+      if (!std::isnan (n[0]) && truth.depth.at<float> (v, u) > 0.f)
+        angle.push_back (std::acos (std::clamp (static_cast<double> (n.dot (t)), -1.0, 1.0)) * 180.0 / M_PI);
+    }
+  ASSERT_GT (angle.size (), 5000u);
+  EXPECT_LT (quantile (angle, 0.5), 2.0);
+  EXPECT_LT (quantile (angle, 0.9), 6.0);
+}
+
+TEST (TSDFVolume, MeshVerticesLieOnTheSurfaceAndFacesPointOutwards)
+{
+  const io::SyntheticScene scene = test::sphereAndBoxScene ();
+  TSDFVolume volume;
+  test::integrateOrbit (scene, 16, volume);
+  const pcl::PolygonMesh mesh = volume.extractMesh ();
+  pcl::PointCloud<pcl::PointXYZRGBL> points;
+  pcl::fromPCLPointCloud2 (mesh.cloud, points);
+  ASSERT_GT (mesh.polygons.size (), 10000u);
+  std::vector<std::string> fields;
+  for (const auto& f : mesh.cloud.fields)
+    fields.push_back (f.name);
+  for (const char* name : {"x", "rgba", "label", "normal_x"})
+    EXPECT_NE (std::find (fields.begin (), fields.end (), name), fields.end ()) << name;
+  const io::Primitive& sphere = scene.objects[0].parts[0];
+  std::size_t sphere_faces = 0, outward = 0;
+  std::vector<double> distance;
+  for (const auto& face : mesh.polygons)
+  {
+    ASSERT_EQ (face.vertices.size (), 3u);
+    const Eigen::Vector3d a = points[static_cast<std::size_t> (face.vertices[0])].getVector3fMap ().cast<double> ();
+    const Eigen::Vector3d b = points[static_cast<std::size_t> (face.vertices[1])].getVector3fMap ().cast<double> ();
+    const Eigen::Vector3d c = points[static_cast<std::size_t> (face.vertices[2])].getVector3fMap ().cast<double> ();
+    const Eigen::Vector3d centroid = (a + b + c) / 3.0;
+    if ((centroid - sphere.center).norm () > 0.2)
+      continue;
+    ++sphere_faces;
+    distance.push_back (std::abs ((centroid - sphere.center).norm () - sphere.half_size.x ()));
+    outward += (b - a).cross (c - a).dot (centroid - sphere.center) > 0.0;
+  }
+  ASSERT_GT (sphere_faces, 1000u);
+  EXPECT_GT (static_cast<double> (outward), 0.99 * static_cast<double> (sphere_faces));
+  EXPECT_LT (quantile (distance, 0.99), 0.5 * volume.config ().voxel_size);
+
+  // The PLY writer keeps every vertex, face and the label property.
+  test::TempDir dir;
+  const std::string path = dir.str () + "/mesh.ply";
+  io::saveMeshPLY (path, mesh);
+  pcl::PolygonMesh read;
+  ASSERT_EQ (pcl::io::loadPLYFile (path, read), 0);
+  EXPECT_EQ (read.polygons.size (), mesh.polygons.size ());
+  EXPECT_EQ (static_cast<std::size_t> (read.cloud.width) * read.cloud.height, points.size ());
+  bool has_label = false;
+  for (const auto& f : read.cloud.fields)
+    has_label |= f.name == "label";
+  EXPECT_TRUE (has_label);
+}
+
+TEST (TSDFVolume, SaveLoadRoundTripIsExact)
+{
+  const io::SyntheticScene scene = test::sphereAndBoxScene (160, 120);
+  TSDFVolumeConfig config;
+  config.voxel_size = 0.02;
+  config.bounds = Eigen::AlignedBox3d (Eigen::Vector3d (-1, -1, 0), Eigen::Vector3d (1, 1, 2));
+  TSDFVolume volume (config);
+  test::integrateOrbit (scene, 4, volume);
+  volume.voxels (0)[5].label = 42;
+  volume.voxels (0)[5].label_confidence = 7;
+  test::TempDir dir;
+  const std::string path = dir.str () + "/volume.tsdf";
+  volume.save (path);
+  const TSDFVolume loaded = TSDFVolume::load (path);
+  EXPECT_EQ (loaded.config ().voxel_size, config.voxel_size);
+  ASSERT_TRUE (loaded.config ().bounds.has_value ());
+  EXPECT_TRUE (loaded.config ().bounds->isApprox (*config.bounds));
+  ASSERT_EQ (loaded.blockCount (), volume.blockCount ());
+  for (const auto& block : volume.blocks ())
+  {
+    const std::int32_t id = loaded.findBlock (block->index);
+    ASSERT_GE (id, 0);
+    EXPECT_EQ (std::memcmp (loaded.blocks ()[static_cast<std::size_t> (id)]->voxels.data (), block->voxels.data (),
+                            sizeof (TsdfVoxel) * kBlockVoxels), 0);
+  }
+
+  // Damaged files are refused with the file's name.
+  const std::string bytes = test::readFile (path);
+  test::writeFile (path + ".cut", bytes.substr (0, bytes.size () - 100));
+  test::expectError ([&] { TSDFVolume::load (path + ".cut"); }, path + ".cut", "truncated");
+  std::string other = bytes;
+  other[8] = 9;  // version
+  test::writeFile (path + ".v9", other);
+  test::expectError ([&] { TSDFVolume::load (path + ".v9"); }, path + ".v9", "version 9");
+  test::writeFile (path + ".txt", "not a volume at all, just some text that is long enough to hold a header.........");
+  test::expectError ([&] { TSDFVolume::load (path + ".txt"); }, path + ".txt", "not a cuefusion volume");
+  test::expectError ([&] { TSDFVolume::load (dir.str () + "/missing.tsdf"); }, "missing.tsdf", "cannot open");
+}
+
+TEST (TSDFVolume, MemoryFollowsTheSurfaceNotTheViewedVolume)
+{
+  // A wall 4 m in front of the camera filling the view.
+  const std::string text = "scene wall\ncamera 320 240 262.5 262.5 159.5 119.5\n"
+                           "object wall class=wall color=200,200,200\n  box center=0,4.05,1 size=8,0.1,8\n";
+  const io::SyntheticScene scene = io::SyntheticScene::parse (text, "wall");
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
+  pose.linear () << 1, 0, 0, 0, 0, 1, 0, -1, 0;  // camera z along world +y, looking at the wall
+  pose.translation () = Eigen::Vector3d (0, 0, 1);
+  const io::RenderedView view = io::SceneRenderer (scene).render (scene.camera, pose);
+  TSDFVolume volume;
+  volume.integrate (view.depth, view.color, scene.camera, pose);
+  const double block = volume.config ().blockSize ();
+  // The view's footprint on the wall is 4.9 m × 3.7 m; its band (2τ = 8 cm) fits in one or
+  // two block layers. Filling the frustum in front of the wall would take ~17 times more.
+  const double footprint = (4.0 * 320 / 262.5) * (4.0 * 240 / 262.5);
+  const double band_blocks = footprint / (block * block);
+  const double frustum_blocks = footprint * 4.0 / 3.0 / (block * block * block);
+  EXPECT_GT (static_cast<double> (volume.blockCount ()), 0.9 * band_blocks);
+  EXPECT_LT (static_cast<double> (volume.blockCount ()), 2.5 * band_blocks);
+  EXPECT_LT (static_cast<double> (volume.blockCount ()), 0.15 * frustum_blocks);
+  for (const auto& b : volume.blocks ())
+  {
+    const double y_near = b->index.y () * block, y_far = y_near + block;
+    EXPECT_GT (y_far, 4.0 - volume.config ().truncation () - 1e-9);
+    EXPECT_LT (y_near, 4.0 + volume.config ().truncation () + 1e-9);
+  }
+  EXPECT_GE (volume.memoryUsage (), volume.blockCount () * sizeof (VoxelBlock));
+  volume.reset ();
+  EXPECT_EQ (volume.blockCount (), 0u);
+}
+
+TEST (TSDFVolume, BoundsLimitAllocation)
+{
+  const io::SyntheticScene scene = test::sphereAndBoxScene (160, 120);
+  TSDFVolumeConfig config;
+  config.bounds = Eigen::AlignedBox3d (Eigen::Vector3d (-1, -1, 0), Eigen::Vector3d (0, 1, 2));  // the sphere's half
+  TSDFVolume volume (config);
+  test::integrateOrbit (scene, 4, volume);
+  ASSERT_GT (volume.blockCount (), 0u);
+  for (const auto& b : volume.blocks ())
+    EXPECT_LE (b->index.x () * config.blockSize (), 0.0 + 1e-9);
+}
+
+TEST (TSDFVolume, RejectsBadInput)
+{
+  TSDFVolumeConfig config;
+  config.voxel_size = -1;
+  test::expectError ([&] { TSDFVolume v (config); }, "voxel_size", "must lie");
+  TSDFVolume volume;
+  const PinholeCamera camera (100, 100, 49.5, 39.5, 100, 80);
+  test::expectError ([&] { volume.integrate (cv::Mat (80, 100, CV_16U), cv::Mat (), camera, Eigen::Isometry3d::Identity ()); },
+                     "integrate", "CV_32F");
+  test::expectError ([&] { volume.integrate (cv::Mat (60, 100, CV_32F, cv::Scalar (1)), cv::Mat (), camera, Eigen::Isometry3d::Identity ()); },
+                     "integrate", "size");
+}
