@@ -200,6 +200,8 @@ runRun (const std::vector<std::string>& args)
   const pcl::PolygonMesh mesh = fusion.volume ().extractMesh ();
   io::saveMeshPLY ((dir / "mesh.ply").string (), mesh);
   io::writeTumTrajectory ((dir / "trajectory.txt").string (), result.trajectory);
+  if (!result.reference.empty ())  // for evaluating the estimate with any TUM tool
+    io::writeTumTrajectory ((dir / "reference_trajectory.txt").string (), result.reference);
   if (save_volume)
     fusion.volume ().save ((dir / "volume.tsdf").string ());
 

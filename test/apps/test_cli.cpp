@@ -6,6 +6,7 @@
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
 #include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
 
 #include <cstdlib>
 #include <sys/wait.h>
@@ -87,20 +88,20 @@ TEST_F (Cli, BadInputIsOneLineAndExit1)
 TEST_F (Cli, SynthInfoRun)
 {
   const std::string seq = dir / "seq";
-  Result r = run ("synth --scene tabletop --frames 3 --size 80x60 --layout redwood --out " + seq);
+  Result r = run ("synth --scene tabletop --frames 30 --size 160x120 --layout redwood --out " + seq);
   ASSERT_EQ (r.code, 0) << r.err;
   EXPECT_TRUE (r.err.empty ()) << r.err;  // no progress output when not on a terminal
   r = run ("info " + seq);
   ASSERT_EQ (r.code, 0) << r.err;
   EXPECT_NE (r.out.find ("format:      redwood"), std::string::npos) << r.out;
-  EXPECT_NE (r.out.find ("frames:      3"), std::string::npos) << r.out;
-  EXPECT_NE (r.out.find ("resolution:  80x60"), std::string::npos) << r.out;
+  EXPECT_NE (r.out.find ("frames:      30"), std::string::npos) << r.out;
+  EXPECT_NE (r.out.find ("resolution:  160x120"), std::string::npos) << r.out;
   EXPECT_NE (r.out.find ("masks:       yes"), std::string::npos) << r.out;
 
   r = run ("run " + seq + " --out " + (dir / "run"));
   ASSERT_EQ (r.code, 0) << r.err;
   const io::Trajectory trajectory = io::readTumTrajectory (dir / "run/trajectory.txt");
-  EXPECT_EQ (trajectory.size (), 3u);
+  EXPECT_EQ (trajectory.size (), 30u);  // every frame tracked
   pcl::PointCloud<pcl::PointXYZRGBL> map;
   ASSERT_EQ (pcl::io::loadPCDFile (dir / "run/map.pcd", map), 0);
   EXPECT_GT (map.size (), 100u);
@@ -111,10 +112,39 @@ TEST_F (Cli, SynthInfoRun)
     EXPECT_LT (p.z, 2.6f);
   }
 
-  // A sequence without poses cannot be mapped yet: clear error, nothing written.
+  pcl::PolygonMesh mesh;
+  ASSERT_EQ (pcl::io::loadPLYFile (dir / "run/mesh.ply", mesh), 0);
+  EXPECT_GT (mesh.polygons.size (), 100u);
+  EXPECT_TRUE (boost::filesystem::exists (dir / "run/tracking.json"));
+  EXPECT_TRUE (boost::filesystem::exists (dir / "run/timings.json"));
+
+  // With the sequence's own poses the trajectory is exactly those poses.
+  r = run ("run " + seq + " --use-gt-poses --out " + (dir / "run_gt"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  const io::Trajectory gt = io::readTumTrajectory (dir / "run_gt/trajectory.txt");
+  const io::Trajectory ref = io::readTumTrajectory (dir / "run_gt/reference_trajectory.txt");
+  ASSERT_EQ (gt.size (), 30u);
+  ASSERT_EQ (ref.size (), 30u);
+  for (std::size_t i = 0; i < 30; ++i)
+    EXPECT_TRUE (gt[i].pose.isApprox (ref[i].pose, 1e-6));
+
+  // A sequence without poses is tracked from the origin; --use-gt-poses is refused.
   boost::filesystem::remove (seq + "/trajectory.log");
   r = run ("run " + seq + " --out " + (dir / "run2"));
-  EXPECT_EQ (r.code, 1);
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_EQ (io::readTumTrajectory (dir / "run2/trajectory.txt").size (), 30u);
+  r = run ("run " + seq + " --use-gt-poses --out " + (dir / "run3"));
+  EXPECT_EQ (r.code, 2);
   EXPECT_EQ (lines (r.err), 1) << r.err;
-  EXPECT_FALSE (boost::filesystem::exists (dir / "run2/map.pcd"));
+  EXPECT_NE (r.err.find ("--use-gt-poses"), std::string::npos) << r.err;
+  EXPECT_FALSE (boost::filesystem::exists (dir / "run3/map.pcd"));
+
+  // Absurd reconstruction parameters: usage error naming the option.
+  for (const std::string option : {"--voxel 0", "--voxel 5", "--truncation 0.5", "--max-depth -1"})
+  {
+    r = run ("run " + seq + " --out " + (dir / "run4") + " " + option);
+    EXPECT_EQ (r.code, 2) << option;
+    EXPECT_EQ (lines (r.err), 1) << r.err;
+    EXPECT_NE (r.err.find (option.substr (0, option.find (' '))), std::string::npos) << r.err;
+  }
 }

@@ -16,8 +16,8 @@ struct ProjectiveICPConfig
 {
   /** Iterations per pyramid level, finest level first (KinectFusion: 10, 5, 4). */
   std::vector<int> iterations{10, 5, 4};
-  double max_distance = 0.1;            ///< correspondence rejection (metres)
-  double max_angle_deg = 30.0;          ///< between the two normals
+  double max_distance = 0.05;           ///< correspondence rejection (metres)
+  double max_angle_deg = 20.0;          ///< between the two normals
   double convergence_translation = 1e-5;  ///< stop a level when the update is smaller (m)
   double convergence_rotation = 1e-5;     ///< ... and (rad)
 

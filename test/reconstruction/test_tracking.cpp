@@ -1,0 +1,170 @@
+#include "reconstruction_fixtures.h"
+
+#include <cuefusion/evaluation/trajectory_error.h>
+#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/reconstruction/dense_reconstruction.h>
+#include <cuefusion/reconstruction/projective_icp.h>
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+using namespace cuefusion;
+using namespace cuefusion::reconstruction;
+
+namespace
+{
+io::SyntheticSequence
+tabletopSequence (std::size_t frames, bool noise)
+{
+  io::SyntheticSequenceConfig config;
+  config.frames = frames;
+  config.width = 320;
+  config.height = 240;
+  config.noise.enabled = noise;
+  return io::SyntheticSequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+}
+
+Eigen::Isometry3d
+motion (double tx, double ty, double tz, double deg, const Eigen::Vector3d& axis)
+{
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity ();
+  T.linear () = Eigen::AngleAxisd (deg * M_PI / 180.0, axis.normalized ()).toRotationMatrix ();
+  T.translation () = Eigen::Vector3d (tx, ty, tz);
+  return T;
+}
+
+double
+rotationDeg (const Eigen::Isometry3d& T)
+{
+  return Eigen::AngleAxisd (T.rotation ()).angle () * 180.0 / M_PI;
+}
+}  // namespace
+
+class ICPRecoversMotion : public ::testing::TestWithParam<Eigen::Isometry3d>
+{
+};
+
+TEST_P (ICPRecoversMotion, ToSubMillimetre)
+{
+  // Target: the tabletop from a pose on its orbit; source: the same scene after the camera
+  // moved by the parameter. ICP from identity must find that motion.
+  const io::SyntheticScene scene = io::SyntheticScene::load (test::tabletopScenePath ());
+  const PinholeCamera camera = scene.camera.scaled (320, 240);
+  const io::SceneRenderer renderer (scene);
+  const Eigen::Isometry3d target_pose = scene.trajectory.poseAt (0.4);
+  const Eigen::Isometry3d delta = GetParam ();
+  const Eigen::Isometry3d source_pose = target_pose * delta;
+  DepthPreprocessingConfig pre;
+  pre.bilateral_filter = false;  // exact depth: nothing to smooth
+  const DepthPreprocessor preprocessor (pre);
+  FramePyramid source, target;
+  preprocessor.compute (renderer.render (camera, source_pose).depth, camera, source);
+  preprocessor.compute (renderer.render (camera, target_pose).depth, camera, target);
+  const ICPResult result = ProjectiveICP ().align (source, target, Eigen::Isometry3d::Identity ());
+  ASSERT_TRUE (result.solved);
+  const Eigen::Isometry3d error = delta.inverse () * result.transform;
+  EXPECT_LT (error.translation ().norm (), 0.001);
+  EXPECT_LT (rotationDeg (error), 0.1);
+  EXPECT_GT (result.inliers, result.source_points / 2);
+}
+
+// Hand-held steps between two frames at 30 Hz: up to a few centimetres and degrees.
+INSTANTIATE_TEST_SUITE_P (HandHeldSteps, ICPRecoversMotion,
+                          ::testing::Values (motion (0.01, 0, 0, 0, Eigen::Vector3d::UnitY ()),
+                                             motion (0, 0, 0.03, 0, Eigen::Vector3d::UnitY ()),
+                                             motion (0, 0, 0, 2.0, Eigen::Vector3d::UnitY ()),
+                                             motion (0.02, -0.01, 0.01, 1.5, Eigen::Vector3d (1, 2, 0.5)),
+                                             motion (-0.015, 0.02, -0.02, 3.0, Eigen::Vector3d (0.3, -1, 0.2))));
+
+TEST (DenseReconstruction, TracksASyntheticSequenceToMillimetres)
+{
+  const io::SyntheticSequence sequence = tabletopSequence (100, true);
+  DenseReconstruction fusion;
+  io::Trajectory estimate, reference;
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    const FrameReport report = fusion.process (*frame);
+    ASSERT_TRUE (report.tracked) << "frame " << i << ": " << report.failure;
+    estimate.push_back ({frame->timestamp, report.pose});
+    reference.push_back ({frame->timestamp, *frame->pose});
+  }
+  const evaluation::TrajectoryError ate = evaluation::absoluteTrajectoryError (estimate, reference);
+  EXPECT_EQ (ate.pairs, 100u);
+  EXPECT_LT (ate.rmse, 0.005);
+  // The model raycast at the last pose covers the view.
+  EXPECT_GT (cv::countNonZero (fusion.model ().depth ()), 320 * 240 / 2);
+}
+
+TEST (DenseReconstruction, DetectsAGarbageFrameAndRecovers)
+{
+  const io::SyntheticSequence sequence = tabletopSequence (30, false);
+  DenseReconstruction fusion;
+  std::mt19937 rng (7);
+  std::uniform_real_distribution<float> depth (0.5f, 4.0f);
+  io::Trajectory estimate, reference;
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    if (i == 15)
+      for (auto it = frame->depth.begin<float> (); it != frame->depth.end<float> (); ++it)
+        *it = depth (rng);
+    const Eigen::Isometry3d before = fusion.lastGoodPose ();
+    const std::size_t blocks = fusion.volume ().blockCount ();
+    const FrameReport report = fusion.process (*frame);
+    if (i == 15)
+    {
+      EXPECT_FALSE (report.tracked);
+      EXPECT_FALSE (report.failure.empty ());
+      EXPECT_TRUE (report.pose.isApprox (before));       // kept the last good pose
+      EXPECT_EQ (fusion.volume ().blockCount (), blocks);  // and fused nothing
+      continue;
+    }
+    ASSERT_TRUE (report.tracked) << "frame " << i << ": " << report.failure;
+    estimate.push_back ({frame->timestamp, report.pose});
+    reference.push_back ({frame->timestamp, *frame->pose});
+  }
+  EXPECT_LT (evaluation::absoluteTrajectoryError (estimate, reference).rmse, 0.005);
+}
+
+TEST (DenseReconstruction, ReferencePosesModeFusesWithTheFramesPoses)
+{
+  const io::SyntheticSequence sequence = tabletopSequence (5, false);
+  DenseReconstructionConfig config;
+  config.use_reference_poses = true;
+  DenseReconstruction fusion (config);
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    const FrameReport report = fusion.process (*frame);
+    EXPECT_TRUE (report.tracked);
+    EXPECT_TRUE (report.pose.isApprox (*frame->pose));
+  }
+  RGBDFrame::Ptr no_pose = sequence.frame (0);
+  no_pose->pose.reset ();
+  const FrameReport report = fusion.process (*no_pose);
+  EXPECT_FALSE (report.tracked);
+  EXPECT_EQ (report.failure, "no reference pose");
+}
+
+TEST (TrajectoryError, AlignsARigidlyMovedCopyExactly)
+{
+  io::Trajectory reference, moved;
+  const Eigen::Isometry3d offset = motion (1.0, -2.0, 0.5, 40.0, Eigen::Vector3d (1, 1, 0));
+  for (int i = 0; i < 20; ++i)
+  {
+    Eigen::Isometry3d pose = motion (0.1 * i, std::sin (0.3 * i), 0.02 * i * i, 3.0 * i, Eigen::Vector3d::UnitZ ());
+    reference.push_back ({0.1 * i, pose});
+    moved.push_back ({0.1 * i + 0.001, offset * pose});
+  }
+  EXPECT_LT (evaluation::absoluteTrajectoryError (moved, reference).rmse, 1e-9);
+  // Without alignment the offset shows; with one pose 10 cm off the RMSE is 10 cm / √20.
+  EXPECT_GT (evaluation::absoluteTrajectoryError (moved, reference, 0.02, false).rmse, 0.5);
+  moved = reference;
+  moved[7].pose.translation ().x () += 0.1;
+  const double rmse = evaluation::absoluteTrajectoryError (moved, reference, 0.02, false).rmse;
+  EXPECT_NEAR (rmse, 0.1 / std::sqrt (20.0), 1e-9);
+  test::expectError ([&] { evaluation::absoluteTrajectoryError (moved, io::Trajectory ()); }, "absoluteTrajectoryError",
+                     "fewer than three");
+}
