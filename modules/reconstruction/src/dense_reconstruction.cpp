@@ -97,7 +97,8 @@ DenseReconstruction::process (const RGBDFrame& frame)
   volume_.integrate (frame.depth, frame.color, frame.camera, report.pose);
   report.timings.integrate_ms = clock.lap ();
 
-  volume_.raycast (frame.camera, report.pose, model_);
+  // The frame just fused tells where the surface is along each ray (see raycast()).
+  volume_.raycast (frame.camera, report.pose, frame.depth, model_);
   buildModelPyramid (model_.vertices, model_.normals, model_.camera, config_.preprocessing.pyramid_levels,
                      static_cast<float> (config_.preprocessing.max_depth_jump), model_pyramid_);
   report.timings.raycast_ms = clock.lap ();

@@ -242,96 +242,70 @@ blockExit (const Eigen::Vector3f& g, const Eigen::Vector3f& dir)
 
 /** \brief Marches one ray (§4.1.5). \a origin and \a dir are in voxel units, \a dir the
   * camera-frame ray with z = 1 turned into the world, so the ray parameter is the
-  * z-depth. Returns the depth of the first front-facing zero crossing, or 0.
+  * z-depth. Returns the depth of the first front-facing zero crossing (0 for none) and
+  * the voxel nearest to it in \a hit.
+  *
+  * Outside the truncation band the ray moves by blocks (unallocated) or by the band's
+  * depth (truncated voxels); inside it by the interpolated distance, so the last two
+  * samples bracket the crossing on the interpolated field itself.
   */
 inline float
 castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float z_start,
          float z_end, float truncation_voxels, const TsdfVoxel** hit)
 {
-  const float voxels_per_z = dir.norm ();
-  const float one_voxel = 1.f / voxels_per_z;
-  float z = z_start;
-  float z_prev = 0.f, sdf_prev = 1.f;
-  bool prev_in_front = false;
+  const float one_voxel = 1.f / dir.norm ();
+  float z = z_start, z_prev = 0.f, f_prev = 0.f;
+  bool in_front = false;  // the previous sample was a valid positive one
   while (z < z_end)
   {
     const Eigen::Vector3f g = origin + dir * z;
     if (access.block (blockOfVoxel (fastFloor (g))) == nullptr)
     {
       // Unallocated block: empty space; jump to just past the block's far side.
-      prev_in_front = false;
+      in_front = false;
       z += std::max (blockExit (g, dir), 0.f) + 0.1f * one_voxel;
       continue;
     }
-    const TsdfVoxel* voxel = access.get (nearestVoxel (g));
-    if (voxel == nullptr || voxel->weight <= 0.f)
+    const TsdfVoxel* nearest = access.get (nearestVoxel (g));
+    if (nearest == nullptr || nearest->weight <= 0.f)
     {
-      prev_in_front = false;
+      in_front = false;
       z += one_voxel;
       continue;
     }
-    if (voxel->sdf <= 0.f)
+    if (nearest->sdf >= 1.f)
     {
-      if (prev_in_front)
+      // Truncated: at least a band's depth from any surface.
+      in_front = false;
+      z += (truncation_voxels - 1.f) * one_voxel;
+      continue;
+    }
+    float f;
+    if (!access.interpolate (g, f))
+      f = nearest->sdf;
+    if (f <= 0.f)
+    {
+      if (in_front)
       {
-        // Crossing between z_prev and z by the nearest voxels; the interpolated field can
-        // cross up to half a voxel earlier, so first walk the lower end back until the
-        // interpolated value is positive. Ends whose cell reaches into an unobserved voxel
-        // keep the nearest voxel's value. The Illinois variant of regula falsi on the
-        // interpolated field then places the crossing.
-        float z_lo = z_prev, z_hi = z, f_lo, f_hi;
-        if (!access.interpolate (g, f_hi) || !(f_hi <= 0.f))
-          f_hi = voxel->sdf;
-        bool interpolated = access.interpolate (origin + dir * z_lo, f_lo);
-        for (int back = 0; interpolated && f_lo <= 0.f && back < 3; ++back)
-        {
-          z_hi = z_lo;
-          f_hi = f_lo;
-          z_lo -= one_voxel;
-          interpolated = access.interpolate (origin + dir * z_lo, f_lo);
-        }
-        if (!interpolated || !(f_lo > 0.f))
-          f_lo = std::max (sdf_prev, 1e-6f);
-        float z_hit = z_lo + (z_hi - z_lo) * zeroCrossing (f_lo, f_hi);
-        int last_side = 0;
-        for (int refine = 0; refine < 3; ++refine)
-        {
-          float f_hit;
-          if (!access.interpolate (origin + dir * z_hit, f_hit) || std::abs (f_hit) < 2e-3f)
-            break;
-          if (f_hit > 0.f)
-          {
-            z_lo = z_hit;
-            f_lo = f_hit;
-            if (last_side > 0)
-              f_hi *= 0.5f;
-            last_side = 1;
-          }
-          else
-          {
-            z_hi = z_hit;
-            f_hi = f_hit;
-            if (last_side < 0)
-              f_lo *= 0.5f;
-            last_side = -1;
-          }
-          z_hit = z_lo + (z_hi - z_lo) * zeroCrossing (f_lo, f_hi);
-        }
+        float z_hit = z_prev + (z - z_prev) * zeroCrossing (f_prev, f);
+        // One secant step on the bracket side the estimate falls on.
+        float f_hit;
+        if (access.interpolate (origin + dir * z_hit, f_hit) && std::abs (f_hit) > 1e-3f)
+          z_hit = f_hit > 0.f ? z_hit + (z - z_hit) * zeroCrossing (f_hit, f)
+                              : z_prev + (z_hit - z_prev) * zeroCrossing (f_prev, f_hit);
         *hit = access.get (nearestVoxel (origin + dir * z_hit));
         if (*hit == nullptr)
-          *hit = voxel;
+          *hit = nearest;
         return z_hit;
       }
-      prev_in_front = false;  // behind a surface (or a back face): keep looking
+      in_front = false;  // behind a surface (or a back face): keep looking
       z += one_voxel;
       continue;
     }
-    prev_in_front = true;
+    in_front = true;
     z_prev = z;
-    sdf_prev = voxel->sdf;
-    // The nearest voxel's distance bounds the free space ahead (less a voxel for the
-    // distance to that voxel).
-    z += std::max (1.f, voxel->sdf * truncation_voxels - 1.f) * one_voxel;
+    f_prev = f;
+    z += std::max (1.f, 0.9f * f * truncation_voxels) * one_voxel;
   }
   return 0.f;
 }
@@ -546,7 +520,16 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose)
 void
 TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out) const
 {
+  raycast (camera, pose, cv::Mat (), out);
+}
+
+void
+TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,
+                     RaycastResult& out) const
+{
   camera.validate ("TSDFVolume::raycast");
+  if (!depth_hint.empty () && (depth_hint.type () != CV_32F || depth_hint.cols != camera.width || depth_hint.rows != camera.height))
+    throw Error ("TSDFVolume::raycast", "depth hint must be CV_32F of the camera's image size");
   out.camera = camera;
   out.pose = pose;
   const cv::Size size (camera.width, camera.height);
@@ -592,6 +575,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   const float inv_voxel = 1.f / voxel_size;
   const Eigen::Vector3f origin_voxels = pose.translation ().cast<float> () * inv_voxel;
   const float truncation_voxels = static_cast<float> (config_.truncation_voxels);
+  const float hint_margin = 2.f * static_cast<float> (config_.truncation ());
 #pragma omp parallel
   {
     detail::VoxelAccessor access (*this);
@@ -608,8 +592,15 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         if (!(tiles.zmax[tile] > tiles.zmin[tile]))
           continue;
         const Eigen::Vector3f ray_c = camera.backProject (static_cast<float> (u), static_cast<float> (v), 1.f);
+        float z_start = tiles.zmin[tile];
+        if (!depth_hint.empty ())
+        {
+          const float d = depth_hint.at<float> (v, u);
+          if (d > 0.f && std::isfinite (d))
+            z_start = std::max (z_start, d - hint_margin);
+        }
         const TsdfVoxel* hit = nullptr;
-        const float z = castRay (access, origin_voxels, R * ray_c * inv_voxel, tiles.zmin[tile], tiles.zmax[tile],
+        const float z = castRay (access, origin_voxels, R * ray_c * inv_voxel, z_start, tiles.zmax[tile],
                                  truncation_voxels, &hit);
         if (z <= 0.f)
           continue;

@@ -1,0 +1,266 @@
+#!/usr/bin/python3
+"""Reconstruction benchmark: cuefusion against Open3D 0.16 (Debian's python3-open3d) on the
+same frames, voxel size and truncation, in one run.
+
+For each dataset it measures
+  * cuefusion `run` with tracking: ATE RMSE against the dataset's poses, per-stage
+    milliseconds per frame (median, p90), peak memory;
+  * cuefusion `run --use-gt-poses`: integrate + raycast with the reference poses;
+  * Open3D ScalableTSDFVolume and (when present) the tensor VoxelBlockGrid on the CPU:
+    integration ms per frame with the reference poses, peak memory;
+  * Open3D RGB-D odometry (hybrid term) chained frame to frame: ATE and ms per frame.
+Everything is printed as Markdown, ready for docs/benchmarks.md.
+"""
+import argparse
+import datetime
+import glob
+import json
+import os
+import platform
+import re
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+
+# ---------------------------------------------------------------- datasets
+
+def redwood_frames(root):
+    depth = sorted(glob.glob(os.path.join(root, "depth", "*.png")))
+    color = sorted(glob.glob(os.path.join(root, "image", "*.jpg")) + glob.glob(os.path.join(root, "image", "*.png")))
+    lines = [l.split() for l in open(os.path.join(root, "trajectory.log")) if l.strip()]
+    poses = [np.array([[float(x) for x in row] for row in lines[i + 1:i + 5]]) for i in range(0, len(lines), 5)]
+    k = json.load(open(os.path.join(root, "camera_intrinsics.json")))["intrinsic_matrix"]
+    return depth, color, poses, (k[0], k[4], k[6], k[7])  # column-major
+
+
+def seven_scenes_frames(root):
+    depth = sorted(glob.glob(os.path.join(root, "frame-*.depth.png")))
+    color = [d.replace(".depth.png", ".color.jpg") for d in depth]
+    poses = [np.loadtxt(d.replace(".depth.png", ".pose.txt")) for d in depth]
+    k = np.loadtxt(os.path.join(root, "camera-intrinsics.txt"))
+    return depth, color, poses, (k[0, 0], k[1, 1], k[0, 2], k[1, 2])
+
+
+def load_dataset(root):
+    if os.path.exists(os.path.join(root, "trajectory.log")):
+        return redwood_frames(root)
+    return seven_scenes_frames(root)
+
+
+# ---------------------------------------------------------------- metrics
+
+def ate_rmse(estimate, reference):
+    """Translational ATE after a rigid (Horn/Umeyama, no scale) alignment."""
+    a = np.array([p[:3, 3] for p in estimate])
+    b = np.array([p[:3, 3] for p in reference])
+    ma, mb = a.mean(0), b.mean(0)
+    u, _, vt = np.linalg.svd((a - ma).T @ (b - mb))
+    d = np.eye(3)
+    d[2, 2] = np.sign(np.linalg.det(vt.T @ u.T))
+    r = vt.T @ d @ u.T
+    return float(np.sqrt((np.linalg.norm((r @ (a - ma).T).T + mb - b, axis=1) ** 2).mean()))
+
+
+def read_tum(path):
+    out = []
+    for line in open(path):
+        if line.startswith("#") or not line.strip():
+            continue
+        v = [float(x) for x in line.split()]
+        x, y, z, w = v[4:8]
+        r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+        t = np.eye(4)
+        t[:3, :3] = r
+        t[:3, 3] = v[1:4]
+        out.append((v[0], t))
+    return out
+
+
+def med_p90(values):
+    values = sorted(values)
+    return statistics.median(values), values[int(round(0.9 * (len(values) - 1)))]
+
+
+# ---------------------------------------------------------------- cuefusion
+
+def run_cuefusion(binary, root, out, extra):
+    cmd = ["/usr/bin/time", "-f", "%M", binary, "run", root, "--out", out] + extra
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        sys.exit("cuefusion failed: " + proc.stderr.strip())
+    peak_mib = int(proc.stderr.strip().splitlines()[-1]) / 1024.0
+    timings = json.load(open(os.path.join(out, "timings.json")))["stages"]
+    tracking = json.load(open(os.path.join(out, "tracking.json")))
+    result = {"peak_mib": peak_mib, "stages": timings, "tracked": tracking["tracked"], "frames": tracking["frames"],
+              "blocks": tracking["volume"]["blocks"], "volume_mib": tracking["volume"]["bytes"] / 2 ** 20}
+    ref = os.path.join(out, "reference_trajectory.txt")
+    if "--use-gt-poses" not in extra and os.path.exists(ref):
+        est = dict(read_tum(os.path.join(out, "trajectory.txt")))
+        refs = dict(read_tum(ref))
+        keys = sorted(set(est) & set(refs))
+        result["ate"] = ate_rmse([est[k] for k in keys], [refs[k] for k in keys])
+    return result
+
+
+# ---------------------------------------------------------------- Open3D (run in a child per method for its peak memory)
+
+def open3d_child(method, root, voxel, trunc, max_depth):
+    import open3d as o3d
+    depth_files, color_files, poses, (fx, fy, cx, cy) = load_dataset(root)
+    first = o3d.io.read_image(depth_files[0])
+    h, w = np.asarray(first).shape[:2]
+    intrinsic = o3d.camera.PinholeCameraIntrinsic(w, h, fx, fy, cx, cy)
+    times, estimate = [], []
+
+    def rgbd(i):
+        color = o3d.io.read_image(color_files[i])
+        depth = o3d.io.read_image(depth_files[i])
+        if np.asarray(color).shape[:2] != (h, w):
+            color = o3d.geometry.Image(np.ascontiguousarray(np.asarray(color)[:h, :w]))
+        return o3d.geometry.RGBDImage.create_from_color_and_depth(
+            color, depth, depth_scale=1000.0, depth_trunc=max_depth, convert_rgb_to_intensity=(method == "odometry"))
+
+    if method == "scalable":
+        volume = o3d.pipelines.integration.ScalableTSDFVolume(
+            voxel_length=voxel, sdf_trunc=trunc, color_type=o3d.pipelines.integration.TSDFVolumeColorType.RGB8)
+        for i in range(len(depth_files)):
+            frame = rgbd(i)
+            t0 = time.perf_counter()
+            volume.integrate(frame, intrinsic, np.linalg.inv(poses[i]))
+            times.append((time.perf_counter() - t0) * 1000)
+    elif method == "voxelblockgrid":
+        device = o3d.core.Device("CPU:0")
+        vbg = o3d.t.geometry.VoxelBlockGrid(attr_names=("tsdf", "weight", "color"),
+                                            attr_dtypes=(o3d.core.float32, o3d.core.float32, o3d.core.float32),
+                                            attr_channels=((1), (1), (3)), voxel_size=voxel, block_resolution=8,
+                                            block_count=100000, device=device)
+        k = o3d.core.Tensor(intrinsic.intrinsic_matrix, o3d.core.Dtype.Float64)
+        for i in range(len(depth_files)):
+            depth = o3d.t.io.read_image(depth_files[i]).to(device)
+            color = o3d.t.io.read_image(color_files[i]).to(device)
+            if color.rows != h or color.columns != w:
+                color = o3d.t.geometry.Image(o3d.core.Tensor(np.ascontiguousarray(np.asarray(color)[:h, :w])))
+            extrinsic = o3d.core.Tensor(np.linalg.inv(poses[i]), o3d.core.Dtype.Float64)
+            t0 = time.perf_counter()
+            blocks = vbg.compute_unique_block_coordinates(depth, k, extrinsic, 1000.0, max_depth, trunc_voxel_multiplier=trunc / voxel)
+            vbg.integrate(blocks, depth, color, k, extrinsic, 1000.0, max_depth, trunc_voxel_multiplier=trunc / voxel)
+            times.append((time.perf_counter() - t0) * 1000)
+    elif method == "odometry":
+        pose = poses[0]
+        estimate.append(pose)
+        option = o3d.pipelines.odometry.OdometryOption()
+        option.depth_max = max_depth
+        previous = rgbd(0)
+        for i in range(1, len(depth_files)):
+            current = rgbd(i)
+            t0 = time.perf_counter()
+            ok, t_prev_cur, _ = o3d.pipelines.odometry.compute_rgbd_odometry(
+                current, previous, intrinsic, np.identity(4),
+                o3d.pipelines.odometry.RGBDOdometryJacobianFromHybridTerm(), option)
+            times.append((time.perf_counter() - t0) * 1000)
+            if ok:
+                pose = pose @ t_prev_cur
+            estimate.append(pose)
+            previous = current
+    result = {"times": times, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+    if estimate:
+        result["ate"] = ate_rmse(estimate, poses)
+    print(json.dumps(result))
+
+
+def run_open3d(method, root, voxel, trunc, max_depth):
+    proc = subprocess.run([sys.executable, __file__, "--open3d-child", method, root, str(voxel), str(trunc), str(max_depth)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        return {"error": proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else "failed"}
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+# ---------------------------------------------------------------- report
+
+def machine():
+    model = "unknown CPU"
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("model name"):
+            model = line.split(":", 1)[1].strip()
+            break
+    mem = int(re.search(r"MemTotal:\s+(\d+)", open("/proc/meminfo").read()).group(1)) / 2 ** 20
+    return "%s, %d cores, %.0f GiB, %s" % (model, os.cpu_count(), mem, platform.platform())
+
+
+def main():
+    if len(sys.argv) > 1 and sys.argv[1] == "--open3d-child":
+        open3d_child(sys.argv[2], sys.argv[3], float(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]))
+        return
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("datasets", nargs="+", help="dataset folders (Redwood layout or 7-Scenes frames)")
+    parser.add_argument("--binary", default="build/apps/cuefusion")
+    parser.add_argument("--voxel", type=float, default=0.01)
+    parser.add_argument("--truncation", type=float, default=4.0, help="in voxels")
+    parser.add_argument("--max-depth", type=float, default=5.0)
+    args = parser.parse_args()
+    trunc = args.voxel * args.truncation
+    common = ["--voxel", str(args.voxel), "--truncation", str(args.truncation), "--max-depth", str(args.max_depth)]
+
+    print("## Reconstruction (%s)\n" % datetime.date.today().isoformat())
+    print("- machine: %s" % machine())
+    print("- command: `scripts/bench %s`" % " ".join(sys.argv[1:]))
+    print("- voxel %.3f m, truncation %.3f m, depth ≤ %.1f m, 640×480; OMP threads: %s\n"
+          % (args.voxel, trunc, args.max_depth, os.environ.get("OMP_NUM_THREADS", "all cores")))
+    for root in args.datasets:
+        name = os.path.basename(os.path.normpath(root))
+        with tempfile.TemporaryDirectory() as tmp:
+            tracked = run_cuefusion(args.binary, root, os.path.join(tmp, "track"), common)
+            gt = run_cuefusion(args.binary, root, os.path.join(tmp, "gt"), common + ["--use-gt-poses"])
+        o3d = {m: run_open3d(m, root, args.voxel, trunc, args.max_depth) for m in ("scalable", "voxelblockgrid", "odometry")}
+
+        def stage(result, key):
+            s = result["stages"][key]
+            return "%.1f / %.1f" % (s["median"], s["p90"])
+
+        print("### %s (%d frames)\n" % (name, tracked["frames"]))
+        print("| system | ATE RMSE | tracked | preprocess ms | track ms | integrate ms | raycast ms | track+integrate+raycast ms | peak memory |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        print("| cuefusion (ICP tracking) | %.1f mm | %d/%d | %s | %s | %s | %s | %s | %.0f MiB |" % (
+            tracked["ate"] * 1000, tracked["tracked"], tracked["frames"], stage(tracked, "preprocess"), stage(tracked, "track"),
+            stage(tracked, "integrate"), stage(tracked, "raycast"), stage(tracked, "track+integrate+raycast"), tracked["peak_mib"]))
+        print("| cuefusion (--use-gt-poses) | – | – | %s | – | %s | %s | integrate+raycast %s | %.0f MiB |" % (
+            stage(gt, "preprocess"), stage(gt, "integrate"), stage(gt, "raycast"),
+            "%.1f" % (gt["stages"]["integrate"]["median"] + gt["stages"]["raycast"]["median"]), gt["peak_mib"]))
+        od = o3d["odometry"]
+        if "error" in od:
+            print("| Open3D RGB-D odometry | failed: %s | | | | | | | |" % od["error"])
+        else:
+            m, p = med_p90(od["times"])
+            print("| Open3D RGB-D odometry (hybrid, chained) | %.1f mm | %d/%d | – | %.1f / %.1f | – | – | – | %.0f MiB |" % (
+                od["ate"] * 1000, len(od["times"]) + 1, tracked["frames"], m, p, od["peak_mib"]))
+        for method, label in (("scalable", "Open3D ScalableTSDFVolume"), ("voxelblockgrid", "Open3D VoxelBlockGrid (CPU)")):
+            r = o3d[method]
+            if "error" in r:
+                print("| %s | failed: %s | | | | | | | |" % (label, r["error"]))
+                continue
+            m, p = med_p90(r["times"])
+            print("| %s (reference poses) | – | – | – | – | %.1f / %.1f | – | – | %.0f MiB |" % (label, m, p, r["peak_mib"]))
+        print("\nTimes are median / p90 ms per frame. cuefusion volume after tracking: %d blocks, %.0f MiB.\n"
+              % (tracked["blocks"], tracked["volume_mib"]))
+        integrate_raycast = gt["stages"]["integrate"]["median"] + gt["stages"]["raycast"]["median"]
+        ratios = []
+        for method in ("scalable", "voxelblockgrid"):
+            if "error" not in o3d[method]:
+                ratios.append("%s integrate %.1f ms → cuefusion integrate+raycast is %.2f× its time" % (
+                    method, statistics.median(o3d[method]["times"]), integrate_raycast / statistics.median(o3d[method]["times"])))
+        if ratios:
+            print("Ratios (medians): " + "; ".join(ratios) + ".\n")
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
