@@ -93,9 +93,10 @@ public:
   raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out) const;
 
   /** \brief As above, with a depth map seen from this very pose (CV_32F metres, e.g. the
-    * frame just integrated): rays start 2τ in front of its valid pixels instead of at the
-    * nearest block, which skips most of the march. Model surfaces more than 2τ in front
-    * of the hint (stale geometry the frame no longer sees there) are then not rendered.
+    * frame just integrated): rays start τ + one voxel in front of its valid pixels instead
+    * of at the nearest block, which skips most of the march. Model surfaces further in
+    * front of the hint (stale geometry the frame no longer sees there) are then not
+    * rendered.
     */
   void
   raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,

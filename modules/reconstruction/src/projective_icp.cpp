@@ -155,6 +155,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
   result.solved = true;
   result.source_points = countValid (source[0]);
   const float min_cos = static_cast<float> (std::cos (config_.max_angle_deg * M_PI / 180.0));
+  bool finest_measured = false;
   for (std::size_t l = levels; l-- > 0;)
   {
     for (int it = 0; it < config_.iterations[l]; ++it)
@@ -163,6 +164,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
                                            static_cast<float> (config_.max_distance), min_cos);
       if (l == 0)
       {
+        finest_measured = true;
         result.inliers = static_cast<std::size_t> (acc[28]);
         result.rmse = acc[28] > 0 ? std::sqrt (acc[27] / acc[28]) : 0.0;
       }
@@ -198,11 +200,15 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
         break;
     }
   }
-  // Statistics of the final estimate at the finest level.
-  const Accumulator acc = buildSystem (source[0], target[0], result.transform.cast<float> (),
-                                       static_cast<float> (config_.max_distance), min_cos);
-  result.inliers = static_cast<std::size_t> (acc[28]);
-  result.rmse = acc[28] > 0 ? std::sqrt (acc[27] / acc[28]) : 0.0;
+  // Inliers and RMS come from the last finest-level pass (before its final, small
+  // update); a separate pass just for them would cost another full-resolution sweep.
+  if (!finest_measured)
+  {
+    const Accumulator acc = buildSystem (source[0], target[0], result.transform.cast<float> (),
+                                         static_cast<float> (config_.max_distance), min_cos);
+    result.inliers = static_cast<std::size_t> (acc[28]);
+    result.rmse = acc[28] > 0 ? std::sqrt (acc[27] / acc[28]) : 0.0;
+  }
   // Re-orthonormalise: many small left updates drift off SO(3) in floating point.
   const Eigen::Quaterniond q (result.transform.rotation ());
   result.transform.linear () = q.normalized ().toRotationMatrix ();

@@ -242,8 +242,9 @@ blockExit (const Eigen::Vector3f& g, const Eigen::Vector3f& dir)
 
 /** \brief Marches one ray (§4.1.5). \a origin and \a dir are in voxel units, \a dir the
   * camera-frame ray with z = 1 turned into the world, so the ray parameter is the
-  * z-depth. Returns the depth of the first front-facing zero crossing (0 for none) and
-  * the voxel nearest to it in \a hit.
+  * z-depth. Returns the depth of the first front-facing zero crossing (0 for none), the
+  * voxel nearest to it in \a hit and the field's gradient there in \a gradient (zero
+  * when unknown).
   *
   * Outside the truncation band the ray moves by blocks (unallocated) or by the band's
   * depth (truncated voxels); inside it by the interpolated distance, so the last two
@@ -251,7 +252,7 @@ blockExit (const Eigen::Vector3f& g, const Eigen::Vector3f& dir)
   */
 inline float
 castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float z_start,
-         float z_end, float truncation_voxels, const TsdfVoxel** hit)
+         float z_end, float truncation_voxels, const TsdfVoxel** hit, Eigen::Vector3f* gradient)
 {
   const float one_voxel = 1.f / dir.norm ();
   float z = z_start, z_prev = 0.f, f_prev = 0.f;
@@ -288,11 +289,17 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
       if (in_front)
       {
         float z_hit = z_prev + (z - z_prev) * zeroCrossing (f_prev, f);
-        // One secant step on the bracket side the estimate falls on.
+        // One secant step on the bracket side the estimate falls on; the same cell gives
+        // the gradient, i.e. the normal.
         float f_hit;
-        if (access.interpolate (origin + dir * z_hit, f_hit) && std::abs (f_hit) > 1e-3f)
-          z_hit = f_hit > 0.f ? z_hit + (z - z_hit) * zeroCrossing (f_hit, f)
-                              : z_prev + (z_hit - z_prev) * zeroCrossing (f_prev, f_hit);
+        if (access.interpolate (origin + dir * z_hit, f_hit, *gradient))
+        {
+          if (std::abs (f_hit) > 1e-3f)
+            z_hit = f_hit > 0.f ? z_hit + (z - z_hit) * zeroCrossing (f_hit, f)
+                                : z_prev + (z_hit - z_prev) * zeroCrossing (f_prev, f_hit);
+        }
+        else
+          gradient->setZero ();
         *hit = access.get (nearestVoxel (origin + dir * z_hit));
         if (*hit == nullptr)
           *hit = nearest;
@@ -575,7 +582,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   const float inv_voxel = 1.f / voxel_size;
   const Eigen::Vector3f origin_voxels = pose.translation ().cast<float> () * inv_voxel;
   const float truncation_voxels = static_cast<float> (config_.truncation_voxels);
-  const float hint_margin = 2.f * static_cast<float> (config_.truncation ());
+  const float hint_margin = static_cast<float> (config_.truncation () + config_.voxel_size);
 #pragma omp parallel
   {
     detail::VoxelAccessor access (*this);
@@ -600,8 +607,9 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
             z_start = std::max (z_start, d - hint_margin);
         }
         const TsdfVoxel* hit = nullptr;
+        Eigen::Vector3f grad;
         const float z = castRay (access, origin_voxels, R * ray_c * inv_voxel, z_start, tiles.zmax[tile],
-                                 truncation_voxels, &hit);
+                                 truncation_voxels, &hit, &grad);
         if (z <= 0.f)
           continue;
         const Eigen::Vector3f p = ray_c * z;
@@ -609,8 +617,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         // Normal from the TSDF gradient at the hit (KinectFusion); differences of
         // neighbouring raycast vertices, one pixel apart, would amplify their sub-millimetre
         // noise into degrees.
-        Eigen::Vector3f grad;
-        if (access.gradient (origin_voxels + R * ray_c * (inv_voxel * z), grad) && grad.squaredNorm () > 0.f)
+        if (grad.squaredNorm () > 0.f)
         {
           Eigen::Vector3f n = (R_cw * grad).normalized ();
           if (n.dot (p) > 0.f)

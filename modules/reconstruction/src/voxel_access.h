@@ -89,22 +89,25 @@ public:
     return true;
   }
 
-  /** \brief Gradient of the trilinear field in the cell holding \a g (truncation units per
-    * voxel); false when a corner is unobserved.
+  /** \brief Trilinear distance at \a g and its gradient within the cell (truncation units
+    * per voxel); false when a corner is unobserved.
     */
   inline bool
-  gradient (const Eigen::Vector3f& g, Eigen::Vector3f& grad)
+  interpolate (const Eigen::Vector3f& g, float& sdf, Eigen::Vector3f& grad)
   {
     const Eigen::Vector3i lower = fastFloor (g);
     std::array<const TsdfVoxel*, 8> c;
     if (!cell (lower, c))
       return false;
     const Eigen::Vector3f f = g - lower.cast<float> ();
-    const auto v = [&c] (int i) { return c[static_cast<std::size_t> (i)]->sdf; };
+    std::array<float, 8> v;
+    for (std::size_t i = 0; i < 8; ++i)
+      v[i] = c[i]->sdf;
     const auto lerp = [] (float a, float b, float t) { return a + (b - a) * t; };
-    grad.x () = lerp (lerp (v (1) - v (0), v (3) - v (2), f.y ()), lerp (v (5) - v (4), v (7) - v (6), f.y ()), f.z ());
-    grad.y () = lerp (lerp (v (2) - v (0), v (3) - v (1), f.x ()), lerp (v (6) - v (4), v (7) - v (5), f.x ()), f.z ());
-    grad.z () = lerp (lerp (v (4) - v (0), v (5) - v (1), f.x ()), lerp (v (6) - v (2), v (7) - v (3), f.x ()), f.y ());
+    grad.x () = lerp (lerp (v[1] - v[0], v[3] - v[2], f.y ()), lerp (v[5] - v[4], v[7] - v[6], f.y ()), f.z ());
+    grad.y () = lerp (lerp (v[2] - v[0], v[3] - v[1], f.x ()), lerp (v[6] - v[4], v[7] - v[5], f.x ()), f.z ());
+    grad.z () = lerp (lerp (v[4] - v[0], v[5] - v[1], f.x ()), lerp (v[6] - v[2], v[7] - v[3], f.x ()), f.y ());
+    sdf = trilinear (v, f);
     return true;
   }
 
