@@ -102,6 +102,7 @@ void
 downsampleDepth (const cv::Mat& depth, cv::Mat& half, float max_jump)
 {
   half.create (depth.rows / 2, depth.cols / 2, CV_32F);
+#pragma omp parallel for schedule(static)
   for (int y = 0; y < half.rows; ++y)
   {
     const float* r0 = depth.ptr<float> (2 * y);
@@ -130,6 +131,7 @@ downsampleVertexNormalMaps (const cv::Mat& vertices, const cv::Mat& normals, cv:
 {
   half_vertices.create (vertices.rows / 2, vertices.cols / 2, CV_32FC3);
   half_normals.create (half_vertices.size (), CV_32FC3);
+#pragma omp parallel for schedule(static)
   for (int y = 0; y < half_vertices.rows; ++y)
     for (int x = 0; x < half_vertices.cols; ++x)
     {

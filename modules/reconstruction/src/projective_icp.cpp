@@ -17,10 +17,12 @@ namespace reconstruction
 {
 namespace
 {
-/** \brief Upper triangle of J^T J (21), J^T r (6), Σ r² and the pair count. */
-using Accumulator = std::array<double, 29>;
+/** \brief Upper triangle of J^T J (21), J^T r (6), Σ r², the pair count and the number
+  * of valid source points.
+  */
+using Accumulator = std::array<double, 30>;
 /** \brief The same for one image row, in float (cheap; a row holds < 10^4 terms). */
-using RowAccumulator = std::array<float, 29>;
+using RowAccumulator = std::array<float, 30>;
 
 /** \brief Projective association of one source vertex; on success the point-to-plane
   * residual r = n·(p' − q) and its Jacobian row J = [(p' × n)^T, n^T] for a left update.
@@ -84,6 +86,7 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
         const Eigen::Vector3f& n = vertexAt (source.normals, x, y);
         if (!isValidVertex (p) || !isValidVertex (n))
           continue;
+        row[29] += 1.f;
         float r;
         Eigen::Matrix<float, 6, 1> J;
         if (pointToPlaneTerm (p, n, R, t, target, max_distance_sq, min_cos, r, J))
@@ -97,16 +100,6 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
       total[i] += local[i];
   }
   return total;
-}
-
-std::size_t
-countValid (const PyramidLevel& level)
-{
-  std::size_t n = 0;
-  for (int y = 0; y < level.vertices.rows; ++y)
-    for (int x = 0; x < level.vertices.cols; ++x)
-      n += isValidVertex (vertexAt (level.vertices, x, y)) && isValidVertex (vertexAt (level.normals, x, y));
-  return n;
 }
 
 /** \brief exp of a twist (ω, t) as a rigid motion (rotation by |ω| about ω; first-order
@@ -153,7 +146,6 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
   ICPResult result;
   result.transform = guess;
   result.solved = true;
-  result.source_points = countValid (source[0]);
   const float min_cos = static_cast<float> (std::cos (config_.max_angle_deg * M_PI / 180.0));
   bool finest_measured = false;
   for (std::size_t l = levels; l-- > 0;)
@@ -165,6 +157,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
       if (l == 0)
       {
         finest_measured = true;
+        result.source_points = static_cast<std::size_t> (acc[29]);
         result.inliers = static_cast<std::size_t> (acc[28]);
         result.rmse = acc[28] > 0 ? std::sqrt (acc[27] / acc[28]) : 0.0;
       }
@@ -206,6 +199,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
   {
     const Accumulator acc = buildSystem (source[0], target[0], result.transform.cast<float> (),
                                          static_cast<float> (config_.max_distance), min_cos);
+    result.source_points = static_cast<std::size_t> (acc[29]);
     result.inliers = static_cast<std::size_t> (acc[28]);
     result.rmse = acc[28] > 0 ? std::sqrt (acc[27] / acc[28]) : 0.0;
   }
