@@ -47,6 +47,19 @@ sampleEdge (const TsdfVoxel& a, const TsdfVoxel& b, const Eigen::Vector3f& pa, c
   return s;
 }
 
+inline pcl::PointXYZRGBL
+toPoint (const EdgeSample& s)
+{
+  pcl::PointXYZRGBL p;
+  p.getVector3fMap () = s.position;
+  p.r = s.r;
+  p.g = s.g;
+  p.b = s.b;
+  p.a = 255;
+  p.label = s.label;
+  return p;
+}
+
 inline bool
 observed (const TsdfVoxel* v)
 {
@@ -101,15 +114,8 @@ TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::P
               const TsdfVoxel* b = access.get (g + Eigen::Vector3i::Unit (axis));
               if (!observed (b) || std::abs (b->sdf) >= 1.f || (a.sdf < 0.f) == (b->sdf < 0.f))
                 continue;
-              const EdgeSample s = sampleEdge (a, *b, voxelPosition (g), voxelPosition (g + Eigen::Vector3i::Unit (axis)));
-              pcl::PointXYZRGBL p;
-              p.getVector3fMap () = s.position;
-              p.r = s.r;
-              p.g = s.g;
-              p.b = s.b;
-              p.a = 255;
-              p.label = s.label;
-              parts[static_cast<std::size_t> (i)].push_back (p);
+              parts[static_cast<std::size_t> (i)].push_back (
+                toPoint (sampleEdge (a, *b, voxelPosition (g), voxelPosition (g + Eigen::Vector3i::Unit (axis)))));
               if (normals)
               {
                 // TSDF gradient by central differences at the nearer voxel.
@@ -220,16 +226,7 @@ TSDFVolume::extractMesh () const
   for (const auto& part : parts)
     for (const auto& [key, s] : part.samples)
       if (vertex_of.emplace (key, static_cast<pcl::index_t> (points.size ())).second)
-      {
-        pcl::PointXYZRGBL p;
-        p.getVector3fMap () = s.position;
-        p.r = s.r;
-        p.g = s.g;
-        p.b = s.b;
-        p.a = 255;
-        p.label = s.label;
-        points.push_back (p);
-      }
+        points.push_back (toPoint (s));
 
   pcl::PolygonMesh mesh;
   mesh.polygons.reserve (corner_count / 3);
