@@ -93,8 +93,9 @@ public:
   raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out) const;
 
   /** \brief As above, with a depth map seen from this very pose (CV_32F metres, e.g. the
-    * frame just integrated): rays start τ + one voxel in front of its valid pixels instead
-    * of at the nearest block, which skips most of the march. Model surfaces further in
+    * frame just integrated): rays start two voxels in front of its valid pixels instead
+    * of at the nearest block (falling back to the full march where that start lies behind
+    * a surface), which skips most of the march. Model surfaces further in
     * front of the hint (stale geometry the frame no longer sees there) are then not
     * rendered.
     */
@@ -146,8 +147,12 @@ public:
   /** \brief Block storage, indexed by block id (for the segment map and tests). */
   const std::vector<std::unique_ptr<VoxelBlock>>& blocks () const { return blocks_; }
 
-  /** \brief Writable voxels of block \a id (e.g. for the label layer); block coordinates
-    * stay fixed.
+  /** \brief Rebuilds block \a id's distance copy from its voxels (see VoxelBlock). */
+  void refreshDistances (std::size_t id) { blocks_[id]->refreshDistances (); }
+
+  /** \brief Writable voxels of block \a id, for the label layer (label, label_confidence).
+    * Changing sdf or weight here bypasses the block's distance copy that raycast() reads;
+    * call refreshDistances (id) afterwards if you must.
     */
   std::array<TsdfVoxel, kBlockVoxels>& voxels (std::size_t id) { return blocks_[id]->voxels; }
 

@@ -124,6 +124,7 @@ integrateBlock (VoxelBlock& block, const cv::Mat& depth, const cv::Mat& color, c
         if (d == 0.f || !projectiveTsdf (d, p.z (), truncation, tsdf))
           continue;
         updateVoxel (*voxel, tsdf, has_color ? color.ptr<std::uint8_t> (v) + 3 * u : nullptr, max_weight);
+        block.distances[static_cast<std::size_t> (voxel - block.voxels.data ())] = encodeDistance (*voxel);
       }
     }
 }
@@ -244,7 +245,8 @@ blockExit (const Eigen::Vector3f& g, const Eigen::Vector3f& dir)
   * camera-frame ray with z = 1 turned into the world, so the ray parameter is the
   * z-depth. Returns the depth of the first front-facing zero crossing (0 for none), the
   * voxel nearest to it in \a hit and the field's gradient there in \a gradient (zero
-  * when unknown).
+  * when unknown). With \a started_behind given, a first band sample behind a surface
+  * stops the march and sets it (the start was too deep; the caller starts earlier).
   *
   * Outside the truncation band the ray moves by blocks (unallocated) or by the band's
   * depth (truncated voxels); inside it by the interpolated distance, so the last two
@@ -252,11 +254,13 @@ blockExit (const Eigen::Vector3f& g, const Eigen::Vector3f& dir)
   */
 inline float
 castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float z_start,
-         float z_end, float truncation_voxels, const TsdfVoxel** hit, Eigen::Vector3f* gradient)
+         float z_end, float truncation_voxels, const TsdfVoxel** hit, Eigen::Vector3f* gradient,
+         bool* started_behind = nullptr)
 {
   const float one_voxel = 1.f / dir.norm ();
   float z = z_start, z_prev = 0.f, f_prev = 0.f;
   bool in_front = false;  // the previous sample was a valid positive one
+  bool sampled = false;   // a sample inside the band has been seen
   while (z < z_end)
   {
     const Eigen::Vector3f g = origin + dir * z;
@@ -267,14 +271,14 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
       z += std::max (blockExit (g, dir), 0.f) + 0.1f * one_voxel;
       continue;
     }
-    const TsdfVoxel* nearest = access.get (nearestVoxel (g));
-    if (nearest == nullptr || nearest->weight <= 0.f)
+    const std::int16_t* nearest = access.distance (nearestVoxel (g));
+    if (nearest == nullptr || *nearest == kUnobservedDistance)
     {
       in_front = false;
       z += one_voxel;
       continue;
     }
-    if (nearest->sdf >= 1.f)
+    if (*nearest >= static_cast<std::int16_t> (kDistanceScale))
     {
       // Truncated: at least a band's depth from any surface.
       in_front = false;
@@ -283,7 +287,7 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
     }
     float f;
     if (!access.interpolate (g, f))
-      f = nearest->sdf;
+      f = decodeDistance (*nearest);
     if (f <= 0.f)
     {
       if (in_front)
@@ -302,14 +306,21 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
           gradient->setZero ();
         *hit = access.get (nearestVoxel (origin + dir * z_hit));
         if (*hit == nullptr)
-          *hit = nearest;
+          *hit = access.get (nearestVoxel (g));
         return z_hit;
       }
+      if (started_behind != nullptr && !sampled)
+      {
+        *started_behind = true;  // the start lies behind a surface: the caller restarts
+        return 0.f;
+      }
+      sampled = true;
       in_front = false;  // behind a surface (or a back face): keep looking
       z += one_voxel;
       continue;
     }
     in_front = true;
+    sampled = true;
     z_prev = z;
     f_prev = f;
     z += std::max (1.f, 0.9f * f * truncation_voxels) * one_voxel;
@@ -582,7 +593,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   const float inv_voxel = 1.f / voxel_size;
   const Eigen::Vector3f origin_voxels = pose.translation ().cast<float> () * inv_voxel;
   const float truncation_voxels = static_cast<float> (config_.truncation_voxels);
-  const float hint_margin = static_cast<float> (config_.truncation () + config_.voxel_size);
+  const float hint_margin = static_cast<float> (2.0 * config_.voxel_size);
 #pragma omp parallel
   {
     detail::VoxelAccessor access (*this);
@@ -599,17 +610,24 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         if (!(tiles.zmax[tile] > tiles.zmin[tile]))
           continue;
         const Eigen::Vector3f ray_c = camera.backProject (static_cast<float> (u), static_cast<float> (v), 1.f);
-        float z_start = tiles.zmin[tile];
+        const Eigen::Vector3f dir = R * ray_c * inv_voxel;
+        const TsdfVoxel* hit = nullptr;
+        Eigen::Vector3f grad;
+        float z = 0.f;
+        bool hinted = false;
         if (!depth_hint.empty ())
         {
           const float d = depth_hint.at<float> (v, u);
-          if (d > 0.f && std::isfinite (d))
-            z_start = std::max (z_start, d - hint_margin);
+          if (d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
+          {
+            bool behind = false;
+            z = castRay (access, origin_voxels, dir, d - hint_margin, tiles.zmax[tile], truncation_voxels, &hit, &grad,
+                         &behind);
+            hinted = !behind;
+          }
         }
-        const TsdfVoxel* hit = nullptr;
-        Eigen::Vector3f grad;
-        const float z = castRay (access, origin_voxels, R * ray_c * inv_voxel, z_start, tiles.zmax[tile],
-                                 truncation_voxels, &hit, &grad);
+        if (!hinted)
+          z = castRay (access, origin_voxels, dir, tiles.zmin[tile], tiles.zmax[tile], truncation_voxels, &hit, &grad);
         if (z <= 0.f)
           continue;
         const Eigen::Vector3f p = ray_c * z;
@@ -624,8 +642,11 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
             n = -n;
           normal_row[u] = cv::Vec3f (n.x (), n.y (), n.z ());
         }
-        color_row[u] = cv::Vec3b (hit->b, hit->g, hit->r);
-        label_row[u] = static_cast<std::int32_t> (hit->label);
+        if (hit != nullptr)
+        {
+          color_row[u] = cv::Vec3b (hit->b, hit->g, hit->r);
+          label_row[u] = static_cast<std::int32_t> (hit->label);
+        }
       }
     }
   }

@@ -127,6 +127,7 @@ TSDFVolume::load (const std::string& path)
     in.read (reinterpret_cast<char*> (block.voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
     if (!in)
       throw Error (path, "volume file is truncated in block " + std::to_string (i));
+    block.refreshDistances ();
   }
   return volume;
 }

@@ -17,59 +17,73 @@ class VoxelAccessor
 public:
   explicit VoxelAccessor (const TSDFVolume& volume) : volume_ (volume) {}
 
-  /** \brief First voxel of block \a b, or nullptr when it is not allocated. */
-  inline const TsdfVoxel*
+  /** \brief Block with block coordinates \a b, or nullptr when it is not allocated. */
+  inline const VoxelBlock*
   block (const Eigen::Vector3i& b)
   {
-    if (!valid_ || b != block_)
+    if (!valid_ || b != block_index_)
     {
-      block_ = b;
+      block_index_ = b;
       valid_ = true;
       const std::int32_t id = volume_.findBlock (b);
-      data_ = id >= 0 ? volume_.blocks ()[static_cast<std::size_t> (id)]->voxels.data () : nullptr;
+      block_ = id >= 0 ? volume_.blocks ()[static_cast<std::size_t> (id)].get () : nullptr;
     }
-    return data_;
+    return block_;
   }
 
   inline const TsdfVoxel*
   get (const Eigen::Vector3i& v)
   {
     const Eigen::Vector3i b = blockOfVoxel (v);
-    if (block (b) == nullptr)
+    const VoxelBlock* blk = block (b);
+    if (blk == nullptr)
       return nullptr;
     const Eigen::Vector3i l = v - b * kBlockSide;
-    return data_ + localVoxelIndex (l.x (), l.y (), l.z ());
+    return &blk->voxels[static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ()))];
   }
 
-  /** \brief The eight voxels of the cell with lower corner \a v (corner i at offset
-    * (i&1, (i>>1)&1, (i>>2)&1)); false when any is unallocated or unobserved.
+  /** \brief The compact distance of voxel \a v, or nullptr when its block is unallocated. */
+  inline const std::int16_t*
+  distance (const Eigen::Vector3i& v)
+  {
+    const Eigen::Vector3i b = blockOfVoxel (v);
+    const VoxelBlock* blk = block (b);
+    if (blk == nullptr)
+      return nullptr;
+    const Eigen::Vector3i l = v - b * kBlockSide;
+    return &blk->distances[static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ()))];
+  }
+
+  /** \brief Distances (truncation units) of the cell with lower corner \a v, corner i at
+    * offset (i&1, (i>>1)&1, (i>>2)&1); false when any is unallocated or unobserved.
     */
   inline bool
-  cell (const Eigen::Vector3i& v, std::array<const TsdfVoxel*, 8>& corners)
+  cell (const Eigen::Vector3i& v, std::array<float, 8>& values)
   {
     const Eigen::Vector3i l = v - blockOfVoxel (v) * kBlockSide;
     if (l.x () < kBlockSide - 1 && l.y () < kBlockSide - 1 && l.z () < kBlockSide - 1)
     {
       // The whole cell lies in one block: one lookup, then fixed strides.
-      const TsdfVoxel* base = get (v);
+      const std::int16_t* base = distance (v);
       if (base == nullptr)
         return false;
       constexpr int dy = kBlockSide, dz = kBlockSide * kBlockSide;
       const int offsets[8] = {0, 1, dy, dy + 1, dz, dz + 1, dz + dy, dz + dy + 1};
       for (int i = 0; i < 8; ++i)
       {
-        corners[static_cast<std::size_t> (i)] = base + offsets[i];
-        if (!(base[offsets[i]].weight > 0.f))
+        const std::int16_t d = base[offsets[i]];
+        if (d == kUnobservedDistance)
           return false;
+        values[static_cast<std::size_t> (i)] = decodeDistance (d);
       }
       return true;
     }
     for (int i = 0; i < 8; ++i)
     {
-      const TsdfVoxel* voxel = get (v + Eigen::Vector3i (i & 1, (i >> 1) & 1, (i >> 2) & 1));
-      if (voxel == nullptr || voxel->weight <= 0.f)
+      const std::int16_t* d = distance (v + Eigen::Vector3i (i & 1, (i >> 1) & 1, (i >> 2) & 1));
+      if (d == nullptr || *d == kUnobservedDistance)
         return false;
-      corners[static_cast<std::size_t> (i)] = voxel;
+      values[static_cast<std::size_t> (i)] = decodeDistance (*d);
     }
     return true;
   }
@@ -79,12 +93,9 @@ public:
   interpolate (const Eigen::Vector3f& g, float& sdf)
   {
     const Eigen::Vector3i lower = fastFloor (g);
-    std::array<const TsdfVoxel*, 8> corners;
-    if (!cell (lower, corners))
-      return false;
     std::array<float, 8> values;
-    for (std::size_t i = 0; i < 8; ++i)
-      values[i] = corners[i]->sdf;
+    if (!cell (lower, values))
+      return false;
     sdf = trilinear (values, g - lower.cast<float> ());
     return true;
   }
@@ -96,13 +107,10 @@ public:
   interpolate (const Eigen::Vector3f& g, float& sdf, Eigen::Vector3f& grad)
   {
     const Eigen::Vector3i lower = fastFloor (g);
-    std::array<const TsdfVoxel*, 8> c;
-    if (!cell (lower, c))
+    std::array<float, 8> v;
+    if (!cell (lower, v))
       return false;
     const Eigen::Vector3f f = g - lower.cast<float> ();
-    std::array<float, 8> v;
-    for (std::size_t i = 0; i < 8; ++i)
-      v[i] = c[i]->sdf;
     const auto lerp = [] (float a, float b, float t) { return a + (b - a) * t; };
     grad.x () = lerp (lerp (v[1] - v[0], v[3] - v[2], f.y ()), lerp (v[5] - v[4], v[7] - v[6], f.y ()), f.z ());
     grad.y () = lerp (lerp (v[2] - v[0], v[3] - v[1], f.x ()), lerp (v[6] - v[4], v[7] - v[5], f.x ()), f.z ());
@@ -113,8 +121,8 @@ public:
 
 private:
   const TSDFVolume& volume_;
-  Eigen::Vector3i block_ = Eigen::Vector3i::Zero ();
-  const TsdfVoxel* data_ = nullptr;
+  Eigen::Vector3i block_index_ = Eigen::Vector3i::Zero ();
+  const VoxelBlock* block_ = nullptr;
   bool valid_ = false;
 };
 }  // namespace detail
