@@ -31,27 +31,32 @@ public:
     return block_;
   }
 
-  inline const TsdfVoxel*
-  get (const Eigen::Vector3i& v)
+  /** \brief Block holding voxel \a v (nullptr when unallocated) and \a v's index in it. */
+  inline const VoxelBlock*
+  locate (const Eigen::Vector3i& v, std::size_t& local)
   {
     const Eigen::Vector3i b = blockOfVoxel (v);
     const VoxelBlock* blk = block (b);
-    if (blk == nullptr)
-      return nullptr;
     const Eigen::Vector3i l = v - b * kBlockSide;
-    return &blk->voxels[static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ()))];
+    local = static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ()));
+    return blk;
+  }
+
+  inline const TsdfVoxel*
+  get (const Eigen::Vector3i& v)
+  {
+    std::size_t i;
+    const VoxelBlock* blk = locate (v, i);
+    return blk != nullptr ? &blk->voxels[i] : nullptr;
   }
 
   /** \brief The compact distance of voxel \a v, or nullptr when its block is unallocated. */
   inline const std::int16_t*
   distance (const Eigen::Vector3i& v)
   {
-    const Eigen::Vector3i b = blockOfVoxel (v);
-    const VoxelBlock* blk = block (b);
-    if (blk == nullptr)
-      return nullptr;
-    const Eigen::Vector3i l = v - b * kBlockSide;
-    return &blk->distances[static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ()))];
+    std::size_t i;
+    const VoxelBlock* blk = locate (v, i);
+    return blk != nullptr ? &blk->distances[i] : nullptr;
   }
 
   /** \brief Distances (truncation units) of the cell with lower corner \a v, corner i at
