@@ -2,7 +2,6 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
-#include <cuefusion/reconstruction/vertex_maps.h>
 
 #include <algorithm>
 #include <array>
