@@ -165,7 +165,9 @@ public:
     return inBlockRange (index) ? hash_.find (packBlockIndex (index)) : VoxelBlockHash::kNone;
   }
 
-  /** \brief Voxel with global index \a v, or nullptr when its block is not allocated. */
+  /** \brief Voxel with global index \a v, or nullptr when its block is not allocated.
+    * Through the writable overload change labels only (see voxels()).
+    */
   const TsdfVoxel* findVoxel (const Eigen::Vector3i& v) const;
   TsdfVoxel* findVoxel (const Eigen::Vector3i& v);
 

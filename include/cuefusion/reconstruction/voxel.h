@@ -103,13 +103,6 @@ localVoxelIndex (int x, int y, int z)
   return x + kBlockSide * (y + kBlockSide * z);
 }
 
-/** \brief Floor division for block coordinates of (possibly negative) voxel indices. */
-inline int
-floorDiv (int a, int b)
-{
-  return (a >= 0) ? a / b : -((-a + b - 1) / b);
-}
-
 inline Eigen::Vector3i
 blockOfVoxel (const Eigen::Vector3i& v)
 {
