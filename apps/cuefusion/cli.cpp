@@ -1,5 +1,10 @@
 #include "cli.h"
 
+#include <cuefusion/common/exceptions.h>
+
+#include <boost/filesystem.hpp>
+
+#include <algorithm>
 #include <iostream>
 
 namespace cuefusion
@@ -27,6 +32,41 @@ parseCommandLine (const std::string& command, const std::string& synopsis, const
     throw UsageError (e.what ());
   }
   return true;
+}
+nlohmann::json
+timingSummary (std::vector<double> values)
+{
+  if (values.empty ())
+    return {{"median", nullptr}, {"p90", nullptr}, {"frames", 0}};
+  std::sort (values.begin (), values.end ());
+  const auto at = [&values] (double q) {
+    return values[static_cast<std::size_t> (q * static_cast<double> (values.size () - 1) + 0.5)];
+  };
+  return {{"median", at (0.5)}, {"p90", at (0.9)}, {"frames", values.size ()}};
+}
+
+std::vector<std::string>
+listInputs (const std::string& path, const std::vector<std::string>& extensions)
+{
+  namespace fs = boost::filesystem;
+  boost::system::error_code ec;
+  if (!fs::exists (path, ec))
+    throw Error (path, "no such file or folder");
+  if (!fs::is_directory (path, ec))
+    return {path};
+  std::vector<std::string> files;
+  for (fs::directory_iterator it (path, ec), end; !ec && it != end; it.increment (ec))
+  {
+    std::string extension = it->path ().extension ().string ();
+    std::transform (extension.begin (), extension.end (), extension.begin (), ::tolower);
+    if (fs::is_regular_file (it->path (), ec) &&
+        std::find (extensions.begin (), extensions.end (), extension) != extensions.end ())
+      files.push_back (it->path ().string ());
+  }
+  if (ec)
+    throw Error (path, "cannot list folder: " + ec.message ());
+  std::sort (files.begin (), files.end ());
+  return files;
 }
 }  // namespace cli
 }  // namespace cuefusion

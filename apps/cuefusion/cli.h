@@ -1,6 +1,7 @@
 #pragma once
 
 #include <boost/program_options.hpp>
+#include <nlohmann/json.hpp>
 
 #include <stdexcept>
 #include <string>
@@ -32,8 +33,18 @@ given (const po::variables_map& vm, const std::string& key)
   return vm.count (key) > 0 && !vm[key].defaulted ();
 }
 
+/** Median and 90th percentile of a list of milliseconds, as JSON. */
+nlohmann::json
+timingSummary (std::vector<double> values);
+
+/** Input paths of a command that takes a file or a folder: the folder's files with one of
+  * \a extensions (lower case, with the dot), sorted by name; or the file itself. */
+std::vector<std::string>
+listInputs (const std::string& path, const std::vector<std::string>& extensions);
+
 int runSynth (const std::vector<std::string>& args);
 int runInfo (const std::vector<std::string>& args);
 int runRun (const std::vector<std::string>& args);
+int runSegmentFrame (const std::vector<std::string>& args);
 }  // namespace cli
 }  // namespace cuefusion

@@ -37,17 +37,6 @@ onInterrupt (int)
   g_interrupted = true;
 }
 
-/** \brief Median and 90th percentile of a list of milliseconds. */
-nlohmann::json
-summary (std::vector<double> values)
-{
-  if (values.empty ())
-    return {{"median", nullptr}, {"p90", nullptr}, {"frames", 0}};
-  std::sort (values.begin (), values.end ());
-  const auto at = [&values] (double q) { return values[static_cast<std::size_t> (q * static_cast<double> (values.size () - 1) + 0.5)]; };
-  return {{"median", at (0.5)}, {"p90", at (0.9)}, {"frames", values.size ()}};
-}
-
 struct RunOutputs
 {
   io::Trajectory trajectory;            ///< accepted poses
@@ -73,8 +62,8 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports)
     raycast.push_back (t.raycast_ms);
     core.push_back (t.track_ms + t.integrate_ms + t.raycast_ms);
   }
-  return {{"stages", {{"preprocess", summary (pre)}, {"track", summary (track)}, {"integrate", summary (integrate)},
-                      {"raycast", summary (raycast)}, {"track+integrate+raycast", summary (core)}}},
+  return {{"stages", {{"preprocess", timingSummary (pre)}, {"track", timingSummary (track)}, {"integrate", timingSummary (integrate)},
+                      {"raycast", timingSummary (raycast)}, {"track+integrate+raycast", timingSummary (core)}}},
           {"frames", frames}};
 }
 }  // namespace

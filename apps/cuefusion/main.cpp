@@ -18,6 +18,8 @@ const char* kUsage =
   "  synth   render a synthetic RGB-D sequence with exact ground truth\n"
   "  info    describe a sequence: format, frames, resolution, intrinsics, poses, masks\n"
   "  run     process a sequence (folder, openni2[:DEVICE] or .oni file) into a map\n"
+  "  segment-frame\n"
+  "          geometric segmentation of organized clouds or depth images (PCD/PNG, or folders)\n"
   "\n"
   "'cuefusion COMMAND --help' describes a command's options.\n";
 }
@@ -27,7 +29,7 @@ main (int argc, char** argv)
 {
   using namespace cuefusion::cli;
   const std::map<std::string, int (*) (const std::vector<std::string>&)> commands = {
-    {"synth", runSynth}, {"info", runInfo}, {"run", runRun}};
+    {"synth", runSynth}, {"info", runInfo}, {"run", runRun}, {"segment-frame", runSegmentFrame}};
   if (argc < 2)
   {
     std::cerr << kUsage;

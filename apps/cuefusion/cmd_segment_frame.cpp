@@ -1,0 +1,379 @@
+// cuefusion segment-frame: the geometric segmentation L^G (§4.2.1.1) of single organized
+// clouds or depth images, as a PCL filter chain: SurfacePreprocessing →
+// GeometricSegmentation → (SupportPlaneRemoval).
+#include "cli.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/label_colors.h>
+#include <cuefusion/io/camera_io.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/map_io.h>
+#include <cuefusion/segmentation/geometric_segmentation.h>
+#include <cuefusion/segmentation/support_plane_removal.h>
+#include <cuefusion/segmentation/surface_preprocessing.h>
+
+#include <boost/filesystem.hpp>
+#include <nlohmann/json.hpp>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/common/time.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <set>
+
+namespace fs = boost::filesystem;
+
+namespace cuefusion
+{
+namespace cli
+{
+namespace
+{
+using Cloud = pcl::PointCloud<pcl::PointXYZRGBA>;
+
+bool
+hasField (const pcl::PCLPointCloud2& cloud, const std::string& name)
+{
+  for (const auto& f : cloud.fields)
+    if (f.name == name)
+      return true;
+  return false;
+}
+
+/** An organized PCD with at least x, y, z (colour from rgb/rgba when present). */
+Cloud::Ptr
+loadOrganizedPCD (const std::string& path)
+{
+  pcl::PCLPointCloud2 blob;
+  if (pcl::io::loadPCDFile (path, blob) < 0)
+    throw Error (path, "cannot read PCD file");
+  for (const char* field : {"x", "y", "z"})
+    if (!hasField (blob, field))
+      throw Error (path, std::string ("PCD has no '") + field + "' field");
+  if (blob.height < 2 || blob.width * blob.height == 0)
+    throw Error (path, "PCD is not organized (height " + std::to_string (blob.height) + "); segment-frame needs an image-shaped cloud");
+  Cloud::Ptr cloud (new Cloud);
+  pcl::fromPCLPointCloud2 (blob, *cloud);
+  if (!hasField (blob, "rgb") && !hasField (blob, "rgba"))
+    for (auto& p : cloud->points)
+      p.r = p.g = p.b = p.a = 255;
+  return cloud;
+}
+
+/** A 16-bit depth PNG back-projected with \a camera, coloured from \a rgb_path when given. */
+Cloud::Ptr
+loadDepthPNG (const std::string& path, const PinholeCamera& camera, double units_per_metre, const std::string& rgb_path)
+{
+  const cv::Mat depth = io::readDepthImage (path, units_per_metre);
+  if (depth.cols != camera.width || depth.rows != camera.height)
+    throw Error (path, "depth image is " + std::to_string (depth.cols) + "x" + std::to_string (depth.rows) +
+                         " but the intrinsics are for " + std::to_string (camera.width) + "x" + std::to_string (camera.height));
+  cv::Mat color;
+  if (!rgb_path.empty ())
+  {
+    color = io::readImage (rgb_path, cv::IMREAD_COLOR);
+    if (color.size () != depth.size ())
+      throw Error (rgb_path, "colour image size differs from the depth image's");
+  }
+  Cloud::Ptr cloud (new Cloud (depth.cols, depth.rows));
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  for (int y = 0; y < depth.rows; ++y)
+    for (int x = 0; x < depth.cols; ++x)
+    {
+      pcl::PointXYZRGBA& p = (*cloud) (x, y);
+      const float z = depth.at<float> (y, x);
+      if (z > 0.f)
+      {
+        p.x = static_cast<float> ((x - camera.cx) / camera.fx) * z;
+        p.y = static_cast<float> ((y - camera.cy) / camera.fy) * z;
+        p.z = z;
+      }
+      else
+        p.x = p.y = p.z = nan;
+      if (color.empty ())
+        p.r = p.g = p.b = 255;
+      else
+      {
+        const cv::Vec3b bgr = color.at<cv::Vec3b> (y, x);
+        p.r = bgr[2];
+        p.g = bgr[1];
+        p.b = bgr[0];
+      }
+      p.a = 255;
+    }
+  cloud->is_dense = false;
+  return cloud;
+}
+
+/** Colour image of a cloud loaded from PCD, replacing its colours (PCD input with --rgb). */
+void
+applyColorImage (const std::string& rgb_path, Cloud& cloud)
+{
+  const cv::Mat color = io::readImage (rgb_path, cv::IMREAD_COLOR);
+  if (color.cols != static_cast<int> (cloud.width) || color.rows != static_cast<int> (cloud.height))
+    throw Error (rgb_path, "colour image size differs from the cloud's " + std::to_string (cloud.width) + "x" +
+                             std::to_string (cloud.height));
+  for (int y = 0; y < color.rows; ++y)
+    for (int x = 0; x < color.cols; ++x)
+    {
+      const cv::Vec3b bgr = color.at<cv::Vec3b> (y, x);
+      auto& p = cloud (x, y);
+      p.r = bgr[2];
+      p.g = bgr[1];
+      p.b = bgr[0];
+    }
+}
+
+/** Thesis Fig. 4.9 (top) as one picture: concave edges red, depth edges green, both
+  * yellow, no depth grey. */
+cv::Mat
+edgePicture (const cv::Mat& concavity, const cv::Mat& discontinuity, const Cloud& cloud)
+{
+  cv::Mat picture (concavity.size (), CV_8UC3, cv::Scalar (0, 0, 0));
+  for (int y = 0; y < picture.rows; ++y)
+    for (int x = 0; x < picture.cols; ++x)
+    {
+      cv::Vec3b& bgr = picture.at<cv::Vec3b> (y, x);
+      if (!std::isfinite (cloud (x, y).z))
+        bgr = cv::Vec3b (80, 80, 80);
+      if (concavity.at<std::uint8_t> (y, x))
+        bgr[2] = 255;
+      if (discontinuity.at<std::uint8_t> (y, x))
+        bgr[1] = 255;
+    }
+  return picture;
+}
+
+struct FrameTimes
+{
+  double load_ms = 0, smoothing_ms = 0, normals_ms = 0, concavity_ms = 0, discontinuity_ms = 0, labeling_ms = 0,
+         plane_ms = 0, write_ms = 0;
+  double segmentation () const { return smoothing_ms + normals_ms + concavity_ms + discontinuity_ms + labeling_ms; }
+};
+
+std::string
+outputPath (const std::string& out, bool folder, const std::string& input, const std::string& extension)
+{
+  if (!folder)
+    return out;
+  return (fs::path (out) / fs::path (input).stem ()).string () + extension;
+}
+
+/** In folder mode a companion file (--rgb) for \a input: same stem, any image extension. */
+std::string
+companionImage (const std::string& folder, const std::string& input)
+{
+  const std::string stem = fs::path (input).stem ().string ();
+  for (const char* ext : {".png", ".jpg", ".jpeg", ".ppm"})
+  {
+    const fs::path candidate = fs::path (folder) / (stem + ext);
+    if (fs::exists (candidate))
+      return candidate.string ();
+  }
+  throw Error (folder, "no colour image named " + stem + ".png/.jpg for " + input);
+}
+}  // namespace
+
+int
+runSegmentFrame (const std::vector<std::string>& args)
+{
+  std::string input, out, intrinsics_path, rgb, png, edges_png, timings_path, normals = "central", convexity = "divergence";
+  double depth_scale = 1000.0;
+  bool drop_plane = false, verbose = false, no_concavity = false, no_depth_edges = false;
+  segmentation::SurfacePreprocessingConfig pre;
+  segmentation::GeometricSegmentationConfig geo;
+  segmentation::SupportPlaneConfig plane;
+  po::options_description options ("options");
+  options.add_options ()
+    ("input", po::value (&input)->required (), "organized PCD, 16-bit depth PNG, or a folder of them")
+    ("out", po::value (&out)->required (), "output PCD (PointXYZRGBL, organized; label 0 = no segment), or a folder for folder input")
+    ("intrinsics", po::value (&intrinsics_path), "intrinsics file for depth PNG input (JSON, 3x3/4x4 matrix or a line)")
+    ("depth-scale", po::value (&depth_scale)->default_value (1000.0), "depth PNG units per metre (TUM: 5000)")
+    ("rgb", po::value (&rgb), "colour image for the output's colours (a folder for folder input: same stems)")
+    ("png", po::value (&png), "also write a colour-coded label PNG (a folder for folder input)")
+    ("edges-png", po::value (&edges_png), "also write the edge maps (red concave, green depth edges, grey no depth; a folder for folder input)")
+    ("drop-support-plane", po::bool_switch (&drop_plane), "label the dominant plane (table, floor) 0")
+    ("verbose,v", po::bool_switch (&verbose), "print per-stage timings per frame")
+    ("timings", po::value (&timings_path), "write per-frame stage timings (ms) to this JSON file")
+    ("normals", po::value (&normals)->default_value ("central"), "normal estimation: central (differences, §4.1.2) or integral (PCL integral image)")
+    ("range-sigma", po::value (&pre.range_sigma)->default_value (pre.range_sigma), "bilateral range sigma in units of the sensor noise sigma_z(z)")
+    ("sigma-space", po::value (&pre.sigma_space)->default_value (pre.sigma_space), "bilateral spatial sigma (px)")
+    ("bilateral-diameter", po::value (&pre.bilateral_diameter)->default_value (pre.bilateral_diameter), "bilateral window (px)")
+    ("no-bilateral", "switch the bilateral filter off")
+    ("normal-step", po::value (&pre.normal_step)->default_value (pre.normal_step), "central differences over +-N px")
+    ("normal-smoothing", po::value (&pre.integral_smoothing)->default_value (pre.integral_smoothing), "integral-image normal smoothing size (px)")
+    ("max-depth-jump", po::value (&pre.max_depth_jump)->default_value (pre.max_depth_jump), "relative depth step treated as an edge by normals and edge assignment")
+    ("concavity-threshold", po::value (&geo.concavity.threshold)->default_value (geo.concavity.threshold), "concave edge where Phi < this")
+    ("convexity-test", po::value (&convexity)->default_value ("divergence"), "when a neighbour is convex: divergence (normals turn apart) or tangent (thesis: below the tangent plane)")
+    ("concavity-step", po::value (&geo.concavity.neighbour_step)->default_value (geo.concavity.neighbour_step), "concavity neighbour distance (px)")
+    ("noise-factor", po::value (&geo.discontinuity.noise_factor)->default_value (geo.discontinuity.noise_factor), "depth edge where Gamma > k * sigma_d")
+    ("depth-edge-step", po::value (&geo.discontinuity.neighbour_step)->default_value (geo.discontinuity.neighbour_step), "depth-edge neighbour distance (px)")
+    ("no-concavity", po::bool_switch (&no_concavity), "ablation: no concavity edges")
+    ("no-depth-edges", po::bool_switch (&no_depth_edges), "ablation: no depth-discontinuity edges")
+    ("closings", po::value (&geo.labeling.closing_iterations)->default_value (geo.labeling.closing_iterations), "closing iterations of the edge map (0 = off)")
+    ("min-segment-size", po::value (&geo.labeling.min_segment_size)->default_value (geo.labeling.min_segment_size), "smaller segments get label 0 (px)")
+    ("edge-radius", po::value (&geo.labeling.edge_assignment_radius)->default_value (geo.labeling.edge_assignment_radius), "give edge pixels to the adjacent segment up to N px out (0 = off)")
+    ("plane-distance", po::value (&plane.distance_threshold)->default_value (plane.distance_threshold), "support plane inlier band (m)");
+  po::positional_options_description positional;
+  positional.add ("input", 1);
+  po::variables_map vm;
+  if (!parseCommandLine ("segment-frame", "INPUT --out OUT.pcd [options]", args, options, positional, vm))
+    return 0;
+
+  if (normals == "central")
+    pre.normal_method = segmentation::NormalMethod::CentralDifference;
+  else if (normals == "integral")
+    pre.normal_method = segmentation::NormalMethod::IntegralImage;
+  else
+    throw ParameterError ("--normals", "must be central or integral, not '" + normals + "'");
+  if (convexity == "divergence")
+    geo.concavity.convexity_test = segmentation::ConvexityTest::NormalDivergence;
+  else if (convexity == "tangent")
+    geo.concavity.convexity_test = segmentation::ConvexityTest::TangentPlane;
+  else
+    throw ParameterError ("--convexity-test", "must be divergence or tangent, not '" + convexity + "'");
+  if (vm.count ("no-bilateral"))
+    pre.bilateral_filter = false;
+  if (!(depth_scale > 0.0) || !std::isfinite (depth_scale))
+    throw ParameterError ("--depth-scale", "must be a positive number");
+  geo.use_concavity_edges = !no_concavity;
+  geo.use_discontinuity_edges = !no_depth_edges;
+  geo.labeling.max_depth_jump = pre.max_depth_jump;
+  pre.validate ();
+  geo.validate ();
+  plane.validate ();
+
+  boost::system::error_code ec;
+  const bool folder = fs::is_directory (input, ec);
+  const std::vector<std::string> inputs = listInputs (input, {".pcd", ".png"});
+  if (inputs.empty ())
+    throw Error (input, "folder holds no .pcd or .png file");
+  if (folder)
+  {
+    if (fs::exists (out, ec) && !fs::is_directory (out, ec))
+      throw Error (out, "exists and is not a folder (folder input needs an output folder)");
+    for (const std::string& dir : {out, png, edges_png})
+      if (!dir.empty () && !fs::create_directories (dir, ec) && ec)
+        throw Error (dir, "cannot create folder: " + ec.message ());
+  }
+  PinholeCamera camera;
+  bool have_camera = false;
+  if (!intrinsics_path.empty ())
+  {
+    camera = io::readIntrinsics (intrinsics_path);
+    have_camera = true;
+  }
+
+  segmentation::SurfacePreprocessing<pcl::PointXYZRGBA> preprocessor (pre);
+  segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmenter (geo);
+  segmentation::SupportPlaneRemoval<pcl::PointXYZRGBA> plane_removal (plane);
+  // Buffers reused from frame to frame, as a pipeline would.
+  Cloud::Ptr smoothed (new Cloud);
+  pcl::PointCloud<pcl::Normal>::Ptr normal_cloud (new pcl::PointCloud<pcl::Normal>);
+  pcl::PointCloud<pcl::Label> labels;
+  nlohmann::json frames = nlohmann::json::array ();
+  std::vector<double> totals;
+  for (const std::string& path : inputs)
+  {
+    FrameTimes t;
+    pcl::StopWatch watch;
+    std::string extension = fs::path (path).extension ().string ();
+    std::transform (extension.begin (), extension.end (), extension.begin (), ::tolower);
+    const std::string rgb_path = rgb.empty () ? "" : (folder ? companionImage (rgb, path) : rgb);
+    Cloud::Ptr cloud;
+    if (extension == ".png")
+    {
+      if (!have_camera)
+        throw UsageError ("depth PNG input " + path + " needs --intrinsics");
+      cloud = loadDepthPNG (path, camera, depth_scale, rgb_path);
+    }
+    else
+    {
+      cloud = loadOrganizedPCD (path);
+      if (!rgb_path.empty ())
+        applyColorImage (rgb_path, *cloud);
+    }
+    t.load_ms = watch.getTime ();
+
+    try
+    {
+      preprocessor.setInputCloud (cloud);
+      preprocessor.compute (*smoothed, *normal_cloud);
+      t.smoothing_ms = preprocessor.getSmoothingTime ();
+      t.normals_ms = preprocessor.getNormalTime ();
+      segmenter.setInputCloud (smoothed);
+      segmenter.setInputNormals (normal_cloud);
+      segmenter.segment (labels);
+    }
+    catch (const Error& e)
+    {
+      throw Error (path, e.what ());
+    }
+    const auto& st = segmenter.getTimings ();
+    t.concavity_ms = st.concavity_ms;
+    t.discontinuity_ms = st.discontinuity_ms;
+    t.labeling_ms = st.labeling_ms;
+    cv::Mat label_image = segmenter.getLabelImage ().clone ();
+    if (drop_plane)
+    {
+      watch.reset ();
+      plane_removal.setInputCloud (smoothed);
+      plane_removal.setInputNormals (normal_cloud);
+      plane_removal.apply (label_image);
+      t.plane_ms = watch.getTime ();
+    }
+
+    watch.reset ();
+    pcl::PointCloud<pcl::PointXYZRGBL> labelled;
+    segmentation::toLabelledCloud (*cloud, label_image, labelled);  // original, unsmoothed points
+    io::saveMapPCD (outputPath (out, folder, path, ".pcd"), labelled);
+    if (!png.empty ())
+      io::writeImageAtomic (outputPath (png, folder, path, ".png"), colorizeLabels (label_image));
+    if (!edges_png.empty ())
+      io::writeImageAtomic (outputPath (edges_png, folder, path, ".png"),
+                            edgePicture (segmenter.getConcavityEdges (), segmenter.getDiscontinuityEdges (), *cloud));
+    t.write_ms = watch.getTime ();
+
+    std::set<std::int32_t> distinct;
+    for (int y = 0; y < label_image.rows; ++y)
+      for (int x = 0; x < label_image.cols; ++x)
+        if (label_image.at<std::int32_t> (y, x) > 0)
+          distinct.insert (label_image.at<std::int32_t> (y, x));
+    totals.push_back (t.segmentation ());
+    frames.push_back ({{"input", path},
+                       {"segments", distinct.size ()},
+                       {"load_ms", t.load_ms},
+                       {"smoothing_ms", t.smoothing_ms},
+                       {"normals_ms", t.normals_ms},
+                       {"concavity_ms", t.concavity_ms},
+                       {"discontinuity_ms", t.discontinuity_ms},
+                       {"labeling_ms", t.labeling_ms},
+                       {"segmentation_ms", t.segmentation ()},
+                       {"plane_ms", t.plane_ms},
+                       {"write_ms", t.write_ms}});
+    if (verbose)
+      std::cout << std::fixed << std::setprecision (2) << fs::path (path).filename ().string () << ": "
+                << distinct.size () << " segments; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
+                << ", normals " << t.normals_ms << ", concavity " << t.concavity_ms << ", depth edges "
+                << t.discontinuity_ms << ", labelling " << t.labeling_ms << ", segmentation total "
+                << t.segmentation () << (drop_plane ? ", plane " + std::to_string (t.plane_ms) : std::string ())
+                << ", write " << t.write_ms << "\n";
+  }
+  if (!timings_path.empty ())
+    io::writeTextAtomic (timings_path,
+                         nlohmann::json ({{"segmentation_ms", timingSummary (totals)}, {"frames", frames}}).dump (1) + "\n");
+  if (verbose || inputs.size () > 1)
+    std::cout << inputs.size () << " frame(s) segmented; geometric segmentation median "
+              << timingSummary (totals)["median"].get<double> () << " ms per frame\n";
+  return 0;
+}
+}  // namespace cli
+}  // namespace cuefusion

@@ -1,0 +1,84 @@
+#pragma once
+
+#include <pcl/pcl_base.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <memory>
+
+namespace cuefusion
+{
+namespace segmentation
+{
+/** \brief When a neighbour counts as convex in ConcavityEdgeEstimation. */
+enum class ConvexityTest
+{
+  TangentPlane,     ///< §4.2.1.1: (v(u_i) − v(u))·n(u) < 0
+  NormalDivergence  ///< (n(u_i) − n(u))·(v(u_i) − v(u)) ≥ 0, robust to smoothed normals (see concavityTermSymmetric)
+};
+
+/** \brief Parameters of ConcavityEdgeEstimation (§4.2.1.1). */
+struct ConcavityEdgeConfig
+{
+  ConvexityTest convexity_test = ConvexityTest::NormalDivergence;
+  float threshold = 0.991f;   ///< edge where Φ(u) < threshold (the reference's value)
+  int neighbour_step = 1;     ///< pixels between u and its 8 neighbours; larger for noisy far-range data
+  void validate () const;
+};
+
+/** \brief The concavity-aware edge map of §4.2.1.1.
+  *
+  * Most objects are convex, so concave creases are where objects meet (a box on a table,
+  * two boxes side by side). For each neighbour u_i of u:
+  * Φ_i(u) = 1 if (v(u_i) − v(u))·n(u) < 0 (convex), else n(u)·n(u_i); Φ(u) = min_i Φ_i(u),
+  * and u is an edge where Φ(u) < threshold. Normals must point towards the sensor (as PCL's
+  * normal estimators orient them). Pixels without a finite point or normal get no value
+  * (Φ = NaN, not an edge); neighbours without one are left out of the minimum.
+  *
+  * \code
+  * ConcavityEdgeEstimation<pcl::PointXYZ, pcl::Normal> concavity;
+  * concavity.setInputCloud (cloud);
+  * concavity.setInputNormals (normals);
+  * pcl::PointCloud<pcl::Label> edges;       // label 1 = edge, 0 = not
+  * concavity.compute (edges);
+  * \endcode
+  */
+template <typename PointT, typename PointNT>
+class ConcavityEdgeEstimation : public pcl::PCLBase<PointT>
+{
+public:
+  using Ptr = std::shared_ptr<ConcavityEdgeEstimation>;
+  using ConstPtr = std::shared_ptr<const ConcavityEdgeEstimation>;
+  using NormalCloudConstPtr = typename pcl::PointCloud<PointNT>::ConstPtr;
+
+  explicit ConcavityEdgeEstimation (const ConcavityEdgeConfig& config = ConcavityEdgeConfig ()) { setConfig (config); }
+
+  void setInputNormals (const NormalCloudConstPtr& normals) { normals_ = normals; }
+  NormalCloudConstPtr getInputNormals () const { return normals_; }
+
+  /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
+  void setConfig (const ConcavityEdgeConfig& config);
+  const ConcavityEdgeConfig& getConfig () const { return config_; }
+  void setThreshold (float threshold);
+  float getThreshold () const { return config_.threshold; }
+  void setNeighbourStep (int step);
+  int getNeighbourStep () const { return config_.neighbour_step; }
+
+  /** \brief Organized edge map of the input's size (label 1 = concave edge), and the raw
+    * Φ values in \a phi when given. Throws cuefusion::Error on unorganized, empty or
+    * all-NaN input and on normals of another size.
+    */
+  void compute (pcl::PointCloud<pcl::Label>& edges, pcl::PointCloud<pcl::Intensity>* phi = nullptr);
+
+protected:
+  using pcl::PCLBase<PointT>::input_;
+
+  NormalCloudConstPtr normals_;
+  ConcavityEdgeConfig config_;
+};
+}  // namespace segmentation
+}  // namespace cuefusion
+
+#ifdef PCL_NO_PRECOMPILE
+#include <cuefusion/segmentation/impl/concavity_edge_estimation.hpp>
+#endif

@@ -1,0 +1,72 @@
+#pragma once
+
+#include <pcl/pcl_base.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <memory>
+
+namespace cuefusion
+{
+namespace segmentation
+{
+/** \brief Parameters of DepthDiscontinuityEdgeEstimation (§4.2.1.1). */
+struct DepthDiscontinuityEdgeConfig
+{
+  float noise_factor = 1.f;   ///< k: edge where Γ(u) > k·σ_d(u) (the reference thresholds at σ_d)
+  int neighbour_step = 1;     ///< pixels between u and its 8 neighbours
+  void validate () const;
+};
+
+/** \brief The geometry-aware (depth discontinuity) edge map of §4.2.1.1.
+  *
+  * Γ(u) = max over the 8 neighbours of |(v(u_i) − v(u))·n(u)|: how far a neighbour lies off
+  * the tangent plane at u. Sensor noise grows with depth and viewing angle, so the
+  * threshold is per pixel: u is an edge where Γ(u) > k·σ_d(u), σ_d the Nguyen et al. 2012
+  * axial noise model (kinectAxialNoise) at the depth of u and the angle between its
+  * viewing ray and n(u). A neighbour without a finite point (a hole or the shadow of an
+  * occluding edge) makes u an edge, and so does a finite point without a finite normal;
+  * pixels without a finite point get no value (Γ = NaN, not an edge).
+  */
+template <typename PointT, typename PointNT>
+class DepthDiscontinuityEdgeEstimation : public pcl::PCLBase<PointT>
+{
+public:
+  using Ptr = std::shared_ptr<DepthDiscontinuityEdgeEstimation>;
+  using ConstPtr = std::shared_ptr<const DepthDiscontinuityEdgeEstimation>;
+  using NormalCloudConstPtr = typename pcl::PointCloud<PointNT>::ConstPtr;
+
+  explicit DepthDiscontinuityEdgeEstimation (const DepthDiscontinuityEdgeConfig& config = DepthDiscontinuityEdgeConfig ())
+  {
+    setConfig (config);
+  }
+
+  void setInputNormals (const NormalCloudConstPtr& normals) { normals_ = normals; }
+  NormalCloudConstPtr getInputNormals () const { return normals_; }
+
+  /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
+  void setConfig (const DepthDiscontinuityEdgeConfig& config);
+  const DepthDiscontinuityEdgeConfig& getConfig () const { return config_; }
+  void setNoiseFactor (float k);
+  float getNoiseFactor () const { return config_.noise_factor; }
+  void setNeighbourStep (int step);
+  int getNeighbourStep () const { return config_.neighbour_step; }
+
+  /** \brief Organized edge map of the input's size (label 1 = depth edge), and the raw Γ
+    * values (metres; +inf next to a missing neighbour) in \a gamma when given. Throws
+    * cuefusion::Error on unorganized, empty or all-NaN input and on normals of another size.
+    */
+  void compute (pcl::PointCloud<pcl::Label>& edges, pcl::PointCloud<pcl::Intensity>* gamma = nullptr);
+
+protected:
+  using pcl::PCLBase<PointT>::input_;
+
+  NormalCloudConstPtr normals_;
+  DepthDiscontinuityEdgeConfig config_;
+};
+}  // namespace segmentation
+}  // namespace cuefusion
+
+#ifdef PCL_NO_PRECOMPILE
+#include <cuefusion/segmentation/impl/depth_discontinuity_edge_estimation.hpp>
+#endif

@@ -1,0 +1,137 @@
+#pragma once
+
+#include <cuefusion/segmentation/concavity_edge_estimation.h>
+#include <cuefusion/segmentation/depth_discontinuity_edge_estimation.h>
+#include <cuefusion/segmentation/surface_planes.h>
+
+#include <opencv2/core.hpp>
+
+#include <pcl/pcl_base.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <memory>
+
+namespace cuefusion
+{
+namespace segmentation
+{
+/** \brief Parameters of the labelling half of GeometricSegmentation (edge map → L^G). */
+struct EdgeLabelingConfig
+{
+  int closing_iterations = 2;       ///< §4.2.1.1: closings of the edge map (3×3 kernel); 0 switches it off
+  int min_segment_size = 50;        ///< smaller connected components are relabelled 0 (pixels)
+  /** Edge pixels with valid depth are given to the adjacent segment they continue in
+    * depth (breadth-first, at most this many pixels out; 0 = off: edge pixels stay 0).
+    * The edge band is 2–4 px wide after closing; without this every object loses a rim
+    * that wide.
+    */
+  int edge_assignment_radius = 4;
+  float max_depth_jump = 0.02f;     ///< growing into an edge pixel needs |Δz| < this × z
+  void validate () const;
+};
+
+/** \brief Parameters of GeometricSegmentation (§4.2.1.1). */
+struct GeometricSegmentationConfig
+{
+  bool use_concavity_edges = true;
+  bool use_discontinuity_edges = true;
+  ConcavityEdgeConfig concavity;
+  DepthDiscontinuityEdgeConfig discontinuity;
+  EdgeLabelingConfig labeling;
+  void validate () const;
+};
+
+/** \brief Milliseconds spent per stage by the last GeometricSegmentation::segment. */
+struct GeometricSegmentationTimings
+{
+  double concavity_ms = 0.0;       ///< each of the two edge operators is charged half the copy into SurfacePlanes
+  double discontinuity_ms = 0.0;
+  double labeling_ms = 0.0;   ///< union, closing, connected components, small segments, edge assignment
+};
+
+/** \brief Labels an edge map (§4.2.1.1 "Labeling the edge map").
+  * \param[in] edges CV_8U, non-zero = edge
+  * \param[in] depth CV_32F depth (z) in metres, NaN or ≤ 0 = invalid
+  * \param[out] labels CV_32S, 0 = no segment (invalid, edge, or a segment that was too small),
+  *             segments numbered 1..N in raster order of their first pixel
+  * \return N
+  *
+  * Invalid pixels count as edges for the closings, so a boundary that runs into a hole
+  * is closed against it. Connected components use 4-connectivity.
+  */
+int
+labelEdgeMap (const cv::Mat& edges, const cv::Mat& depth, const EdgeLabelingConfig& config, cv::Mat& labels);
+
+/** \brief The geometric label map L^G of §4.2.1.1 from an organized cloud and its normals:
+  * concavity edges (ConcavityEdgeEstimation) ∪ depth-discontinuity edges
+  * (DepthDiscontinuityEdgeEstimation), two closings, connected components of the
+  * remaining valid pixels, small segments dropped (labelEdgeMap). Each step can be
+  * switched off in the config for ablation.
+  *
+  * \code
+  * GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmentation;
+  * segmentation.setInputCloud (smoothed);        // e.g. from SurfacePreprocessing
+  * segmentation.setInputNormals (normals);
+  * pcl::PointCloud<pcl::Label> labels;           // 0 = no segment
+  * segmentation.segment (labels);
+  * \endcode
+  */
+template <typename PointT, typename PointNT>
+class GeometricSegmentation : public pcl::PCLBase<PointT>
+{
+public:
+  using Ptr = std::shared_ptr<GeometricSegmentation>;
+  using ConstPtr = std::shared_ptr<const GeometricSegmentation>;
+  using NormalCloudConstPtr = typename pcl::PointCloud<PointNT>::ConstPtr;
+
+  explicit GeometricSegmentation (const GeometricSegmentationConfig& config = GeometricSegmentationConfig ())
+  {
+    setConfig (config);
+  }
+
+  void setInputNormals (const NormalCloudConstPtr& normals) { normals_ = normals; }
+  NormalCloudConstPtr getInputNormals () const { return normals_; }
+
+  /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
+  void setConfig (const GeometricSegmentationConfig& config);
+  const GeometricSegmentationConfig& getConfig () const { return config_; }
+
+  /** \brief Organized labels of the input's size (0 = no segment). Throws cuefusion::Error
+    * on unorganized, empty or all-NaN input and on normals of another size.
+    */
+  void segment (pcl::PointCloud<pcl::Label>& labels);
+
+  /** \brief Results of the last segment(): L^G (CV_32S), the edge maps (CV_8U, 1 = edge;
+    * the union is before closing), the number of segments and the timings.
+    */
+  const cv::Mat& getLabelImage () const { return label_image_; }
+  const cv::Mat& getConcavityEdges () const { return concavity_edges_; }
+  const cv::Mat& getDiscontinuityEdges () const { return discontinuity_edges_; }
+  const cv::Mat& getEdges () const { return edges_; }
+  int getSegmentCount () const { return segment_count_; }
+  const GeometricSegmentationTimings& getTimings () const { return timings_; }
+
+protected:
+  using pcl::PCLBase<PointT>::input_;
+
+  NormalCloudConstPtr normals_;
+  GeometricSegmentationConfig config_;
+  SurfacePlanes planes_;  ///< reused between frames
+  cv::Mat label_image_, concavity_edges_, discontinuity_edges_, edges_;
+  int segment_count_ = 0;
+  GeometricSegmentationTimings timings_;
+};
+
+/** \brief Copies points (and colour, when PointT has one) of \a cloud with the labels of
+  * \a labels (CV_32S, the cloud's size) into an organized PointXYZRGBL cloud.
+  */
+template <typename PointT>
+void
+toLabelledCloud (const pcl::PointCloud<PointT>& cloud, const cv::Mat& labels, pcl::PointCloud<pcl::PointXYZRGBL>& out);
+}  // namespace segmentation
+}  // namespace cuefusion
+
+#ifdef PCL_NO_PRECOMPILE
+#include <cuefusion/segmentation/impl/geometric_segmentation.hpp>
+#endif

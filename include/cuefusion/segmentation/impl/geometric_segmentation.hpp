@@ -1,0 +1,92 @@
+#pragma once
+
+#include <cuefusion/segmentation/geometric_segmentation.h>
+#include <cuefusion/segmentation/impl/cloud_images.hpp>
+#include <cuefusion/segmentation/organized_input.h>
+
+#include <pcl/common/time.h>
+
+
+namespace cuefusion
+{
+namespace segmentation
+{
+
+template <typename PointT, typename PointNT>
+void
+GeometricSegmentation<PointT, PointNT>::setConfig (const GeometricSegmentationConfig& config)
+{
+  config.validate ();
+  config_ = config;
+}
+
+template <typename PointT, typename PointNT>
+void
+GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<pcl::Label>& labels)
+{
+  checkOrganizedInput<PointT, PointNT> ("GeometricSegmentation", input_.get (), normals_.get ());
+  if (!normals_)
+    throw Error ("GeometricSegmentation", "no input normals (setInputNormals)");
+  const int w = static_cast<int> (input_->width), h = static_cast<int> (input_->height);
+  timings_ = GeometricSegmentationTimings ();
+  pcl::StopWatch watch;
+  planes_.assign (*input_, *normals_);
+  const double copy_ms = watch.getTime ();
+  cv::Mat values;
+  watch.reset ();
+  concavity_edges_ = cv::Mat::zeros (h, w, CV_8U);
+  if (config_.use_concavity_edges)
+  {
+    computeConcavityMap (planes_, config_.concavity.neighbour_step, config_.concavity.convexity_test, values);
+    concavityEdges (values, config_.concavity.threshold, concavity_edges_);
+  }
+  timings_.concavity_ms = watch.getTime () + copy_ms / 2;
+
+  watch.reset ();
+  discontinuity_edges_ = cv::Mat::zeros (h, w, CV_8U);
+  if (config_.use_discontinuity_edges)
+  {
+    computeDiscontinuityMap (planes_, config_.discontinuity.neighbour_step, values);
+    discontinuityEdges (planes_, values, config_.discontinuity.noise_factor, discontinuity_edges_);
+  }
+  timings_.discontinuity_ms = watch.getTime () + copy_ms / 2;
+
+  watch.reset ();
+  cv::bitwise_or (concavity_edges_, discontinuity_edges_, edges_);
+  const cv::Mat depth (h, w, CV_32F, planes_.z.data ());
+  segment_count_ = labelEdgeMap (edges_, depth, config_.labeling, label_image_);
+  detail::copyToCloud (label_image_, labels);
+  timings_.labeling_ms = watch.getTime ();
+}
+
+template <typename PointT>
+void
+toLabelledCloud (const pcl::PointCloud<PointT>& cloud, const cv::Mat& labels, pcl::PointCloud<pcl::PointXYZRGBL>& out)
+{
+  if (labels.type () != CV_32S || labels.cols != static_cast<int> (cloud.width) ||
+      labels.rows != static_cast<int> (cloud.height))
+    throw Error ("toLabelledCloud", "label image does not match the cloud's size");
+  out.resize (cloud.size ());
+  out.width = cloud.width;
+  out.height = cloud.height;
+  out.is_dense = cloud.is_dense;
+  for (int y = 0; y < labels.rows; ++y)
+    for (int x = 0; x < labels.cols; ++x)
+    {
+      const std::size_t i = static_cast<std::size_t> (y) * labels.cols + x;
+      pcl::PointXYZRGBL& p = out[i];
+      p.getVector3fMap () = cloud[i].getVector3fMap ();
+      if constexpr (pcl::traits::has_color_v<PointT>)
+      {
+        p.r = cloud[i].r;
+        p.g = cloud[i].g;
+        p.b = cloud[i].b;
+      }
+      else
+        p.r = p.g = p.b = 255;
+      p.a = 255;
+      p.label = static_cast<std::uint32_t> (labels.at<std::int32_t> (y, x));
+    }
+}
+}  // namespace segmentation
+}  // namespace cuefusion

@@ -1,0 +1,111 @@
+#pragma once
+
+#include <cuefusion/segmentation/surface_planes.h>
+
+#include <opencv2/core.hpp>
+
+#include <pcl/pcl_base.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <memory>
+
+namespace cuefusion
+{
+namespace segmentation
+{
+/** \brief How SurfacePreprocessing estimates normals. */
+enum class NormalMethod
+{
+  CentralDifference,  ///< §4.1.2: cross product of the horizontal and vertical differences (default)
+  IntegralImage       ///< PCL's IntegralImageNormalEstimation, AVERAGE_3D_GRADIENT
+};
+
+/** \brief Parameters of SurfacePreprocessing. The defaults were chosen on the osd-learn
+  * clouds (docs/benchmarks.md, "Geometric segmentation"): see the comments there.
+  */
+struct SurfacePreprocessingConfig
+{
+  bool bilateral_filter = true;
+  int bilateral_diameter = 5;         ///< pixels
+  float range_sigma = 8.f;            ///< range σ in units of the sensor noise σ_z(z) (≈ 1.5 cm at 1 m, 7 cm at 2.5 m)
+  float sigma_space = 4.5f;           ///< spatial σ (pixels)
+  NormalMethod normal_method = NormalMethod::CentralDifference;
+  int normal_step = 4;                ///< central differences span ±normal_step pixels (±1 is too noisy on Kinect data)
+  float max_depth_jump = 0.02f;       ///< a neighbour more than this × z away in depth is across an edge
+  float integral_smoothing = 10.f;    ///< IntegralImage only: normal smoothing size (pixels)
+  void validate () const;
+};
+
+/** \brief Preprocessing of an organized cloud for the geometric segmentation (§4.1.2):
+  * edge-preserving smoothing of depth and a normal map.
+  *
+  * Depth is smoothed with a bilateral filter whose range σ follows the Kinect noise model
+  * (noiseAdaptiveBilateral): a fixed range σ in metres either leaves far surfaces noisy
+  * or blurs near convex boundaries — the concern of §4.1.2, where a convex boundary
+  * between two objects is only a small depth step. Invalid points are kept out of every
+  * average; each smoothed point moves along its own viewing ray, so no intrinsics are
+  * needed. PCL's FastBilateralFilter was not used: it turns NaN depth into finite z with
+  * NaN x/y.
+  *
+  * Normals by central differences, as §4.1.2 does, over ±normal_step pixels; near a depth
+  * edge the one-sided difference on the near side is used, so objects keep normals up to
+  * their boundary. Normals point towards the sensor. IntegralImageNormalEstimation is the
+  * alternative (NormalMethod::IntegralImage); the two were measured against exact normals
+  * of noisy synthetic views (docs/benchmarks.md).
+  */
+template <typename PointT>
+class SurfacePreprocessing : public pcl::PCLBase<PointT>
+{
+public:
+  using Ptr = std::shared_ptr<SurfacePreprocessing>;
+  using ConstPtr = std::shared_ptr<const SurfacePreprocessing>;
+
+  explicit SurfacePreprocessing (const SurfacePreprocessingConfig& config = SurfacePreprocessingConfig ())
+  {
+    setConfig (config);
+  }
+
+  /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
+  void setConfig (const SurfacePreprocessingConfig& config);
+  const SurfacePreprocessingConfig& getConfig () const { return config_; }
+
+  /** \brief Smoothed copy of the input (same size, other fields untouched) and its
+    * organized normals (NaN where none). Throws cuefusion::Error on unorganized, empty
+    * or all-NaN input. \a smoothed may not be the input cloud itself.
+    */
+  void compute (pcl::PointCloud<PointT>& smoothed, pcl::PointCloud<pcl::Normal>& normals);
+
+  /** \brief Milliseconds of the last compute: smoothing, normals. */
+  double getSmoothingTime () const { return smoothing_ms_; }
+  double getNormalTime () const { return normal_ms_; }
+
+protected:
+  using pcl::PCLBase<PointT>::input_;
+
+  SurfacePreprocessingConfig config_;
+  SurfacePlanes planes_;
+  double smoothing_ms_ = 0.0;
+  double normal_ms_ = 0.0;
+};
+
+/** \brief Bilateral filter of a depth map (CV_32F metres, ≤ 0 invalid) whose range σ is
+  * \a range_sigma times the axial noise σ_z(z) of kinectAxialNoise at θ = 0: depth is
+  * mapped to noise units u(z) = ∫ dz/σ_z, filtered with OpenCV's bilateral filter
+  * (\a diameter, range σ \a range_sigma, spatial σ \a sigma_space pixels) and mapped
+  * back. Invalid pixels stay 0 and take part in no average.
+  */
+void
+noiseAdaptiveBilateral (const cv::Mat& depth, int diameter, float range_sigma, float sigma_space, cv::Mat& filtered);
+
+/** \brief Central-difference normals of an organized cloud (see SurfacePreprocessing). */
+template <typename PointT>
+void
+computeCentralDifferenceNormals (const pcl::PointCloud<PointT>& cloud, int step, float max_depth_jump,
+                                 pcl::PointCloud<pcl::Normal>& normals);
+}  // namespace segmentation
+}  // namespace cuefusion
+
+#ifdef PCL_NO_PRECOMPILE
+#include <cuefusion/segmentation/impl/surface_preprocessing.hpp>
+#endif

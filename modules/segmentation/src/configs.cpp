@@ -1,0 +1,79 @@
+// Parameter checks of the segmentation configs: one ParameterError naming the parameter by
+// its `cuefusion segment-frame` option.
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/segmentation/geometric_segmentation.h>
+#include <cuefusion/segmentation/support_plane_removal.h>
+#include <cuefusion/segmentation/surface_preprocessing.h>
+
+#include <cmath>
+
+namespace cuefusion
+{
+namespace segmentation
+{
+namespace
+{
+void
+require (bool ok, const char* parameter, const char* what)
+{
+  if (!ok)
+    throw ParameterError (parameter, what);
+}
+}  // namespace
+
+void
+ConcavityEdgeConfig::validate () const
+{
+  require (std::isfinite (threshold) && threshold > -1.f && threshold <= 1.f, "--concavity-threshold",
+           "must lie in (-1, 1] (it compares a cosine)");
+  require (neighbour_step >= 1 && neighbour_step <= 16, "--concavity-step", "must be 1..16 pixels");
+}
+
+void
+DepthDiscontinuityEdgeConfig::validate () const
+{
+  require (std::isfinite (noise_factor) && noise_factor > 0.f, "--noise-factor", "must be positive");
+  require (neighbour_step >= 1 && neighbour_step <= 16, "--depth-edge-step", "must be 1..16 pixels");
+}
+
+void
+EdgeLabelingConfig::validate () const
+{
+  require (closing_iterations >= 0 && closing_iterations <= 16, "--closings", "must be 0..16");
+  require (min_segment_size >= 1, "--min-segment-size", "must be at least 1 pixel");
+  require (edge_assignment_radius >= 0 && edge_assignment_radius <= 64, "--edge-radius", "must be 0..64 pixels");
+  require (std::isfinite (max_depth_jump) && max_depth_jump > 0.f, "--max-depth-jump", "must be positive");
+}
+
+void
+GeometricSegmentationConfig::validate () const
+{
+  concavity.validate ();
+  discontinuity.validate ();
+  labeling.validate ();
+}
+
+void
+SurfacePreprocessingConfig::validate () const
+{
+  require (bilateral_diameter >= 1 && bilateral_diameter <= 31, "--bilateral-diameter", "must be 1..31 pixels");
+  require (std::isfinite (range_sigma) && range_sigma > 0.f && range_sigma <= 100.f, "--range-sigma", "must lie in (0, 100] noise units");
+  require (std::isfinite (sigma_space) && sigma_space > 0.f, "--sigma-space", "must be positive");
+  require (normal_step >= 1 && normal_step <= 16, "--normal-step", "must be 1..16 pixels");
+  require (std::isfinite (max_depth_jump) && max_depth_jump > 0.f, "--max-depth-jump", "must be positive");
+  require (std::isfinite (integral_smoothing) && integral_smoothing >= 1.f, "--normal-smoothing", "must be at least 1");
+}
+
+void
+SupportPlaneConfig::validate () const
+{
+  require (std::isfinite (distance_threshold) && distance_threshold > 0.f, "--plane-distance", "must be positive");
+  require (max_iterations >= 1, "--plane-iterations", "must be at least 1");
+  require (sample_step >= 1, "--plane-sample-step", "must be at least 1");
+  require (min_plane_fraction >= 0.f && min_plane_fraction <= 1.f, "--min-plane-fraction", "must lie in [0, 1]");
+  require (min_segment_inlier_fraction > 0.f && min_segment_inlier_fraction <= 1.f, "--plane-segment-fraction",
+           "must lie in (0, 1]");
+  require (max_normal_angle_deg >= 0.f && max_normal_angle_deg <= 90.f, "--plane-normal-angle", "must be 0..90 degrees");
+}
+}  // namespace segmentation
+}  // namespace cuefusion

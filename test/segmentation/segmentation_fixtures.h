@@ -1,0 +1,154 @@
+#pragma once
+// Synthetic organized views with exact instance masks for the segmentation tests.
+
+#include "test_utils.h"
+
+#include <cuefusion/common/label_colors.h>
+#include <cuefusion/io/scene_renderer.h>
+#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/segmentation/geometric_segmentation.h>
+#include <cuefusion/segmentation/surface_preprocessing.h>
+
+#include <pcl/point_types.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cstdlib>
+#include <map>
+#include <string>
+
+namespace cuefusion
+{
+namespace test
+{
+/** Camera-to-world pose at \a eye looking at \a target, world z up (x right, y down). */
+inline Eigen::Isometry3d
+lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target)
+{
+  const Eigen::Vector3d forward = (target - eye).normalized ();
+  const Eigen::Vector3d right = forward.cross (Eigen::Vector3d::UnitZ ()).normalized ();
+  const Eigen::Vector3d down = forward.cross (right);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
+  pose.linear ().col (0) = right;
+  pose.linear ().col (1) = down;
+  pose.linear ().col (2) = forward;
+  pose.translation () = eye;
+  return pose;
+}
+
+/** One rendered view and its geometric segmentation. */
+struct SegmentedView
+{
+  io::RenderedView view;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr smoothed;
+  pcl::PointCloud<pcl::Normal>::Ptr normals;
+  cv::Mat labels;  ///< CV_32S L^G
+};
+
+/** Organized cloud of a rendered depth map (NaN where depth is 0). */
+inline pcl::PointCloud<pcl::PointXYZ>::Ptr
+cloudFromDepth (const cv::Mat& depth, const PinholeCamera& camera)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ> (depth.cols, depth.rows));
+  cloud->is_dense = false;
+  for (int y = 0; y < depth.rows; ++y)
+    for (int x = 0; x < depth.cols; ++x)
+    {
+      const float z = depth.at<float> (y, x);
+      pcl::PointXYZ& p = (*cloud) (x, y);
+      if (z > 0.f)
+        p = pcl::PointXYZ (static_cast<float> ((x - camera.cx) / camera.fx) * z,
+                           static_cast<float> ((y - camera.cy) / camera.fy) * z, z);
+      else
+        p.x = p.y = p.z = std::numeric_limits<float>::quiet_NaN ();
+    }
+  return cloud;
+}
+
+/** Renders \a scene_body (object lines) from \a eye towards \a target at 640×480 and
+  * segments it with the default configuration (or \a config).
+  */
+inline SegmentedView
+segmentScene (const std::string& scene_body, const Eigen::Vector3d& eye, const Eigen::Vector3d& target, bool noise,
+              const segmentation::GeometricSegmentationConfig& config = segmentation::GeometricSegmentationConfig ())
+{
+  const io::SyntheticScene scene =
+    io::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + scene_body, "test scene");
+  io::DepthNoiseConfig noise_config;
+  noise_config.enabled = noise;
+  SegmentedView out;
+  out.view = io::SceneRenderer (scene).render (scene.camera, lookAt (eye, target), noise_config, 7);
+  out.cloud = cloudFromDepth (out.view.depth, scene.camera);
+  out.smoothed.reset (new pcl::PointCloud<pcl::PointXYZ>);
+  out.normals.reset (new pcl::PointCloud<pcl::Normal>);
+  segmentation::SurfacePreprocessing<pcl::PointXYZ> preprocessing;
+  preprocessing.setInputCloud (out.cloud);
+  preprocessing.compute (*out.smoothed, *out.normals);
+  segmentation::GeometricSegmentation<pcl::PointXYZ, pcl::Normal> segmentation (config);
+  segmentation.setInputCloud (out.smoothed);
+  segmentation.setInputNormals (out.normals);
+  pcl::PointCloud<pcl::Label> labels;
+  segmentation.segment (labels);
+  out.labels = segmentation.getLabelImage ().clone ();
+  // For looking at a failure: CUEFUSION_TEST_DUMP=DIR writes labels | edges | truth PNGs.
+  if (const char* dir = std::getenv ("CUEFUSION_TEST_DUMP"))
+  {
+    static int counter = 0;
+    cv::Mat edges;
+    cv::merge (std::vector<cv::Mat>{cv::Mat::zeros (out.labels.size (), CV_8U), segmentation.getDiscontinuityEdges () * 255,
+                                    segmentation.getConcavityEdges () * 255},
+               edges);
+    cv::Mat truth;
+    out.view.instance.convertTo (truth, CV_32S);
+    cv::Mat row;
+    cv::hconcat (std::vector<cv::Mat>{colorizeLabels (out.labels), edges, colorizeLabels (truth)}, row);
+    cv::imwrite (std::string (dir) + "/view" + std::to_string (counter++) + ".png", row);
+  }
+  return out;
+}
+
+/** How one ground-truth object of a view is segmented. */
+struct ObjectScore
+{
+  int pixels = 0;          ///< visible pixels of the object
+  double best_iou = 0.0;   ///< IoU with the segment that overlaps it most
+  double coverage = 0.0;   ///< share of the object's pixels in that segment
+  int best_label = 0;
+  int segments = 0;        ///< segments holding ≥ 10 % of the object's pixels
+};
+
+inline ObjectScore
+scoreObject (const SegmentedView& s, std::uint16_t id)
+{
+  std::map<int, int> overlap, segment_size;
+  ObjectScore score;
+  for (int y = 0; y < s.labels.rows; ++y)
+    for (int x = 0; x < s.labels.cols; ++x)
+    {
+      const int label = s.labels.at<std::int32_t> (y, x);
+      if (label > 0)
+        ++segment_size[label];
+      if (s.view.instance.at<std::uint16_t> (y, x) == id)
+      {
+        ++score.pixels;
+        if (label > 0)
+          ++overlap[label];
+      }
+    }
+  for (const auto& [label, count] : overlap)
+  {
+    const double iou = static_cast<double> (count) / (score.pixels + segment_size[label] - count);
+    if (iou > score.best_iou)
+    {
+      score.best_iou = iou;
+      score.best_label = label;
+      score.coverage = static_cast<double> (count) / score.pixels;
+    }
+    if (count >= 0.1 * score.pixels)
+      ++score.segments;
+  }
+  return score;
+}
+}  // namespace test
+}  // namespace cuefusion

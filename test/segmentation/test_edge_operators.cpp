@@ -1,0 +1,270 @@
+// The §4.2.1.1 operators on analytic geometry, labelEdgeMap, and bad input.
+#include "segmentation_fixtures.h"
+
+#include <cuefusion/segmentation/concavity_edge_estimation.h>
+#include <cuefusion/segmentation/depth_discontinuity_edge_estimation.h>
+#include <cuefusion/segmentation/edge_operators.h>
+#include <cuefusion/segmentation/support_plane_removal.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+using namespace cuefusion;
+using namespace cuefusion::segmentation;
+
+namespace
+{
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using Normals = pcl::PointCloud<pcl::Normal>;
+
+/** An organized "depth image" of a surface z = f(column) seen along +z, 1 mm pixels,
+  * with exact normals from \a normal(column).
+  */
+template <typename F, typename N>
+void
+makeRidge (int w, int h, F depth, N normal, Cloud::Ptr& cloud, Normals::Ptr& normals)
+{
+  cloud.reset (new Cloud (w, h));
+  normals.reset (new Normals (w, h));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+    {
+      (*cloud) (x, y) = pcl::PointXYZ (0.001f * (x - w / 2), 0.001f * (y - h / 2), depth (x));
+      const Eigen::Vector3f n = normal (x);
+      (*normals) (x, y).getNormalVector3fMap () = n;
+    }
+}
+
+// A V-shaped valley (concave) or a roof (convex) with 45° faces meeting at column 20.
+void
+makeCrease (bool concave, Cloud::Ptr& cloud, Normals::Ptr& normals)
+{
+  const float s = concave ? 1.f : -1.f;
+  makeRidge (
+    41, 9, [s] (int x) { return 1.f - s * 0.001f * std::abs (x - 20); },
+    [s] (int x) {
+      const float side = x < 20 ? -1.f : (x > 20 ? 1.f : 0.f);
+      return Eigen::Vector3f (-s * side, 0.f, -1.f).normalized ();
+    },
+    cloud, normals);
+}
+}  // namespace
+
+TEST (EdgeOperators, PhiIsOneOnConvexAndDotProductOnConcaveNeighbours)
+{
+  const Eigen::Vector3f v (0, 0, 1), n (0, 0, -1);
+  // Neighbour behind the tangent plane (further from the camera): convex.
+  EXPECT_EQ (concavityTerm (v, n, Eigen::Vector3f (0.01f, 0, 1.01f), Eigen::Vector3f (1, 0, -1).normalized ()), 1.f);
+  // In front of it: concave, Φ_i = n·n_i = cos 45°.
+  EXPECT_NEAR (concavityTerm (v, n, Eigen::Vector3f (0.01f, 0, 0.99f), Eigen::Vector3f (-1, 0, -1).normalized ()),
+               std::sqrt (0.5f), 1e-6f);
+  EXPECT_NEAR (concavityTermSymmetric (v, n, Eigen::Vector3f (0.01f, 0, 0.99f), Eigen::Vector3f (-1, 0, -1).normalized ()),
+               std::sqrt (0.5f), 1e-6f);
+  EXPECT_EQ (concavityTermSymmetric (v, n, Eigen::Vector3f (0.01f, 0, 1.01f), Eigen::Vector3f (1, 0, -1).normalized ()), 1.f);
+  EXPECT_NEAR (discontinuityTerm (v, n, Eigen::Vector3f (0.5f, 0.5f, 1.2f)), 0.2f, 1e-6f);
+}
+
+TEST (ConcavityEdgeEstimation, MarksTheValleyNotTheRoof)
+{
+  for (const ConvexityTest test : {ConvexityTest::TangentPlane, ConvexityTest::NormalDivergence})
+  {
+    Cloud::Ptr cloud;
+    Normals::Ptr normals;
+    ConcavityEdgeConfig config;
+    config.convexity_test = test;
+    ConcavityEdgeEstimation<pcl::PointXYZ, pcl::Normal> concavity (config);
+    pcl::PointCloud<pcl::Label> edges;
+    pcl::PointCloud<pcl::Intensity> phi;
+
+    makeCrease (true, cloud, normals);
+    concavity.setInputCloud (cloud);
+    concavity.setInputNormals (normals);
+    concavity.compute (edges, &phi);
+    ASSERT_EQ (edges.width, 41u);
+    ASSERT_EQ (edges.height, 9u);
+    for (int x = 0; x < 41; ++x)
+    {
+      // Pixels beside the crease see a neighbour on the other face: Φ = n·n_i = cos 90° = 0.
+      const bool at_crease = std::abs (x - 20) <= 1;
+      EXPECT_EQ (edges (x, 4).label, at_crease ? 1u : 0u) << "x " << x;
+      if (!at_crease)
+      {
+        EXPECT_FLOAT_EQ (phi (x, 4).intensity, 1.f) << "x " << x;
+      }
+    }
+    EXPECT_NEAR (phi (19, 4).intensity, std::sqrt (0.5f), 1e-6f);  // the ridge pixel's normal is halfway
+
+    makeCrease (false, cloud, normals);
+    concavity.setInputCloud (cloud);
+    concavity.setInputNormals (normals);
+    concavity.compute (edges);
+    // The tangent-plane test of the reference ties on an exactly sampled ridge: the ridge
+    // point lies on the tangent plane of its neighbours, which then count as concave.
+    for (int x = 0; x < 41; ++x)
+      if (test == ConvexityTest::NormalDivergence || std::abs (x - 20) != 1)
+      {
+        EXPECT_EQ (edges (x, 4).label, 0u) << "x " << x;
+      }
+  }
+}
+
+TEST (ConcavityEdgeEstimation, SymmetricTestKeepsRoundedConvexEdgesClean)
+{
+  // A roof whose normals were smoothed (they turn linearly over ±5 px around the ridge),
+  // as any normal estimator leaves a sharp convex edge. The tangent-plane test of the
+  // reference then sees false concavities next to the ridge; the symmetric test does not.
+  Cloud::Ptr cloud;
+  Normals::Ptr normals;
+  makeRidge (
+    41, 9, [] (int x) { return 1.f + 0.001f * std::abs (x - 20); },
+    [] (int x) {
+      const float t = std::max (-1.f, std::min (1.f, (x - 20) / 5.f));
+      return Eigen::Vector3f (t, 0.f, -1.f).normalized ();
+    },
+    cloud, normals);
+  pcl::PointCloud<pcl::Label> edges;
+  auto count = [&] (ConvexityTest test) {
+    ConcavityEdgeConfig config;
+    config.convexity_test = test;
+    ConcavityEdgeEstimation<pcl::PointXYZ, pcl::Normal> concavity (config);
+    concavity.setInputCloud (cloud);
+    concavity.setInputNormals (normals);
+    concavity.compute (edges);
+    int n = 0;
+    for (const auto& e : edges.points)
+      n += static_cast<int> (e.label);
+    return n;
+  };
+  EXPECT_EQ (count (ConvexityTest::NormalDivergence), 0);
+  EXPECT_GT (count (ConvexityTest::TangentPlane), 0);
+}
+
+TEST (DepthDiscontinuityEdgeEstimation, MarksAStepAndHolesButNotAFarPlane)
+{
+  // Plane at 2 m (σ_d ≈ 5 mm there) with a 3 cm step at column 20 and one NaN pixel.
+  Cloud::Ptr cloud;
+  Normals::Ptr normals;
+  makeRidge (
+    41, 9, [] (int x) { return x < 20 ? 2.f : 2.03f; }, [] (int) { return Eigen::Vector3f (0, 0, -1); }, cloud,
+    normals);
+  (*cloud) (5, 4).z = std::numeric_limits<float>::quiet_NaN ();
+  DepthDiscontinuityEdgeEstimation<pcl::PointXYZ, pcl::Normal> discontinuity;
+  discontinuity.setInputCloud (cloud);
+  discontinuity.setInputNormals (normals);
+  pcl::PointCloud<pcl::Label> edges;
+  pcl::PointCloud<pcl::Intensity> gamma;
+  discontinuity.compute (edges, &gamma);
+  for (int x = 0; x < 41; ++x)
+  {
+    const bool expected = x == 19 || x == 20 || std::abs (x - 5) == 1;
+    EXPECT_EQ (edges (x, 4).label, expected ? 1u : 0u) << "x " << x;
+  }
+  EXPECT_NEAR (gamma (19, 4).intensity, 0.03f, 1e-4f);
+  EXPECT_TRUE (std::isinf (gamma (4, 4).intensity));
+  EXPECT_TRUE (std::isnan (gamma (5, 4).intensity));  // no point: no value, no edge
+  EXPECT_EQ (edges (5, 4).label, 0u);
+
+  // The threshold follows σ_d: a 3 cm step is noise to a sensor this noisy (k = 10).
+  discontinuity.setNoiseFactor (10.f);
+  discontinuity.compute (edges);
+  EXPECT_EQ (edges (19, 4).label, 0u);
+}
+
+TEST (LabelEdgeMap, ComponentsClosingSmallSegmentsAndEdgeAssignment)
+{
+  // 40×20 at 1 m; a vertical edge line at x = 20 with a 2-pixel gap; a 3×3 island.
+  cv::Mat edges = cv::Mat::zeros (20, 40, CV_8U), depth (20, 40, CV_32F, cv::Scalar (1.f));
+  for (int y = 0; y < 20; ++y)
+    if (y != 9 && y != 10)
+      edges.at<std::uint8_t> (y, 20) = 1;
+  cv::rectangle (edges, cv::Rect (30, 2, 5, 5), cv::Scalar (1));
+  EdgeLabelingConfig config;
+  config.min_segment_size = 5;
+  config.edge_assignment_radius = 0;
+  cv::Mat labels;
+  // Two closings bridge the gap: left and right halves are separate segments.
+  EXPECT_EQ (labelEdgeMap (edges, depth, config, labels), 2);
+  EXPECT_EQ (labels.at<std::int32_t> (0, 0), 1);  // raster order of first pixels
+  EXPECT_EQ (labels.at<std::int32_t> (0, 39), 2);
+  EXPECT_EQ (labels.at<std::int32_t> (10, 20), 0);  // bridged gap
+  EXPECT_EQ (labels.at<std::int32_t> (4, 32), 0);   // the closings fill the island
+  // Without closing the halves join through the gap, and the 3×3 island is a segment
+  // unless the minimum size drops it.
+  config.closing_iterations = 0;
+  EXPECT_EQ (labelEdgeMap (edges, depth, config, labels), 2);
+  EXPECT_EQ (labels.at<std::int32_t> (0, 0), labels.at<std::int32_t> (0, 39));
+  EXPECT_EQ (labels.at<std::int32_t> (4, 32), 2);
+  config.min_segment_size = 10;
+  EXPECT_EQ (labelEdgeMap (edges, depth, config, labels), 1);
+  EXPECT_EQ (labels.at<std::int32_t> (4, 32), 0);
+  config.min_segment_size = 5;
+  // Edge assignment gives the edge line to a neighbouring segment, not across a depth jump.
+  config.closing_iterations = 2;
+  config.edge_assignment_radius = 4;
+  depth.colRange (21, 40).setTo (1.5f);
+  labelEdgeMap (edges, depth, config, labels);
+  EXPECT_EQ (labels.at<std::int32_t> (0, 20), 1);
+  EXPECT_EQ (labels.at<std::int32_t> (0, 21), 2);
+  // Invalid depth is never labelled.
+  depth.at<float> (15, 5) = std::numeric_limits<float>::quiet_NaN ();
+  labelEdgeMap (edges, depth, config, labels);
+  EXPECT_EQ (labels.at<std::int32_t> (15, 5), 0);
+}
+
+TEST (SegmentationInput, BadInputIsAClearError)
+{
+  Cloud::Ptr unorganized (new Cloud);
+  unorganized->resize (100);
+  unorganized->width = 100;
+  unorganized->height = 1;
+  Cloud::Ptr nan_only (new Cloud (8, 8));
+  for (auto& p : nan_only->points)
+    p.x = p.y = p.z = std::numeric_limits<float>::quiet_NaN ();
+  Cloud::Ptr good;
+  Normals::Ptr normals;
+  makeCrease (true, good, normals);
+  Normals::Ptr small (new Normals (4, 4));
+  Normals::Ptr empty_normals (new Normals);
+
+  ConcavityEdgeEstimation<pcl::PointXYZ, pcl::Normal> concavity;
+  DepthDiscontinuityEdgeEstimation<pcl::PointXYZ, pcl::Normal> discontinuity;
+  GeometricSegmentation<pcl::PointXYZ, pcl::Normal> geometric;
+  SurfacePreprocessing<pcl::PointXYZ> preprocessing;
+  pcl::PointCloud<pcl::Label> labels;
+  Cloud out;
+  Normals out_normals;
+  const std::vector<std::pair<Cloud::Ptr, std::string>> bad = {
+    {unorganized, "not organized"}, {nan_only, "no finite point"}, {Cloud::Ptr (new Cloud), "empty"}};
+  for (const auto& [cloud, what] : bad)
+  {
+    const Normals::Ptr same_size (new Normals (cloud->width, std::max (cloud->height, 1u)));
+    same_size->resize (cloud->size ());
+    same_size->width = cloud->width;
+    same_size->height = cloud->height;
+    concavity.setInputCloud (cloud);
+    concavity.setInputNormals (same_size);
+    test::expectError ([&] { concavity.compute (labels); }, "ConcavityEdgeEstimation", what);
+    discontinuity.setInputCloud (cloud);
+    discontinuity.setInputNormals (same_size);
+    test::expectError ([&] { discontinuity.compute (labels); }, "DepthDiscontinuityEdgeEstimation", what);
+    geometric.setInputCloud (cloud);
+    geometric.setInputNormals (same_size);
+    test::expectError ([&] { geometric.segment (labels); }, "GeometricSegmentation", what);
+    preprocessing.setInputCloud (cloud);
+    test::expectError ([&] { preprocessing.compute (out, out_normals); }, "SurfacePreprocessing", what);
+  }
+  concavity.setInputCloud (good);
+  concavity.setInputNormals (small);
+  test::expectError ([&] { concavity.compute (labels); }, "ConcavityEdgeEstimation", "normals are 4x4");
+  geometric.setInputCloud (good);
+  geometric.setInputNormals (empty_normals);
+  test::expectError ([&] { geometric.segment (labels); }, "GeometricSegmentation", "normals are 0x0");
+  geometric.setInputNormals (nullptr);
+  test::expectError ([&] { geometric.segment (labels); }, "GeometricSegmentation", "no input normals");
+
+  ConcavityEdgeConfig config;
+  config.threshold = 1.5f;
+  EXPECT_THROW (concavity.setConfig (config), ParameterError);
+  EXPECT_THROW (discontinuity.setNoiseFactor (-1.f), ParameterError);
+  EXPECT_THROW (concavity.setNeighbourStep (0), ParameterError);
+}

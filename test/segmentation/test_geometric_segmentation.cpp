@@ -1,0 +1,171 @@
+// GeometricSegmentation (§4.2.1.1) on synthetic views, scored against the generator's
+// exact instance masks; the edge operators on analytic geometry; bad input.
+#include "segmentation_fixtures.h"
+
+#include <cuefusion/segmentation/concavity_edge_estimation.h>
+#include <cuefusion/segmentation/depth_discontinuity_edge_estimation.h>
+#include <cuefusion/segmentation/support_plane_removal.h>
+
+#include <gtest/gtest.h>
+
+using namespace cuefusion;
+using test::scoreObject;
+using test::segmentScene;
+
+namespace
+{
+const std::string kTable = "object table class=table color=140,100,60 detectable=no\n"
+                           "  box center=0,0,0.72 size=1.2,0.8,0.04\n";
+// Object ids follow file order: the table is 1.
+const std::string kTwoBoxes = kTable +
+                              "object box_a class=box color=220,120,30\n"
+                              "  box center=-0.07,0,0.84 size=0.14,0.10,0.20\n"
+                              "object box_b class=box color=30,170,190\n"
+                              "  box center=0.07,0.02,0.81 size=0.14,0.06,0.14\n";
+const std::string kConvex = kTable +
+                            "object box class=box color=200,40,40\n"
+                            "  box center=-0.25,0.05,0.80 size=0.16,0.12,0.12 yaw=30\n"
+                            "object ball class=ball color=40,60,210\n"
+                            "  sphere center=0.0,-0.05,0.81 radius=0.07\n"
+                            "object can class=can color=40,160,80\n"
+                            "  cylinder center=0.25,0.05,0.82 radius=0.05 height=0.16\n";
+const std::string kLBlock = kTable +
+                            "object lblock class=block color=150,60,170\n"
+                            "  box center=0.0,0.0,0.79 size=0.20,0.06,0.10\n"
+                            "  box center=-0.07,-0.08,0.79 size=0.06,0.10,0.10\n";  // inner corner faces the camera
+const std::string kWall = "object floor class=floor color=170,165,150 detectable=no\n"
+                          "  box center=0,0,-0.01 size=4,4,0.02\n"
+                          "object wall class=wall color=200,200,190 detectable=no\n"
+                          "  box center=0,1.2,1.0 size=4,0.1,2.0\n"
+                          "object crate class=box color=200,120,40\n"
+                          "  box center=0,0.5,0.7 size=0.3,0.3,0.3\n";  // floats 0.55 m above the floor, 0.5 m before the wall
+
+const Eigen::Vector3d kTableTarget (0.0, 0.0, 0.8);
+const Eigen::Vector3d kObliqueEye (0.45, -0.85, 1.3);
+}  // namespace
+
+// Thresholds, stated before running: noise-free views reproduce each object closely
+// (IoU ≥ 0.85: the edge band is given back to the segments, but faces seen at grazing
+// angles, a few pixels wide, are all depth edge and stay 0); with the Kinect noise model
+// on, IoU ≥ 0.75 and convex objects stay in one piece.
+
+TEST (GeometricSegmentation, TouchingBoxesAreSeparatedByTheConcaveSeam)
+{
+  for (const bool noise : {false, true})
+  {
+    const auto s = segmentScene (kTwoBoxes, kObliqueEye, kTableTarget, noise);
+    const auto a = scoreObject (s, 2), b = scoreObject (s, 3);
+    ASSERT_GT (a.pixels, 2000);
+    ASSERT_GT (b.pixels, 2000);
+    EXPECT_NE (a.best_label, b.best_label) << "noise " << noise;
+    EXPECT_GE (a.best_iou, noise ? 0.75 : 0.85) << "noise " << noise;
+    EXPECT_GE (b.best_iou, noise ? 0.75 : 0.85) << "noise " << noise;
+  }
+}
+
+TEST (GeometricSegmentation, WithoutConcavityEdgesTouchingBoxesMerge)
+{
+  // Ablation: the concave seam is the only cue between the two boxes.
+  segmentation::GeometricSegmentationConfig config;
+  config.use_concavity_edges = false;
+  const auto s = segmentScene (kTwoBoxes, kObliqueEye, kTableTarget, false, config);
+  EXPECT_EQ (scoreObject (s, 2).best_label, scoreObject (s, 3).best_label);
+}
+
+TEST (GeometricSegmentation, BoxIsSeparatedFromTheTable)
+{
+  for (const bool noise : {false, true})
+  {
+    const auto s = segmentScene (kTwoBoxes, Eigen::Vector3d (-0.5, -0.9, 1.35), kTableTarget, noise);
+    const auto table = scoreObject (s, 1), a = scoreObject (s, 2);
+    EXPECT_NE (table.best_label, a.best_label) << "noise " << noise;
+    EXPECT_GE (a.best_iou, noise ? 0.75 : 0.85) << "noise " << noise;
+    EXPECT_GE (table.best_iou, noise ? 0.75 : 0.85) << "noise " << noise;
+  }
+}
+
+TEST (GeometricSegmentation, ConvexObjectsSeenObliquelyStayWhole)
+{
+  for (const bool noise : {false, true})
+  {
+    const auto s = segmentScene (kConvex, kObliqueEye, kTableTarget, noise);
+    for (const std::uint16_t id : {2, 3, 4})
+    {
+      const auto score = scoreObject (s, id);
+      ASSERT_GT (score.pixels, 1500) << "object " << id;
+      EXPECT_EQ (score.segments, 1) << "object " << id << " noise " << noise;
+      EXPECT_GE (score.coverage, noise ? 0.85 : 0.9) << "object " << id << " noise " << noise;
+      EXPECT_GE (score.best_iou, noise ? 0.75 : 0.85) << "object " << id << " noise " << noise;
+    }
+  }
+}
+
+TEST (GeometricSegmentation, ObjectBeforeAWallIsCutAtTheDepthJump)
+{
+  for (const bool noise : {false, true})
+  {
+    const auto s = segmentScene (kWall, Eigen::Vector3d (0.2, -1.2, 1.0), Eigen::Vector3d (0, 0.5, 0.7), noise);
+    const auto crate = scoreObject (s, 3), wall = scoreObject (s, 2);
+    ASSERT_GT (crate.pixels, 5000);
+    EXPECT_NE (crate.best_label, wall.best_label);
+    EXPECT_EQ (crate.segments, 1) << "noise " << noise;
+    EXPECT_GE (crate.best_iou, noise ? 0.75 : 0.85) << "noise " << noise;
+  }
+}
+
+TEST (GeometricSegmentation, NonConvexBlocks)
+{
+  // Documented behaviour. An extruded L (the tabletop scene's block) has a concave
+  // vertical crease, which is marked, but its flat top joins both arms: one segment.
+  {
+    const auto s = segmentScene (kLBlock, kObliqueEye, kTableTarget, false);
+    const auto block = scoreObject (s, 2);
+    ASSERT_GT (block.pixels, 2000);
+    EXPECT_EQ (block.segments, 1);
+    EXPECT_GE (block.best_iou, 0.85);
+    EXPECT_NE (block.best_label, scoreObject (s, 1).best_label);
+  }
+  // With one arm taller, the crease runs all round and the concavity cue cuts the block
+  // into its two convex parts; the instance cue (InstanceGuidedRegionMerge) re-unites them.
+  {
+    std::string stepped = kLBlock;
+    stepped.replace (stepped.find ("center=-0.07,-0.08,0.79 size=0.06,0.10,0.10"),
+                     std::string ("center=-0.07,-0.08,0.79 size=0.06,0.10,0.10").size (),
+                     "center=-0.07,-0.08,0.815 size=0.06,0.10,0.15");
+    const auto s = segmentScene (stepped, kObliqueEye, kTableTarget, false);
+    const auto block = scoreObject (s, 2);
+    ASSERT_GT (block.pixels, 2000);
+    EXPECT_EQ (block.segments, 2);
+    EXPECT_LT (block.coverage, 0.9);
+  }
+}
+
+TEST (GeometricSegmentation, LabelsAreValidDepthOnlyAndRepeatable)
+{
+  const auto s1 = segmentScene (kConvex, kObliqueEye, kTableTarget, true);
+  const auto s2 = segmentScene (kConvex, kObliqueEye, kTableTarget, true);
+  EXPECT_EQ (cv::countNonZero (s1.labels != s2.labels), 0);
+  for (int y = 0; y < s1.labels.rows; ++y)
+    for (int x = 0; x < s1.labels.cols; ++x)
+      if (!(s1.view.depth.at<float> (y, x) > 0.f))
+      {
+        ASSERT_EQ (s1.labels.at<std::int32_t> (y, x), 0) << x << "," << y;
+      }
+}
+
+TEST (SupportPlaneRemoval, DropsTheTableAndKeepsTheObjects)
+{
+  auto s = segmentScene (kConvex, kObliqueEye, kTableTarget, true);
+  segmentation::SupportPlaneRemoval<pcl::PointXYZ> removal;
+  removal.setInputCloud (s.smoothed);
+  removal.setInputNormals (s.normals);
+  ASSERT_TRUE (removal.apply (s.labels));
+  // The table top is z = 0.74 in the world: its normal is the camera's view of world up.
+  const Eigen::Isometry3d pose = test::lookAt (kObliqueEye, kTableTarget);
+  const Eigen::Vector3f up = (pose.linear ().transpose () * Eigen::Vector3d::UnitZ ()).cast<float> ();
+  EXPECT_GT (std::abs (removal.getPlane ().head<3> ().dot (up)), 0.99f);
+  const auto table = scoreObject (s, 1);
+  EXPECT_LT (table.best_iou, 0.05);
+  for (const std::uint16_t id : {2, 3, 4})
+    EXPECT_GE (scoreObject (s, id).best_iou, 0.75) << "object " << id;
+}
