@@ -4,7 +4,9 @@
 
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
@@ -63,6 +65,23 @@ expectError (F f, const std::string& file, const std::string& what)
     EXPECT_NE (msg.find (what), std::string::npos) << msg;
     EXPECT_EQ (msg.find ('\n'), std::string::npos) << msg;
   }
+}
+
+/** Exit code and output of one run of the cuefusion binary. */
+struct CommandResult
+{
+  int code;
+  std::string out, err;
+};
+
+/** Runs `cuefusion ARGS`, stdout and stderr captured into files of \a dir. */
+inline CommandResult
+runCuefusion (const std::string& args, const TempDir& dir)
+{
+  const std::string cmd = std::string (CUEFUSION_BINARY) + " " + args + " >" + (dir / "out.txt") + " 2>" +
+                          (dir / "err.txt") + " </dev/null";
+  const int status = std::system (cmd.c_str ());
+  return {WIFEXITED (status) ? WEXITSTATUS (status) : -1, readFile (dir / "out.txt"), readFile (dir / "err.txt")};
 }
 
 inline std::string

@@ -47,7 +47,9 @@ main (int argc, char** argv)
     std::cerr << "cuefusion: unknown command '" << command << "'\n" << kUsage;
     return 2;
   }
-  pcl::console::setVerbosityLevel (pcl::console::L_ERROR);
+  // Errors reach the user as one line from the command (cuefusion::Error); PCL's own
+  // console messages would add a second, so they are off.
+  pcl::console::setVerbosityLevel (pcl::console::L_ALWAYS);
   try
   {
     return it->second (std::vector<std::string> (argv + 2, argv + argc));

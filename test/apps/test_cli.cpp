@@ -15,11 +15,7 @@ using namespace cuefusion;
 
 namespace
 {
-struct Result
-{
-  int code;
-  std::string out, err;
-};
+using Result = test::CommandResult;
 
 class Cli : public ::testing::Test
 {
@@ -27,11 +23,7 @@ protected:
   Result
   run (const std::string& args)
   {
-    const std::string cmd = std::string (CUEFUSION_BINARY) + " " + args + " >" + (dir / "out.txt") + " 2>" +
-                            (dir / "err.txt") + " </dev/null";
-    const int status = std::system (cmd.c_str ());
-    return {WIFEXITED (status) ? WEXITSTATUS (status) : -1, test::readFile (dir / "out.txt"),
-            test::readFile (dir / "err.txt")};
+    return test::runCuefusion (args, dir);
   }
   static int
   lines (const std::string& s)
@@ -60,7 +52,7 @@ TEST_F (Cli, UsageErrorsExitWith2)
 
 TEST_F (Cli, HelpForEveryCommand)
 {
-  for (const char* command : {"--help", "synth --help", "info --help", "run --help"})
+  for (const char* command : {"--help", "synth --help", "info --help", "run --help", "segment-frame --help"})
   {
     const Result r = run (command);
     EXPECT_EQ (r.code, 0) << command;

@@ -1,0 +1,169 @@
+// `cuefusion segment-frame` on generated organized clouds and depth images.
+#include "segmentation_fixtures.h"
+
+#include <cuefusion/io/camera_io.h>
+#include <cuefusion/io/file_io.h>
+
+#include <boost/filesystem.hpp>
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <pcl/io/pcd_io.h>
+
+using namespace cuefusion;
+
+namespace
+{
+const char* kScene = "object table class=table color=140,100,60 detectable=no\n"
+                     "  box center=0,0,0.72 size=1.2,0.8,0.04\n"
+                     "object box class=box color=200,40,40\n"
+                     "  box center=-0.15,0.05,0.80 size=0.16,0.12,0.12 yaw=30\n"
+                     "object ball class=ball color=40,60,210\n"
+                     "  sphere center=0.12,-0.05,0.81 radius=0.07\n";
+
+class SegmentFrame : public ::testing::Test
+{
+protected:
+  void
+  SetUp () override
+  {
+    view = test::segmentScene (kScene, Eigen::Vector3d (0.3, -0.8, 1.35), Eigen::Vector3d (0, 0, 0.8), true);
+    // The OSD layout: organized x y z rgba.
+    pcl::PointCloud<pcl::PointXYZRGBA> cloud (view.cloud->width, view.cloud->height);
+    for (std::size_t i = 0; i < cloud.size (); ++i)
+    {
+      cloud[i].getVector3fMap () = (*view.cloud)[i].getVector3fMap ();
+      cloud[i].r = 10;
+      cloud[i].g = 20;
+      cloud[i].b = 30;
+      cloud[i].a = 255;
+    }
+    boost::filesystem::create_directories (dir / "in");
+    pcd = dir / "in/view.pcd";
+    ASSERT_EQ (pcl::io::savePCDFileBinaryCompressed (pcd, cloud), 0);
+  }
+
+  /** The label field of an organized output PCD as an image. */
+  cv::Mat
+  readLabels (const std::string& path, pcl::PointCloud<pcl::PointXYZRGBL>& out)
+  {
+    EXPECT_EQ (pcl::io::loadPCDFile (path, out), 0) << path;
+    cv::Mat labels (static_cast<int> (out.height), static_cast<int> (out.width), CV_32S);
+    for (int y = 0; y < labels.rows; ++y)
+      for (int x = 0; x < labels.cols; ++x)
+        labels.at<std::int32_t> (y, x) = static_cast<std::int32_t> (out (x, y).label);
+    return labels;
+  }
+
+  test::TempDir dir;
+  test::SegmentedView view;
+  std::string pcd;
+};
+}  // namespace
+
+TEST_F (SegmentFrame, OrganizedPCDInLabelledPCDOut)
+{
+  const auto r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "out.pcd") + " --png " +
+                                       (dir / "labels.png") + " --verbose",
+                                     dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_NE (r.out.find ("segments; ms: load"), std::string::npos) << r.out;
+  pcl::PointCloud<pcl::PointXYZRGBL> out;
+  view.labels = readLabels (dir / "out.pcd", out);
+  ASSERT_EQ (out.width, 640u);
+  ASSERT_EQ (out.height, 480u);
+  EXPECT_EQ (out (320, 240).r, 10);
+  for (const std::uint16_t id : {2, 3})
+    EXPECT_GE (test::scoreObject (view, id).best_iou, 0.75) << "object " << id;
+  for (int y = 0; y < view.labels.rows; ++y)
+    for (int x = 0; x < view.labels.cols; ++x)
+      if (!std::isfinite (out (x, y).z))
+      {
+        ASSERT_EQ (view.labels.at<std::int32_t> (y, x), 0);
+      }
+  const cv::Mat png = cv::imread (dir / "labels.png", cv::IMREAD_COLOR);
+  EXPECT_EQ (png.cols, 640);
+  EXPECT_EQ (png.rows, 480);
+}
+
+TEST_F (SegmentFrame, DropSupportPlaneLeavesOnlyObjects)
+{
+  const auto r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "out.pcd") + " --drop-support-plane", dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  pcl::PointCloud<pcl::PointXYZRGBL> out;
+  view.labels = readLabels (dir / "out.pcd", out);
+  EXPECT_LT (test::scoreObject (view, 1).best_iou, 0.05);  // the table
+  for (const std::uint16_t id : {2, 3})
+    EXPECT_GE (test::scoreObject (view, id).best_iou, 0.75) << "object " << id;
+}
+
+TEST_F (SegmentFrame, DepthPNGWithIntrinsicsAndFolders)
+{
+  // The same view as a 16-bit depth PNG (mm) in a folder next to the PCD.
+  io::writeImageAtomic (dir / "in/depth.png", io::depthToRaw (view.view.depth, 1000.0));
+  PinholeCamera camera;
+  camera.width = 640;
+  camera.height = 480;
+  camera.fx = camera.fy = 525;
+  camera.cx = 319.5;
+  camera.cy = 239.5;
+  io::writeIntrinsicsLine (dir / "intrinsics.txt", camera);
+  const auto r = test::runCuefusion ("segment-frame " + (dir / "in") + " --out " + (dir / "out") + " --png " +
+                                       (dir / "png") + " --intrinsics " + (dir / "intrinsics.txt") + " --timings " +
+                                       (dir / "t.json"),
+                                     dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  for (const char* name : {"out/depth.pcd", "out/view.pcd", "png/depth.png", "png/view.png", "t.json"})
+    EXPECT_TRUE (boost::filesystem::exists (dir / name)) << name;
+  pcl::PointCloud<pcl::PointXYZRGBL> from_png, from_pcd;
+  const cv::Mat a = readLabels (dir / "out/depth.pcd", from_png);
+  view.labels = a;
+  for (const std::uint16_t id : {2, 3})
+    EXPECT_GE (test::scoreObject (view, id).best_iou, 0.75) << "object " << id;
+}
+
+TEST_F (SegmentFrame, BadInputIsOneLine)
+{
+  // An unorganized PCD.
+  pcl::PointCloud<pcl::PointXYZ> flat;
+  flat.push_back (pcl::PointXYZ (0, 0, 1));
+  flat.push_back (pcl::PointXYZ (0, 1, 1));
+  ASSERT_EQ (pcl::io::savePCDFileASCII (dir / "flat.pcd", flat), 0);
+  auto r = test::runCuefusion ("segment-frame " + (dir / "flat.pcd") + " --out " + (dir / "o.pcd"), dir);
+  EXPECT_EQ (r.code, 1);
+  EXPECT_NE (r.err.find ("flat.pcd"), std::string::npos) << r.err;
+  EXPECT_NE (r.err.find ("not organized"), std::string::npos) << r.err;
+  EXPECT_EQ (std::count (r.err.begin (), r.err.end (), '\n'), 1) << r.err;
+  EXPECT_FALSE (boost::filesystem::exists (dir / "o.pcd"));
+
+  // Corrupt and missing files.
+  test::writeFile (dir / "junk.pcd", "this is not a PCD\n");
+  r = test::runCuefusion ("segment-frame " + (dir / "junk.pcd") + " --out " + (dir / "o.pcd"), dir);
+  EXPECT_EQ (r.code, 1);
+  EXPECT_NE (r.err.find ("junk.pcd"), std::string::npos) << r.err;
+  r = test::runCuefusion ("segment-frame " + (dir / "missing.pcd") + " --out " + (dir / "o.pcd"), dir);
+  EXPECT_EQ (r.code, 1);
+  EXPECT_NE (r.err.find ("missing.pcd"), std::string::npos) << r.err;
+
+  // An all-NaN organized cloud.
+  pcl::PointCloud<pcl::PointXYZ> nan_cloud (8, 8);
+  for (auto& p : nan_cloud.points)
+    p.x = p.y = p.z = std::numeric_limits<float>::quiet_NaN ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (dir / "nan.pcd", nan_cloud), 0);
+  r = test::runCuefusion ("segment-frame " + (dir / "nan.pcd") + " --out " + (dir / "o.pcd"), dir);
+  EXPECT_EQ (r.code, 1);
+  EXPECT_NE (r.err.find ("no finite point"), std::string::npos) << r.err;
+
+  // Usage: depth PNG without intrinsics, absurd parameters.
+  io::writeImageAtomic (dir / "depth.png", cv::Mat (48, 64, CV_16U, cv::Scalar (1000)));
+  r = test::runCuefusion ("segment-frame " + (dir / "depth.png") + " --out " + (dir / "o.pcd"), dir);
+  EXPECT_EQ (r.code, 2);
+  EXPECT_NE (r.err.find ("--intrinsics"), std::string::npos) << r.err;
+  for (const char* bad : {"--concavity-threshold 2", "--noise-factor -1", "--closings 99", "--normals sobel",
+                          "--range-sigma 0", "--normal-step 0"})
+  {
+    r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "o.pcd") + " " + bad, dir);
+    EXPECT_EQ (r.code, 2) << bad;
+    EXPECT_NE (r.err.find (std::string (bad).substr (0, std::string (bad).find (' '))), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE (boost::filesystem::exists (dir / "o.pcd"));
+}
