@@ -25,7 +25,7 @@ import tempfile
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_reconstruction import machine  # noqa: E402
 
-STAGES = ["smoothing_ms", "normals_ms", "concavity_ms", "discontinuity_ms", "labeling_ms", "segmentation_ms", "plane_ms"]
+STAGES = ["smoothing_ms", "normals_ms", "edges_ms", "labeling_ms", "segmentation_ms", "plane_ms"]
 PEER_STAGES = ["normals_ms", "planes_ms", "clusters_ms", "segmentation_ms"]
 
 ABLATIONS = [

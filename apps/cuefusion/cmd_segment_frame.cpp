@@ -165,9 +165,9 @@ edgePicture (const cv::Mat& concavity, const cv::Mat& discontinuity, const Cloud
 
 struct FrameTimes
 {
-  double load_ms = 0, smoothing_ms = 0, normals_ms = 0, concavity_ms = 0, discontinuity_ms = 0, labeling_ms = 0,
+  double load_ms = 0, smoothing_ms = 0, normals_ms = 0, edges_ms = 0, labeling_ms = 0,
          plane_ms = 0, write_ms = 0;
-  double segmentation () const { return smoothing_ms + normals_ms + concavity_ms + discontinuity_ms + labeling_ms; }
+  double segmentation () const { return smoothing_ms + normals_ms + edges_ms + labeling_ms; }
 };
 
 std::string
@@ -286,10 +286,10 @@ runSegmentFrame (const std::vector<std::string>& args)
   segmentation::SurfacePreprocessing<pcl::PointXYZRGBA> preprocessor (pre);
   segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmenter (geo);
   segmentation::SupportPlaneRemoval<pcl::PointXYZRGBA> plane_removal (plane);
-  // Buffers reused from frame to frame, as a pipeline would.
-  Cloud::Ptr smoothed (new Cloud);
-  pcl::PointCloud<pcl::Normal>::Ptr normal_cloud (new pcl::PointCloud<pcl::Normal>);
-  pcl::PointCloud<pcl::Label> labels;
+  // Smoothed points and normals stay in SurfacePlanes, reused from frame to frame: the
+  // classes' fast path, without copies into PCL clouds (the PCL-typed interface gives the
+  // same labels).
+  segmentation::SurfacePlanes planes;
   nlohmann::json frames = nlohmann::json::array ();
   std::vector<double> totals;
   for (const std::string& path : inputs)
@@ -317,28 +317,23 @@ runSegmentFrame (const std::vector<std::string>& args)
     try
     {
       preprocessor.setInputCloud (cloud);
-      preprocessor.compute (*smoothed, *normal_cloud);
+      preprocessor.compute (planes);
       t.smoothing_ms = preprocessor.getSmoothingTime ();
       t.normals_ms = preprocessor.getNormalTime ();
-      segmenter.setInputCloud (smoothed);
-      segmenter.setInputNormals (normal_cloud);
-      segmenter.segment (labels);
+      segmenter.segment (planes);
     }
     catch (const Error& e)
     {
       throw Error (path, e.what ());
     }
     const auto& st = segmenter.getTimings ();
-    t.concavity_ms = st.concavity_ms;
-    t.discontinuity_ms = st.discontinuity_ms;
+    t.edges_ms = st.edges_ms;
     t.labeling_ms = st.labeling_ms;
     cv::Mat label_image = segmenter.getLabelImage ().clone ();
     if (drop_plane)
     {
       watch.reset ();
-      plane_removal.setInputCloud (smoothed);
-      plane_removal.setInputNormals (normal_cloud);
-      plane_removal.apply (label_image);
+      plane_removal.apply (planes, label_image);
       t.plane_ms = watch.getTime ();
     }
 
@@ -364,8 +359,7 @@ runSegmentFrame (const std::vector<std::string>& args)
                        {"load_ms", t.load_ms},
                        {"smoothing_ms", t.smoothing_ms},
                        {"normals_ms", t.normals_ms},
-                       {"concavity_ms", t.concavity_ms},
-                       {"discontinuity_ms", t.discontinuity_ms},
+                       {"edges_ms", t.edges_ms},
                        {"labeling_ms", t.labeling_ms},
                        {"segmentation_ms", t.segmentation ()},
                        {"plane_ms", t.plane_ms},
@@ -373,8 +367,7 @@ runSegmentFrame (const std::vector<std::string>& args)
     if (verbose)
       std::cout << std::fixed << std::setprecision (2) << fs::path (path).filename ().string () << ": "
                 << distinct.size () << " segments; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
-                << ", normals " << t.normals_ms << ", concavity " << t.concavity_ms << ", depth edges "
-                << t.discontinuity_ms << ", labelling " << t.labeling_ms << ", segmentation total "
+                << ", normals " << t.normals_ms << ", edges (concave + depth) " << t.edges_ms << ", labelling " << t.labeling_ms << ", segmentation total "
                 << t.segmentation () << (drop_plane ? ", plane " + std::to_string (t.plane_ms) : std::string ())
                 << ", write " << t.write_ms << "\n";
   }

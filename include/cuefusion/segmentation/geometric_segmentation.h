@@ -45,8 +45,7 @@ struct GeometricSegmentationConfig
 /** \brief Milliseconds spent per stage by the last GeometricSegmentation::segment. */
 struct GeometricSegmentationTimings
 {
-  double concavity_ms = 0.0;       ///< each of the two edge operators is charged half the copy into SurfacePlanes
-  double discontinuity_ms = 0.0;
+  double edges_ms = 0.0;      ///< both edge operators (one pass when their neighbour steps agree)
   double labeling_ms = 0.0;   ///< union, closing, connected components, small segments, edge assignment
 };
 
@@ -101,6 +100,12 @@ public:
     * on unorganized, empty or all-NaN input and on normals of another size.
     */
   void segment (pcl::PointCloud<pcl::Label>& labels);
+
+  /** \brief The same on SurfacePlanes (e.g. from SurfacePreprocessing::compute(planes)),
+    * without the copies from and to PCL clouds; the input cloud and normals are not used.
+    * Results via getLabelImage() and the other getters.
+    */
+  void segment (const SurfacePlanes& planes);
 
   /** \brief Results of the last segment(): L^G (CV_32S), the edge maps (CV_8U, 1 = edge;
     * the union is before closing), the number of segments and the timings.

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cuefusion/segmentation/surface_planes.h>
+
 #include <opencv2/core.hpp>
 
 #include <pcl/pcl_base.h>
@@ -33,6 +35,14 @@ struct SupportPlaneConfig
   * normal (when normals are given) is parallel to the plane's — a rim of table stuck to
   * an object. The plane is fitted with a fixed RANSAC seed, so results repeat.
   */
+/** \brief The work of SupportPlaneRemoval on SurfacePlanes (normals may be all NaN).
+  * Returns false, leaving \a labels as they are, when there is no dominant plane; else
+  * the plane (unit normal towards the sensor) in \a plane.
+  */
+bool
+removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneConfig& config, cv::Mat& labels,
+                    Eigen::Vector4f& plane);
+
 template <typename PointT>
 class SupportPlaneRemoval : public pcl::PCLBase<PointT>
 {
@@ -53,6 +63,9 @@ public:
     */
   bool apply (cv::Mat& labels);
 
+  /** \brief The same on SurfacePlanes (points and normals); the input cloud is not used. */
+  bool apply (const SurfacePlanes& planes, cv::Mat& labels);
+
   /** \brief Plane of the last apply (a, b, c, d with unit normal towards the sensor). */
   const Eigen::Vector4f& getPlane () const { return plane_; }
 
@@ -61,6 +74,7 @@ protected:
 
   NormalCloudConstPtr normals_;
   SupportPlaneConfig config_;
+  SurfacePlanes planes_;
   Eigen::Vector4f plane_ = Eigen::Vector4f::Zero ();
 };
 }  // namespace segmentation

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cuefusion/segmentation/parallel.h>
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -37,17 +39,16 @@ struct SurfacePlanes
     normals.width = static_cast<std::uint32_t> (width);
     normals.height = static_cast<std::uint32_t> (height);
     normals.is_dense = false;
-    for (std::size_t i = 0; i < x.size (); ++i)
-    {
+    parallelFor (x.size (), [&] (std::size_t i) {
       pcl::Normal& n = normals[i];
       n.normal_x = nx[i];
       n.normal_y = ny[i];
       n.normal_z = nz[i];
       n.curvature = std::isfinite (nx[i]) ? 0.f : std::numeric_limits<float>::quiet_NaN ();
-    }
+    });
   }
 
-  /** \brief Copies \a cloud's points (x, y, z all finite, else NaN); leaves the normal
+  /** \brief Copies \a cloud's points (x, y, z all finite and z > 0, else NaN); leaves the normal
     * planes sized but unset.
     */
   template <typename PointT>
@@ -60,18 +61,17 @@ struct SurfacePlanes
     for (std::vector<float>* plane : {&x, &y, &z, &nx, &ny, &nz})
       plane->resize (n);
     const float nan = std::numeric_limits<float>::quiet_NaN ();
-    for (std::size_t i = 0; i < n; ++i)
-    {
+    parallelFor (n, [&] (std::size_t i) {
       const PointT& p = cloud[i];
-      const bool valid = std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z);
+      const bool valid = std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z) && p.z > 0.f;
       x[i] = valid ? p.x : nan;
       y[i] = valid ? p.y : nan;
       z[i] = valid ? p.z : nan;
-    }
+    });
   }
 
   /** \brief Copies \a cloud's points and \a normals' normal_x/y/z (same size, organized).
-    * A point counts only when x, y and z are all finite; a normal only when its point does.
+    * A point counts only when x, y and z are all finite and z > 0; a normal only when its point does.
     */
   template <typename PointT, typename PointNT>
   void
@@ -83,10 +83,9 @@ struct SurfacePlanes
     for (std::vector<float>* plane : {&x, &y, &z, &nx, &ny, &nz})
       plane->resize (n);
     const float nan = std::numeric_limits<float>::quiet_NaN ();
-    for (std::size_t i = 0; i < n; ++i)
-    {
+    parallelFor (n, [&] (std::size_t i) {
       const PointT& p = cloud[i];
-      const bool valid = std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z);
+      const bool valid = std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z) && p.z > 0.f;
       const auto& q = normals[i];
       const bool has_normal = valid && std::isfinite (q.normal_x) && std::isfinite (q.normal_y) && std::isfinite (q.normal_z);
       x[i] = valid ? p.x : nan;
@@ -95,7 +94,7 @@ struct SurfacePlanes
       nx[i] = has_normal ? q.normal_x : nan;
       ny[i] = has_normal ? q.normal_y : nan;
       nz[i] = has_normal ? q.normal_z : nan;
-    }
+    });
   }
 };
 
@@ -126,5 +125,12 @@ concavityEdges (const cv::Mat& phi, float threshold, cv::Mat& edges);
   */
 void
 discontinuityEdges (const SurfacePlanes& planes, const cv::Mat& gamma, float k, cv::Mat& edges);
+/** \brief Both edge masks of §4.2.1.1 in one pass over the planes (the operators read
+  * the same points and normals), for one neighbour \a step: concave (Φ < threshold) and
+  * depth discontinuity (Γ > k·σ_d), CV_8U, 1 = edge. Without the Φ and Γ images.
+  */
+void
+computeEdgeMasks (const SurfacePlanes& planes, int step, ConvexityTest test, float concavity_threshold, float noise_factor,
+                  cv::Mat& concave, cv::Mat& depth_edges);
 }  // namespace segmentation
 }  // namespace cuefusion

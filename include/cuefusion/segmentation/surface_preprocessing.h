@@ -76,6 +76,11 @@ public:
     */
   void compute (pcl::PointCloud<PointT>& smoothed, pcl::PointCloud<pcl::Normal>& normals);
 
+  /** \brief The same as SurfacePlanes (smoothed points and normals, NaN where none),
+    * without the copies into PCL clouds: the fast path into GeometricSegmentation.
+    */
+  void compute (SurfacePlanes& planes);
+
   /** \brief Milliseconds of the last compute: smoothing, normals. */
   double getSmoothingTime () const { return smoothing_ms_; }
   double getNormalTime () const { return normal_ms_; }

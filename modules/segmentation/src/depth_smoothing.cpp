@@ -1,4 +1,5 @@
 // Bilateral filtering of depth with a range kernel that follows the sensor noise.
+#include <cuefusion/segmentation/parallel.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
 
 #include <opencv2/imgproc.hpp>
@@ -76,41 +77,26 @@ noiseAdaptiveBilateral (const cv::Mat& depth, int diameter, float range_sigma, f
 {
   static const NoiseUnits units;
   CV_Assert (depth.type () == CV_32F);
-  // Invalid pixels sit 20 range σ below the nearest valid depth: no weight for anyone,
-  // and the value range OpenCV tabulates its range kernel over stays small.
-  float u_low = std::numeric_limits<float>::max ();
+  // Invalid pixels sit 20 range σ below the smallest depth there can be: no weight for
+  // anyone, and the value range OpenCV tabulates its range kernel over stays bounded.
+  const float invalid = units.toUnits (0.f) - 20.f * range_sigma;
   cv::Mat u (depth.size (), CV_32F);
-  for (int y = 0; y < depth.rows; ++y)
-  {
+  parallelFor (depth.rows, [&] (int y) {
     const float* z = depth.ptr<float> (y);
     float* out = u.ptr<float> (y);
     for (int x = 0; x < depth.cols; ++x)
-      if (z[x] > 0.f)
-      {
-        out[x] = units.toUnits (z[x]);
-        u_low = std::min (u_low, out[x]);
-      }
-  }
-  const float invalid = u_low - 20.f * range_sigma;
-  for (int y = 0; y < depth.rows; ++y)
-  {
-    const float* z = depth.ptr<float> (y);
-    float* out = u.ptr<float> (y);
-    for (int x = 0; x < depth.cols; ++x)
-      if (!(z[x] > 0.f))
-        out[x] = invalid;
-  }
+      out[x] = z[x] > 0.f ? units.toUnits (z[x]) : invalid;
+  });
   cv::Mat smoothed;
   cv::bilateralFilter (u, smoothed, diameter, range_sigma, sigma_space);
   filtered.create (depth.size (), CV_32F);
-  for (int y = 0; y < depth.rows; ++y)
-  {
+  parallelFor (depth.rows, [&] (int y) {
     const float* z = depth.ptr<float> (y);
     const float* in = smoothed.ptr<float> (y);
     float* out = filtered.ptr<float> (y);
     for (int x = 0; x < depth.cols; ++x)
       out[x] = z[x] > 0.f ? units.toDepth (in[x]) : 0.f;
-  }
+  });
 }
 }  // namespace segmentation
 }  // namespace cuefusion

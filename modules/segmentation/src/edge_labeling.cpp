@@ -1,4 +1,5 @@
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/segmentation/parallel.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
 
 #include <opencv2/imgproc.hpp>
@@ -23,33 +24,40 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
   std::int32_t* label = labels.ptr<std::int32_t> ();
   const float* z = depth.ptr<float> ();
   const std::uint8_t* ok = valid.ptr<std::uint8_t> ();
-  // Unassigned = valid and unlabelled. Seeds: labelled pixels next to one, in raster order.
-  auto open = [&] (int i) { return ok[i] && label[i] == 0; };
-  std::vector<int> queue, next;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-    {
-      const int i = y * w + x;
-      if (label[i] > 0 && ((x > 0 && open (i - 1)) || (x + 1 < w && open (i + 1)) || (y > 0 && open (i - w)) ||
-                           (y + 1 < h && open (i + w))))
-        queue.push_back (i);
-    }
-  // One ring per round, so every pixel goes to the segment that reaches it first.
-  for (int round = 0; round < radius && !queue.empty (); ++round)
+  // Open pixels: valid depth, no segment (the edge band); a small share of the image.
+  std::vector<int> open;
+  for (int i = 0; i < w * h; ++i)
+    if (ok[i] && label[i] == 0)
+      open.push_back (i);
+  // One ring per round: an open pixel takes the label of its first 4-neighbour (right,
+  // left, down, up) that was labelled before this round and continues it in depth. All
+  // of a round's assignments apply together, so the result does not depend on scan order.
+  std::vector<std::pair<int, std::int32_t>> taken;
+  for (int round = 0; round < radius && !open.empty (); ++round)
   {
-    next.clear ();
-    for (const int i : queue)
+    taken.clear ();
+    std::size_t kept = 0;
+    for (const int i : open)
     {
       const int x = i % w, y = i / w;
       const int neighbours[4] = {x + 1 < w ? i + 1 : -1, x > 0 ? i - 1 : -1, y + 1 < h ? i + w : -1, y > 0 ? i - w : -1};
+      std::int32_t found = 0;
       for (const int j : neighbours)
-        if (j >= 0 && open (j) && std::abs (z[j] - z[i]) < max_jump * z[i])
+        if (j >= 0 && label[j] > 0 && std::abs (z[j] - z[i]) < max_jump * z[j])
         {
-          label[j] = label[i];
-          next.push_back (j);
+          found = label[j];
+          break;
         }
+      if (found)
+        taken.emplace_back (i, found);
+      else
+        open[kept++] = i;
     }
-    queue.swap (next);
+    open.resize (kept);
+    if (taken.empty ())
+      break;
+    for (const auto& [i, l] : taken)
+      label[i] = l;
   }
 }
 }  // namespace
@@ -61,13 +69,12 @@ labelEdgeMap (const cv::Mat& edges, const cv::Mat& depth, const EdgeLabelingConf
   if (edges.type () != CV_8U || depth.type () != CV_32F || edges.size () != depth.size () || edges.empty ())
     throw Error ("labelEdgeMap", "expects a CV_8U edge map and a CV_32F depth map of one size");
   cv::Mat valid (depth.size (), CV_8U);
-  for (int y = 0; y < depth.rows; ++y)
-  {
+  parallelFor (depth.rows, [&] (int y) {
     const float* z = depth.ptr<float> (y);
     std::uint8_t* v = valid.ptr<std::uint8_t> (y);
     for (int x = 0; x < depth.cols; ++x)
       v[x] = (std::isfinite (z[x]) && z[x] > 0.f) ? 1 : 0;
-  }
+  });
 
   // Boundary = edges ∪ invalid; closing it bridges gaps of up to 2·iterations pixels.
   cv::Mat boundary = (edges != 0) | (valid == 0);
@@ -76,23 +83,31 @@ labelEdgeMap (const cv::Mat& edges, const cv::Mat& depth, const EdgeLabelingConf
     cv::morphologyEx (boundary, boundary, cv::MORPH_CLOSE, cv::Mat (), cv::Point (-1, -1), config.closing_iterations);
   const cv::Mat interior = (boundary == 0) & (valid != 0);
 
-  cv::Mat components, stats, centroids;
-  const int n = cv::connectedComponentsWithStats (interior, components, stats, centroids, 4, CV_32S);
+  // Plain connectedComponents and a counting pass: OpenCV's WithStats variant also
+  // computes boxes and centroids and took twice as long (1.3 vs 0.6 ms at 640×480).
+  cv::Mat components;
+  const int n = cv::connectedComponents (interior, components, 4, CV_32S);
+  std::vector<int> area (static_cast<std::size_t> (n), 0);
+  for (int y = 0; y < components.rows; ++y)
+  {
+    const std::int32_t* in = components.ptr<std::int32_t> (y);
+    for (int x = 0; x < components.cols; ++x)
+      ++area[static_cast<std::size_t> (in[x])];
+  }
   // OpenCV numbers components in raster order of their first pixel; keep that order
   // and renumber the survivors 1..N.
   std::vector<std::int32_t> remap (static_cast<std::size_t> (n), 0);
   int count = 0;
   for (int c = 1; c < n; ++c)
-    if (stats.at<std::int32_t> (c, cv::CC_STAT_AREA) >= config.min_segment_size)
+    if (area[static_cast<std::size_t> (c)] >= config.min_segment_size)
       remap[static_cast<std::size_t> (c)] = ++count;
   labels.create (depth.size (), CV_32S);
-  for (int y = 0; y < depth.rows; ++y)
-  {
+  parallelFor (depth.rows, [&] (int y) {
     const std::int32_t* in = components.ptr<std::int32_t> (y);
     std::int32_t* out = labels.ptr<std::int32_t> (y);
     for (int x = 0; x < depth.cols; ++x)
       out[x] = remap[static_cast<std::size_t> (in[x])];
-  }
+  });
   if (config.edge_assignment_radius > 0)
     assignEdgePixels (depth.isContinuous () ? depth : depth.clone (), valid, config.edge_assignment_radius, config.max_depth_jump, labels);
   return count;

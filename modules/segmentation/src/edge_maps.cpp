@@ -2,12 +2,14 @@
 // compares every pixel with its neighbour at one offset (dx, dy); the inner loop over x
 // reads contiguous floats and is vectorised by the compiler. NaN does the bookkeeping:
 // a term involving a missing point or normal is NaN, and std::min/std::max(a, NaN) keep a.
+#include <cuefusion/segmentation/parallel.h>
 #include <cuefusion/segmentation/concavity_edge_estimation.h>
 #include <cuefusion/segmentation/edge_operators.h>
 #include <cuefusion/segmentation/surface_planes.h>
 
 #include <algorithm>
 #include <array>
+#include <vector>
 
 namespace cuefusion
 {
@@ -21,9 +23,15 @@ offsets (int step)
   return {{{{-step, -step}}, {{0, -step}}, {{step, -step}}, {{-step, 0}}, {{step, 0}}, {{-step, step}}, {{0, step}}, {{step, step}}}};
 }
 
-template <bool kSymmetric>
+constexpr int kPhi = 1, kGamma = 2;
+
+/** One neighbour direction (dx, dy) for row y: updates Φ (min of Φ_i) and/or Γ (max of
+  * Γ_i) of every pixel of the row, as \a kWhich says. Both operators read the same
+  * points and normals, so GeometricSegmentation runs them in one pass.
+  */
+template <int kWhich, bool kSymmetric>
 void
-concavityRowPass (const SurfacePlanes& p, int y, int dx, int dy, float* __restrict phi)
+edgeRowPass (const SurfacePlanes& p, int y, int dx, int dy, float* __restrict phi, float* __restrict gamma)
 {
   const int w = p.width;
   const int x0 = std::max (0, -dx), x1 = std::min (w, w - dx);
@@ -40,41 +48,87 @@ concavityRowPass (const SurfacePlanes& p, int y, int dx, int dy, float* __restri
   const float* __restrict NXi = p.nx.data () + b;
   const float* __restrict NYi = p.ny.data () + b;
   const float* __restrict NZi = p.nz.data () + b;
-  for (int x = x0; x < x1; ++x)
-  {
-    const float ex = Xi[x] - X[x], ey = Yi[x] - Y[x], ez = Zi[x] - Z[x];
-    const float agreement = NX[x] * NXi[x] + NY[x] * NYi[x] + NZ[x] * NZi[x];
-    // Same tests as concavityTerm / concavityTermSymmetric (edge_operators.h), spelled out
-    // on plain floats so that the loop vectorises.
-    const float convexity = kSymmetric ? (NXi[x] - NX[x]) * ex + (NYi[x] - NY[x]) * ey + (NZi[x] - NZ[x]) * ez
-                                       : -(ex * NX[x] + ey * NY[x] + ez * NZ[x]);
-    const bool convex = kSymmetric ? convexity >= 0.f : convexity > 0.f;
-    const float term = convex ? 1.f : agreement;   // NaN when either side lacks a point or normal
-    phi[x] = std::min (phi[x], term);
-  }
-}
-
-void
-discontinuityRowPass (const SurfacePlanes& p, int y, int dx, int dy, float* __restrict gamma)
-{
-  const int w = p.width;
-  const int x0 = std::max (0, -dx), x1 = std::min (w, w - dx);
-  const std::size_t a = static_cast<std::size_t> (y) * w, b = static_cast<std::size_t> (y + dy) * w + dx;
-  const float* __restrict X = p.x.data () + a;
-  const float* __restrict Y = p.y.data () + a;
-  const float* __restrict Z = p.z.data () + a;
-  const float* __restrict NX = p.nx.data () + a;
-  const float* __restrict NY = p.ny.data () + a;
-  const float* __restrict NZ = p.nz.data () + a;
-  const float* __restrict Xi = p.x.data () + b;
-  const float* __restrict Yi = p.y.data () + b;
-  const float* __restrict Zi = p.z.data () + b;
   const float inf = std::numeric_limits<float>::infinity ();
   for (int x = x0; x < x1; ++x)
   {
-    const float distance = std::abs ((Xi[x] - X[x]) * NX[x] + (Yi[x] - Y[x]) * NY[x] + (Zi[x] - Z[x]) * NZ[x]);
-    const float term = (Zi[x] != Zi[x]) ? inf : distance;  // a missing neighbour is an edge
-    gamma[x] = std::max (gamma[x], term);
+    const float ex = Xi[x] - X[x], ey = Yi[x] - Y[x], ez = Zi[x] - Z[x];
+    const float offset = ex * NX[x] + ey * NY[x] + ez * NZ[x];  // (v_i − v)·n
+    if constexpr ((kWhich & kPhi) != 0)
+    {
+      // Same tests as concavityTerm / concavityTermSymmetric (edge_operators.h), spelled
+      // out on plain floats so that the loop vectorises.
+      const float agreement = NX[x] * NXi[x] + NY[x] * NYi[x] + NZ[x] * NZi[x];
+      const float convexity = kSymmetric ? (NXi[x] - NX[x]) * ex + (NYi[x] - NY[x]) * ey + (NZi[x] - NZ[x]) * ez : -offset;
+      const bool convex = kSymmetric ? convexity >= 0.f : convexity > 0.f;
+      const float term = convex ? 1.f : agreement;  // NaN when either side lacks a point or normal
+      phi[x] = std::min (phi[x], term);
+    }
+    if constexpr ((kWhich & kGamma) != 0)
+    {
+      const float term = (Zi[x] != Zi[x]) ? inf : std::abs (offset);  // a missing neighbour is an edge
+      gamma[x] = std::max (gamma[x], term);
+    }
+  }
+}
+
+/** All 8 directions at \a step for row y, then the rows' final values (see the map
+  * functions below). \a phi or \a gamma may be null.
+  */
+template <int kWhich>
+void
+edgeRow (const SurfacePlanes& planes, int y, int step, ConvexityTest test, float* phi, float* gamma)
+{
+  const int w = planes.width, h = planes.height;
+  if constexpr ((kWhich & kPhi) != 0)
+    std::fill (phi, phi + w, 1.f);
+  if constexpr ((kWhich & kGamma) != 0)
+    std::fill (gamma, gamma + w, 0.f);
+  for (const auto& d : offsets (step))
+    if (y + d[1] >= 0 && y + d[1] < h)
+    {
+      if (test == ConvexityTest::NormalDivergence)
+        edgeRowPass<kWhich, true> (planes, y, d[0], d[1], phi, gamma);
+      else
+        edgeRowPass<kWhich, false> (planes, y, d[0], d[1], phi, gamma);
+    }
+  const std::size_t base = static_cast<std::size_t> (y) * w;
+  const float* z = planes.z.data () + base;
+  const float* nx = planes.nx.data () + base;
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  const float inf = std::numeric_limits<float>::infinity ();
+  for (int x = 0; x < w; ++x)
+  {
+    if constexpr ((kWhich & kPhi) != 0)
+      phi[x] = (nx[x] == nx[x]) ? phi[x] : nan;  // no point or normal: no value
+    if constexpr ((kWhich & kGamma) != 0)
+      gamma[x] = (z[x] != z[x]) ? nan : (nx[x] != nx[x]) ? inf : gamma[x];
+  }
+}
+
+/** Φ < threshold. */
+void
+concavityEdgeRow (const float* phi, int w, float threshold, std::uint8_t* out)
+{
+  for (int x = 0; x < w; ++x)
+    out[x] = phi[x] < threshold ? 1 : 0;  // NaN compares false: no edge
+}
+
+/** Γ > k·σ_d, +inf always, NaN never. */
+void
+discontinuityEdgeRow (const SurfacePlanes& planes, int y, const float* gamma, float k, std::uint8_t* out)
+{
+  const std::size_t base = static_cast<std::size_t> (y) * planes.width;
+  for (int x = 0; x < planes.width; ++x)
+  {
+    const float g = gamma[x];
+    bool edge = g == std::numeric_limits<float>::infinity ();
+    if (!edge && g > 0.f)
+    {
+      const std::size_t i = base + x;
+      edge = isDepthDiscontinuity (g, k, Eigen::Vector3f (planes.x[i], planes.y[i], planes.z[i]),
+                                   Eigen::Vector3f (planes.nx[i], planes.ny[i], planes.nz[i]));
+    }
+    out[x] = edge ? 1 : 0;
   }
 }
 }  // namespace
@@ -84,9 +138,7 @@ computeNormalPlanes (SurfacePlanes& planes, int step, float max_depth_jump)
 {
   const int w = planes.width, h = planes.height;
   const float nan = std::numeric_limits<float>::quiet_NaN ();
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y)
-  {
+  parallelFor (h, [&] (int y) {
     const std::size_t row = static_cast<std::size_t> (y) * w;
     float* __restrict NX = planes.nx.data () + row;
     float* __restrict NY = planes.ny.data () + row;
@@ -95,7 +147,7 @@ computeNormalPlanes (SurfacePlanes& planes, int step, float max_depth_jump)
     std::fill (NY, NY + w, nan);
     std::fill (NZ, NZ + w, nan);
     if (y < step || y + step >= h)
-      continue;  // no vertical neighbours on one side: left without normal (border rows)
+      return;  // no vertical neighbours on one side: left without normal (border rows)
     const float* __restrict X = planes.x.data () + row;
     const float* __restrict Y = planes.y.data () + row;
     const float* __restrict Z = planes.z.data () + row;
@@ -108,7 +160,8 @@ computeNormalPlanes (SurfacePlanes& planes, int step, float max_depth_jump)
     const float* __restrict Zd = planes.z.data () + down;
     for (int x = step; x + step < w; ++x)
     {
-      // All loads first, then selects: lets the compiler vectorise without branches.
+      // All loads first, then selects (GCC 12 still does not vectorise this loop; it is
+      // about 1 ms per 640×480 frame).
       const float px = X[x], py = Y[x], z = Z[x], limit = max_depth_jump * z;
       const float lx = X[x - step], ly = Y[x - step], lz = Z[x - step];
       const float rx = X[x + step], ry = Y[x + step], rz = Z[x + step];
@@ -127,102 +180,64 @@ computeNormalPlanes (SurfacePlanes& planes, int step, float max_depth_jump)
       const float length = std::sqrt (cx * cx + cy * cy + cz * cz);
       // Turn towards the sensor (the origin): n·v < 0.
       const float sign = (cx * px + cy * py + cz * z) > 0.f ? -1.f : 1.f;
-      const bool ok = (l | r) & (u | d) & (length > 0.f);  // false for NaN depth too
-      const float scale = ok ? sign / length : nan;
+      // No usable side in one direction (or NaN depth): no normal. A zero cross product
+      // gives 0/0 = NaN by itself.
+      const float any_h = r ? 1.f : (l ? 1.f : 0.f), any_v = d ? 1.f : (u ? 1.f : 0.f);
+      const float scale = (any_h * any_v > 0.f) ? sign / length : nan;
       NX[x] = cx * scale;
       NY[x] = cy * scale;
       NZ[x] = cz * scale;
     }
-  }
+  });
 }
 
 void
 computeConcavityMap (const SurfacePlanes& planes, int step, ConvexityTest test, cv::Mat& phi)
 {
-  const int w = planes.width, h = planes.height;
-  phi.create (h, w, CV_32F);
-  const auto directions = offsets (step);
-  const float nan = std::numeric_limits<float>::quiet_NaN ();
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y)
-  {
-    float* row = phi.ptr<float> (y);
-    std::fill (row, row + w, 1.f);
-    for (const auto& d : directions)
-      if (y + d[1] >= 0 && y + d[1] < h)
-      {
-        if (test == ConvexityTest::NormalDivergence)
-          concavityRowPass<true> (planes, y, d[0], d[1], row);
-        else
-          concavityRowPass<false> (planes, y, d[0], d[1], row);
-      }
-    const float* nx = planes.nx.data () + static_cast<std::size_t> (y) * w;
-    for (int x = 0; x < w; ++x)
-      row[x] = (nx[x] == nx[x]) ? row[x] : nan;  // no point or normal: no value
-  }
+  phi.create (planes.height, planes.width, CV_32F);
+  parallelFor (planes.height, [&] (int y) { edgeRow<kPhi> (planes, y, step, test, phi.ptr<float> (y), nullptr); });
 }
 
 void
 computeDiscontinuityMap (const SurfacePlanes& planes, int step, cv::Mat& gamma)
 {
-  const int w = planes.width, h = planes.height;
-  gamma.create (h, w, CV_32F);
-  const auto directions = offsets (step);
-  const float nan = std::numeric_limits<float>::quiet_NaN ();
-  const float inf = std::numeric_limits<float>::infinity ();
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y)
-  {
-    float* row = gamma.ptr<float> (y);
-    std::fill (row, row + w, 0.f);
-    for (const auto& d : directions)
-      if (y + d[1] >= 0 && y + d[1] < h)
-        discontinuityRowPass (planes, y, d[0], d[1], row);
-    const float* z = planes.z.data () + static_cast<std::size_t> (y) * w;
-    const float* nx = planes.nx.data () + static_cast<std::size_t> (y) * w;
-    for (int x = 0; x < w; ++x)
-      row[x] = (z[x] != z[x]) ? nan : (nx[x] != nx[x]) ? inf : row[x];
-  }
+  gamma.create (planes.height, planes.width, CV_32F);
+  parallelFor (planes.height, [&] (int y) {
+    edgeRow<kGamma> (planes, y, step, ConvexityTest::NormalDivergence, nullptr, gamma.ptr<float> (y));
+  });
 }
 
 void
 concavityEdges (const cv::Mat& phi, float threshold, cv::Mat& edges)
 {
   edges.create (phi.size (), CV_8U);
-  for (int y = 0; y < phi.rows; ++y)
-  {
-    const float* in = phi.ptr<float> (y);
-    std::uint8_t* out = edges.ptr<std::uint8_t> (y);
-    for (int x = 0; x < phi.cols; ++x)
-      out[x] = in[x] < threshold ? 1 : 0;  // NaN compares false: no edge
-  }
+  parallelFor (phi.rows, [&] (int y) { concavityEdgeRow (phi.ptr<float> (y), phi.cols, threshold, edges.ptr<std::uint8_t> (y)); });
 }
 
 void
 discontinuityEdges (const SurfacePlanes& planes, const cv::Mat& gamma, float k, cv::Mat& edges)
 {
   edges.create (gamma.size (), CV_8U);
-  const float inf = std::numeric_limits<float>::infinity ();
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < gamma.rows; ++y)
-  {
-    const float* in = gamma.ptr<float> (y);
-    std::uint8_t* out = edges.ptr<std::uint8_t> (y);
-    const std::size_t base = static_cast<std::size_t> (y) * gamma.cols;
-    for (int x = 0; x < gamma.cols; ++x)
+  parallelFor (gamma.rows, [&] (int y) {
+    discontinuityEdgeRow (planes, y, gamma.ptr<float> (y), k, edges.ptr<std::uint8_t> (y));
+  });
+}
+
+void
+computeEdgeMasks (const SurfacePlanes& planes, int step, ConvexityTest test, float concavity_threshold, float noise_factor,
+                  cv::Mat& concave, cv::Mat& depth_edges)
+{
+  concave.create (planes.height, planes.width, CV_8U);
+  depth_edges.create (planes.height, planes.width, CV_8U);
+  cv::parallel_for_ (cv::Range (0, planes.height), [&] (const cv::Range& rows) {
+    std::vector<float> phi (static_cast<std::size_t> (planes.width)), gamma (phi.size ());
+    for (int y = rows.start; y < rows.end; ++y)
     {
-      const float g = in[x];
-      bool edge = g == inf;
-      if (!edge && g > 0.f)
-      {
-        const std::size_t i = base + x;
-        const Eigen::Vector3f v (planes.x[i], planes.y[i], planes.z[i]);
-        const Eigen::Vector3f n (planes.nx[i], planes.ny[i], planes.nz[i]);
-        edge = isDepthDiscontinuity (g, k, v, n);
-      }
-      out[x] = edge ? 1 : 0;
+      edgeRow<kPhi | kGamma> (planes, y, step, test, phi.data (), gamma.data ());
+      concavityEdgeRow (phi.data (), planes.width, concavity_threshold, concave.ptr<std::uint8_t> (y));
+      discontinuityEdgeRow (planes, y, gamma.data (), noise_factor, depth_edges.ptr<std::uint8_t> (y));
     }
-  }
+  });
 }
 }  // namespace segmentation
 }  // namespace cuefusion

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cuefusion/segmentation/parallel.h>
+
 #include <opencv2/core.hpp>
 
 #include <pcl/point_cloud.h>
@@ -22,10 +24,11 @@ copyToCloud (const cv::Mat& mask, pcl::PointCloud<pcl::Label>& cloud)
   cloud.width = static_cast<std::uint32_t> (mask.cols);
   cloud.height = static_cast<std::uint32_t> (mask.rows);
   cloud.is_dense = true;
-  for (int y = 0; y < mask.rows; ++y)
+  parallelFor (mask.rows, [&] (int y) {
     for (int x = 0; x < mask.cols; ++x)
       cloud[static_cast<std::size_t> (y) * mask.cols + x].label =
         mask.type () == CV_8U ? mask.at<std::uint8_t> (y, x) : static_cast<std::uint32_t> (mask.at<std::int32_t> (y, x));
+  });
 }
 
 inline void
@@ -36,9 +39,10 @@ copyToCloud (const cv::Mat& values, pcl::PointCloud<pcl::Intensity>& cloud)
   cloud.width = static_cast<std::uint32_t> (values.cols);
   cloud.height = static_cast<std::uint32_t> (values.rows);
   cloud.is_dense = false;
-  for (int y = 0; y < values.rows; ++y)
+  parallelFor (values.rows, [&] (int y) {
     for (int x = 0; x < values.cols; ++x)
       cloud[static_cast<std::size_t> (y) * values.cols + x].intensity = values.at<float> (y, x);
+  });
 }
 }  // namespace detail
 }  // namespace segmentation

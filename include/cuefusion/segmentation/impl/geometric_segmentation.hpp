@@ -27,35 +27,53 @@ GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<pcl::Label>& la
   checkOrganizedInput<PointT, PointNT> ("GeometricSegmentation", input_.get (), normals_.get ());
   if (!normals_)
     throw Error ("GeometricSegmentation", "no input normals (setInputNormals)");
-  const int w = static_cast<int> (input_->width), h = static_cast<int> (input_->height);
-  timings_ = GeometricSegmentationTimings ();
   pcl::StopWatch watch;
   planes_.assign (*input_, *normals_);
   const double copy_ms = watch.getTime ();
-  cv::Mat values;
+  segment (planes_);
   watch.reset ();
-  concavity_edges_ = cv::Mat::zeros (h, w, CV_8U);
-  if (config_.use_concavity_edges)
-  {
-    computeConcavityMap (planes_, config_.concavity.neighbour_step, config_.concavity.convexity_test, values);
-    concavityEdges (values, config_.concavity.threshold, concavity_edges_);
-  }
-  timings_.concavity_ms = watch.getTime () + copy_ms / 2;
+  detail::copyToCloud (label_image_, labels);
+  // The copies in and out are charged to the stages they serve.
+  timings_.edges_ms += copy_ms;
+  timings_.labeling_ms += watch.getTime ();
+}
 
-  watch.reset ();
-  discontinuity_edges_ = cv::Mat::zeros (h, w, CV_8U);
-  if (config_.use_discontinuity_edges)
+template <typename PointT, typename PointNT>
+void
+GeometricSegmentation<PointT, PointNT>::segment (const SurfacePlanes& planes)
+{
+  const int w = planes.width, h = planes.height;
+  if (w < 2 || h < 2 || planes.z.size () != static_cast<std::size_t> (w) * h)
+    throw Error ("GeometricSegmentation", "surface planes are empty or not organized");
+  timings_ = GeometricSegmentationTimings ();
+  pcl::StopWatch watch;
+  const bool both = config_.use_concavity_edges && config_.use_discontinuity_edges;
+  if (both && config_.concavity.neighbour_step == config_.discontinuity.neighbour_step)
+    computeEdgeMasks (planes, config_.concavity.neighbour_step, config_.concavity.convexity_test,
+                      config_.concavity.threshold, config_.discontinuity.noise_factor, concavity_edges_,
+                      discontinuity_edges_);
+  else
   {
-    computeDiscontinuityMap (planes_, config_.discontinuity.neighbour_step, values);
-    discontinuityEdges (planes_, values, config_.discontinuity.noise_factor, discontinuity_edges_);
+    cv::Mat values;
+    concavity_edges_ = cv::Mat::zeros (h, w, CV_8U);
+    if (config_.use_concavity_edges)
+    {
+      computeConcavityMap (planes, config_.concavity.neighbour_step, config_.concavity.convexity_test, values);
+      concavityEdges (values, config_.concavity.threshold, concavity_edges_);
+    }
+    discontinuity_edges_ = cv::Mat::zeros (h, w, CV_8U);
+    if (config_.use_discontinuity_edges)
+    {
+      computeDiscontinuityMap (planes, config_.discontinuity.neighbour_step, values);
+      discontinuityEdges (planes, values, config_.discontinuity.noise_factor, discontinuity_edges_);
+    }
   }
-  timings_.discontinuity_ms = watch.getTime () + copy_ms / 2;
+  timings_.edges_ms = watch.getTime ();
 
   watch.reset ();
   cv::bitwise_or (concavity_edges_, discontinuity_edges_, edges_);
-  const cv::Mat depth (h, w, CV_32F, planes_.z.data ());
+  const cv::Mat depth (h, w, CV_32F, const_cast<float*> (planes.z.data ()));
   segment_count_ = labelEdgeMap (edges_, depth, config_.labeling, label_image_);
-  detail::copyToCloud (label_image_, labels);
   timings_.labeling_ms = watch.getTime ();
 }
 

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cuefusion/segmentation/parallel.h>
 #include <cuefusion/segmentation/edge_operators.h>
 #include <cuefusion/segmentation/surface_planes.h>
 #include <cuefusion/segmentation/organized_input.h>
@@ -39,71 +40,87 @@ SurfacePreprocessing<PointT>::setConfig (const SurfacePreprocessingConfig& confi
 
 template <typename PointT>
 void
-SurfacePreprocessing<PointT>::compute (pcl::PointCloud<PointT>& smoothed, pcl::PointCloud<pcl::Normal>& normals)
+SurfacePreprocessing<PointT>::compute (SurfacePlanes& planes)
 {
   checkOrganizedInput<PointT, pcl::Normal> ("SurfacePreprocessing", input_.get (), nullptr);
-  if (&smoothed == input_.get ())
-    throw Error ("SurfacePreprocessing", "the output cloud may not be the input cloud");
-  const pcl::PointCloud<PointT>& cloud = *input_;
-  const int w = static_cast<int> (cloud.width), h = static_cast<int> (cloud.height);
+  const int w = static_cast<int> (input_->width), h = static_cast<int> (input_->height);
 
   pcl::StopWatch watch;
-  smoothed = cloud;
+  planes.assignPoints (*input_);
   if (config_.bilateral_filter)
   {
-    cv::Mat depth (h, w, CV_32F), filtered;
-    for (int y = 0; y < h; ++y)
-    {
-      float* row = depth.ptr<float> (y);
-      for (int x = 0; x < w; ++x)
-      {
-        const float z = cloud[static_cast<std::size_t> (y) * w + x].z;
-        row[x] = (std::isfinite (z) && z > 0.f) ? z : 0.f;  // 0 is metres away from any depth: no weight
-      }
-    }
+    const cv::Mat depth (h, w, CV_32F, planes.z.data ());  // NaN = invalid
+    cv::Mat filtered;
     noiseAdaptiveBilateral (depth, config_.bilateral_diameter, config_.range_sigma, config_.sigma_space, filtered);
-#pragma omp parallel for schedule(static)
-    for (int y = 0; y < h; ++y)
-    {
-      const float* in = depth.ptr<float> (y);
+    parallelFor (h, [&] (int y) {
       const float* out = filtered.ptr<float> (y);
       for (int x = 0; x < w; ++x)
-        if (in[x] > 0.f && out[x] > 0.f)
+      {
+        const std::size_t i = static_cast<std::size_t> (y) * w + x;
+        if (planes.z[i] > 0.f && out[x] > 0.f)
         {
-          PointT& p = smoothed[static_cast<std::size_t> (y) * w + x];
-          const float scale = out[x] / in[x];  // slide along the viewing ray
-          p.x *= scale;
-          p.y *= scale;
-          p.z = out[x];
+          const float scale = out[x] / planes.z[i];  // slide along the viewing ray
+          planes.x[i] *= scale;
+          planes.y[i] *= scale;
+          planes.z[i] = out[x];
         }
-    }
+      }
+    });
   }
   smoothing_ms_ = watch.getTime ();
 
   watch.reset ();
   if (config_.normal_method == NormalMethod::CentralDifference)
-  {
-    planes_.assignPoints (smoothed);  // member: no fresh 7 MB of planes per frame
-    computeNormalPlanes (planes_, config_.normal_step, config_.max_depth_jump);
-    planes_.copyNormalsTo (normals);
-  }
+    computeNormalPlanes (planes, config_.normal_step, config_.max_depth_jump);
   else
   {
-    pcl::IntegralImageNormalEstimation<PointT, pcl::Normal> estimation;
+    pcl::PointCloud<pcl::PointXYZ>::Ptr points (new pcl::PointCloud<pcl::PointXYZ> (w, h));
+    for (std::size_t i = 0; i < points->size (); ++i)
+      (*points)[i] = pcl::PointXYZ (planes.x[i], planes.y[i], planes.z[i]);
+    pcl::PointCloud<pcl::Normal> normals;
+    pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
     estimation.setNormalEstimationMethod (estimation.AVERAGE_3D_GRADIENT);
     estimation.setMaxDepthChangeFactor (config_.max_depth_jump);
     estimation.setNormalSmoothingSize (config_.integral_smoothing);
     // setDepthDependentSmoothing(true) crashes in PCL 1.13.0: left at its default (false).
-    estimation.setInputCloud (typename pcl::PointCloud<PointT>::ConstPtr (&smoothed, [] (const void*) {}));
+    estimation.setInputCloud (points);
     estimation.compute (normals);
     for (std::size_t i = 0; i < normals.size (); ++i)
     {
-      Eigen::Map<Eigen::Vector3f> n = normals[i].getNormalVector3fMap ();
-      if (isFiniteVector (n) && n.dot (smoothed[i].getVector3fMap ()) > 0.f)
+      Eigen::Vector3f n = normals[i].getNormalVector3fMap ();
+      if (n.dot ((*points)[i].getVector3fMap ()) > 0.f)
         n = -n;
+      const bool ok = isFiniteVector (n) && std::isfinite (planes.z[i]);
+      planes.nx[i] = ok ? n.x () : std::numeric_limits<float>::quiet_NaN ();
+      planes.ny[i] = ok ? n.y () : std::numeric_limits<float>::quiet_NaN ();
+      planes.nz[i] = ok ? n.z () : std::numeric_limits<float>::quiet_NaN ();
     }
   }
   normal_ms_ = watch.getTime ();
+}
+
+template <typename PointT>
+void
+SurfacePreprocessing<PointT>::compute (pcl::PointCloud<PointT>& smoothed, pcl::PointCloud<pcl::Normal>& normals)
+{
+  if (&smoothed == input_.get ())
+    throw Error ("SurfacePreprocessing", "the output cloud may not be the input cloud");
+  compute (planes_);
+  // The PCL-typed outputs are copies of the planes; their cost counts in the timings.
+  pcl::StopWatch watch;
+  smoothed = *input_;
+  parallelFor (smoothed.size (), [&] (std::size_t i) {
+    if (std::isfinite (planes_.z[i]))
+    {
+      smoothed[i].x = planes_.x[i];
+      smoothed[i].y = planes_.y[i];
+      smoothed[i].z = planes_.z[i];
+    }
+  });
+  smoothing_ms_ += watch.getTime ();
+  watch.reset ();
+  planes_.copyNormalsTo (normals);
+  normal_ms_ += watch.getTime ();
 }
 }  // namespace segmentation
 }  // namespace cuefusion
