@@ -9,7 +9,7 @@
 #include <pcl/segmentation/sac_segmentation.h>
 
 #include <cmath>
-#include <unordered_map>
+#include <vector>
 
 namespace cuefusion
 {
@@ -55,7 +55,9 @@ removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneConfig& confi
   // Per segment: pixels and plane inliers; per pixel: in the band, and parallel to it.
   const float cos_max = std::cos (config.max_normal_angle_deg * static_cast<float> (M_PI) / 180.f);
   cv::Mat inlier (h, w, CV_8U, cv::Scalar (0));
-  std::unordered_map<std::int32_t, std::pair<int, int>> counts;
+  double max_label = 0.0;
+  cv::minMaxLoc (labels, nullptr, &max_label);
+  std::vector<std::pair<int, int>> counts (static_cast<std::size_t> (max_label) + 1, {0, 0});  // pixels, inliers
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
     {
@@ -70,7 +72,7 @@ removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneConfig& confi
       const std::int32_t label = labels.at<std::int32_t> (y, x);
       if (label > 0)
       {
-        auto& c = counts[label];
+        auto& c = counts[static_cast<std::size_t> (label)];
         ++c.first;
         c.second += in_band ? 1 : 0;
       }
@@ -81,7 +83,7 @@ removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneConfig& confi
       std::int32_t& label = labels.at<std::int32_t> (y, x);
       if (label <= 0)
         continue;
-      const auto& c = counts[label];
+      const auto& c = counts[static_cast<std::size_t> (label)];
       if (c.second >= config.min_segment_inlier_fraction * static_cast<float> (c.first) ||
           inlier.at<std::uint8_t> (y, x) == 2)
         label = 0;
