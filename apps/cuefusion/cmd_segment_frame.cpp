@@ -39,14 +39,7 @@ namespace
 {
 using Cloud = pcl::PointCloud<pcl::PointXYZRGBA>;
 
-bool
-hasField (const pcl::PCLPointCloud2& cloud, const std::string& name)
-{
-  for (const auto& f : cloud.fields)
-    if (f.name == name)
-      return true;
-  return false;
-}
+using io::hasField;
 
 /** An organized PCD with at least x, y, z (colour from rgb/rgba when present). */
 Cloud::Ptr

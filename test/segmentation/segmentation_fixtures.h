@@ -21,20 +21,7 @@ namespace cuefusion
 {
 namespace test
 {
-/** Camera-to-world pose at \a eye looking at \a target, world z up (x right, y down). */
-inline Eigen::Isometry3d
-lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target)
-{
-  const Eigen::Vector3d forward = (target - eye).normalized ();
-  const Eigen::Vector3d right = forward.cross (Eigen::Vector3d::UnitZ ()).normalized ();
-  const Eigen::Vector3d down = forward.cross (right);
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
-  pose.linear ().col (0) = right;
-  pose.linear ().col (1) = down;
-  pose.linear ().col (2) = forward;
-  pose.translation () = eye;
-  return pose;
-}
+using io::lookAt;
 
 /** One rendered view and its geometric segmentation. */
 struct SegmentedView

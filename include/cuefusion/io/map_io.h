@@ -1,5 +1,6 @@
 #pragma once
 
+#include <pcl/PCLPointCloud2.h>
 #include <pcl/PolygonMesh.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -13,6 +14,10 @@ namespace io
 /** \brief Saves a binary-compressed PCD atomically (temporary file, then rename), so an
   * existing map is replaced whole or not at all. Throws cuefusion::Error on failure.
   */
+/** \brief True when \a cloud has a field called \a name. */
+bool
+hasField (const pcl::PCLPointCloud2& cloud, const std::string& name);
+
 void
 saveMapPCD (const std::string& path, const pcl::PointCloud<pcl::PointXYZRGBL>& cloud);
 

@@ -56,6 +56,12 @@ struct SceneObject
   std::vector<Primitive> parts;
 };
 
+/** \brief Camera-to-world pose (x right, y down, z forward) at \a eye looking at
+  * \a target, world z up (not straight up or down).
+  */
+Eigen::Isometry3d
+lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target);
+
 /** \brief Smooth orbit of the camera around a target, looking at it. */
 struct OrbitTrajectory
 {

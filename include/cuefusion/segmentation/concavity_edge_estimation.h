@@ -1,6 +1,7 @@
 #pragma once
 
-#include <pcl/pcl_base.h>
+#include <cuefusion/segmentation/organized_input.h>
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -44,37 +45,24 @@ struct ConcavityEdgeConfig
   * \endcode
   */
 template <typename PointT, typename PointNT>
-class ConcavityEdgeEstimation : public pcl::PCLBase<PointT>
+class ConcavityEdgeEstimation : public OrganizedCloudWithNormals<PointT, PointNT, ConcavityEdgeConfig>
 {
 public:
   using Ptr = std::shared_ptr<ConcavityEdgeEstimation>;
   using ConstPtr = std::shared_ptr<const ConcavityEdgeEstimation>;
-  using NormalCloudConstPtr = typename pcl::PointCloud<PointNT>::ConstPtr;
 
-  explicit ConcavityEdgeEstimation (const ConcavityEdgeConfig& config = ConcavityEdgeConfig ()) { setConfig (config); }
+  explicit ConcavityEdgeEstimation (const ConcavityEdgeConfig& config = ConcavityEdgeConfig ()) { this->setConfig (config); }
 
-  void setInputNormals (const NormalCloudConstPtr& normals) { normals_ = normals; }
-  NormalCloudConstPtr getInputNormals () const { return normals_; }
-
-  /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
-  void setConfig (const ConcavityEdgeConfig& config);
-  const ConcavityEdgeConfig& getConfig () const { return config_; }
-  void setThreshold (float threshold);
-  float getThreshold () const { return config_.threshold; }
-  void setNeighbourStep (int step);
-  int getNeighbourStep () const { return config_.neighbour_step; }
+  void setThreshold (float threshold) { this->updateConfig ([=] (ConcavityEdgeConfig& c) { c.threshold = threshold; }); }
+  float getThreshold () const { return this->config_.threshold; }
+  void setNeighbourStep (int step) { this->updateConfig ([=] (ConcavityEdgeConfig& c) { c.neighbour_step = step; }); }
+  int getNeighbourStep () const { return this->config_.neighbour_step; }
 
   /** \brief Organized edge map of the input's size (label 1 = concave edge), and the raw
     * Φ values in \a phi when given. Throws cuefusion::Error on unorganized, empty or
     * all-NaN input and on normals of another size.
     */
   void compute (pcl::PointCloud<pcl::Label>& edges, pcl::PointCloud<pcl::Intensity>* phi = nullptr);
-
-protected:
-  using pcl::PCLBase<PointT>::input_;
-
-  NormalCloudConstPtr normals_;
-  ConcavityEdgeConfig config_;
 };
 }  // namespace segmentation
 }  // namespace cuefusion

@@ -1,6 +1,7 @@
 #pragma once
 
-#include <pcl/pcl_base.h>
+#include <cuefusion/segmentation/organized_input.h>
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -29,40 +30,27 @@ struct DepthDiscontinuityEdgeConfig
   * pixels without a finite point get no value (Γ = NaN, not an edge).
   */
 template <typename PointT, typename PointNT>
-class DepthDiscontinuityEdgeEstimation : public pcl::PCLBase<PointT>
+class DepthDiscontinuityEdgeEstimation : public OrganizedCloudWithNormals<PointT, PointNT, DepthDiscontinuityEdgeConfig>
 {
 public:
   using Ptr = std::shared_ptr<DepthDiscontinuityEdgeEstimation>;
   using ConstPtr = std::shared_ptr<const DepthDiscontinuityEdgeEstimation>;
-  using NormalCloudConstPtr = typename pcl::PointCloud<PointNT>::ConstPtr;
 
   explicit DepthDiscontinuityEdgeEstimation (const DepthDiscontinuityEdgeConfig& config = DepthDiscontinuityEdgeConfig ())
   {
-    setConfig (config);
+    this->setConfig (config);
   }
 
-  void setInputNormals (const NormalCloudConstPtr& normals) { normals_ = normals; }
-  NormalCloudConstPtr getInputNormals () const { return normals_; }
-
-  /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
-  void setConfig (const DepthDiscontinuityEdgeConfig& config);
-  const DepthDiscontinuityEdgeConfig& getConfig () const { return config_; }
-  void setNoiseFactor (float k);
-  float getNoiseFactor () const { return config_.noise_factor; }
-  void setNeighbourStep (int step);
-  int getNeighbourStep () const { return config_.neighbour_step; }
+  void setNoiseFactor (float k) { this->updateConfig ([=] (DepthDiscontinuityEdgeConfig& c) { c.noise_factor = k; }); }
+  float getNoiseFactor () const { return this->config_.noise_factor; }
+  void setNeighbourStep (int step) { this->updateConfig ([=] (DepthDiscontinuityEdgeConfig& c) { c.neighbour_step = step; }); }
+  int getNeighbourStep () const { return this->config_.neighbour_step; }
 
   /** \brief Organized edge map of the input's size (label 1 = depth edge), and the raw Γ
     * values (metres; +inf next to a missing neighbour) in \a gamma when given. Throws
     * cuefusion::Error on unorganized, empty or all-NaN input and on normals of another size.
     */
   void compute (pcl::PointCloud<pcl::Label>& edges, pcl::PointCloud<pcl::Intensity>* gamma = nullptr);
-
-protected:
-  using pcl::PCLBase<PointT>::input_;
-
-  NormalCloudConstPtr normals_;
-  DepthDiscontinuityEdgeConfig config_;
 };
 }  // namespace segmentation
 }  // namespace cuefusion

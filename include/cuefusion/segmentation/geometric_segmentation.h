@@ -6,7 +6,6 @@
 
 #include <opencv2/core.hpp>
 
-#include <pcl/pcl_base.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -77,24 +76,16 @@ labelEdgeMap (const cv::Mat& edges, const cv::Mat& depth, const EdgeLabelingConf
   * \endcode
   */
 template <typename PointT, typename PointNT>
-class GeometricSegmentation : public pcl::PCLBase<PointT>
+class GeometricSegmentation : public OrganizedCloudWithNormals<PointT, PointNT, GeometricSegmentationConfig>
 {
 public:
   using Ptr = std::shared_ptr<GeometricSegmentation>;
   using ConstPtr = std::shared_ptr<const GeometricSegmentation>;
-  using NormalCloudConstPtr = typename pcl::PointCloud<PointNT>::ConstPtr;
 
   explicit GeometricSegmentation (const GeometricSegmentationConfig& config = GeometricSegmentationConfig ())
   {
-    setConfig (config);
+    this->setConfig (config);
   }
-
-  void setInputNormals (const NormalCloudConstPtr& normals) { normals_ = normals; }
-  NormalCloudConstPtr getInputNormals () const { return normals_; }
-
-  /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
-  void setConfig (const GeometricSegmentationConfig& config);
-  const GeometricSegmentationConfig& getConfig () const { return config_; }
 
   /** \brief Organized labels of the input's size (0 = no segment). Throws cuefusion::Error
     * on unorganized, empty or all-NaN input and on normals of another size.
@@ -118,10 +109,6 @@ public:
   const GeometricSegmentationTimings& getTimings () const { return timings_; }
 
 protected:
-  using pcl::PCLBase<PointT>::input_;
-
-  NormalCloudConstPtr normals_;
-  GeometricSegmentationConfig config_;
   SurfacePlanes planes_;  ///< reused between frames
   cv::Mat label_image_, concavity_edges_, discontinuity_edges_, edges_;
   int segment_count_ = 0;

@@ -2,7 +2,10 @@
 
 #include <cuefusion/common/exceptions.h>
 
+#include <cuefusion/segmentation/surface_planes.h>
+
 #include <pcl/console/print.h>
+#include <pcl/pcl_base.h>
 #include <pcl/point_cloud.h>
 
 #include <cmath>
@@ -51,5 +54,55 @@ checkOrganizedInput (const std::string& who, const pcl::PointCloud<PointT>* clou
     throw Error (who, problem);
   }
 }
+
+/** \brief What the organized-cloud classes of this module share (PCL style): the input
+  * cloud (pcl::PCLBase), input normals, a validated Config struct, and the checked copy
+  * of both into SurfacePlanes that their computations run on.
+  */
+template <typename PointT, typename PointNT, typename Config>
+class OrganizedCloudWithNormals : public pcl::PCLBase<PointT>
+{
+public:
+  using NormalCloudConstPtr = typename pcl::PointCloud<PointNT>::ConstPtr;
+
+  void setInputNormals (const NormalCloudConstPtr& normals) { normals_ = normals; }
+  NormalCloudConstPtr getInputNormals () const { return normals_; }
+
+  /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
+  void
+  setConfig (const Config& config)
+  {
+    config.validate ();
+    config_ = config;
+  }
+  const Config& getConfig () const { return config_; }
+
+protected:
+  /** \brief setConfig of a copy of the config changed by \a change (for the setters). */
+  template <typename F>
+  void
+  updateConfig (F&& change)
+  {
+    Config config = config_;
+    change (config);
+    setConfig (config);
+  }
+
+  /** \brief Checks the input cloud and normals (cuefusion::Error naming \a who) and copies
+    * them into \a planes.
+    */
+  void
+  toPlanes (const std::string& who, SurfacePlanes& planes) const
+  {
+    checkOrganizedInput<PointT, PointNT> (who, input_.get (), normals_.get ());
+    if (!normals_)
+      throw Error (who, "no input normals (setInputNormals)");
+    planes.assign (*input_, *normals_);
+  }
+
+  using pcl::PCLBase<PointT>::input_;
+  NormalCloudConstPtr normals_;
+  Config config_;
+};
 }  // namespace segmentation
 }  // namespace cuefusion

@@ -77,20 +77,12 @@ struct SurfacePlanes
   void
   assign (const pcl::PointCloud<PointT>& cloud, const pcl::PointCloud<PointNT>& normals)
   {
-    width = static_cast<int> (cloud.width);
-    height = static_cast<int> (cloud.height);
-    const std::size_t n = cloud.size ();
-    for (std::vector<float>* plane : {&x, &y, &z, &nx, &ny, &nz})
-      plane->resize (n);
+    assignPoints (cloud);
     const float nan = std::numeric_limits<float>::quiet_NaN ();
-    parallelFor (n, [&] (std::size_t i) {
-      const PointT& p = cloud[i];
-      const bool valid = std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z) && p.z > 0.f;
+    parallelFor (cloud.size (), [&] (std::size_t i) {
       const auto& q = normals[i];
-      const bool has_normal = valid && std::isfinite (q.normal_x) && std::isfinite (q.normal_y) && std::isfinite (q.normal_z);
-      x[i] = valid ? p.x : nan;
-      y[i] = valid ? p.y : nan;
-      z[i] = valid ? p.z : nan;
+      const bool has_normal =
+        std::isfinite (z[i]) && std::isfinite (q.normal_x) && std::isfinite (q.normal_y) && std::isfinite (q.normal_z);
       nx[i] = has_normal ? q.normal_x : nan;
       ny[i] = has_normal ? q.normal_y : nan;
       nz[i] = has_normal ? q.normal_z : nan;

@@ -13,6 +13,15 @@ namespace cuefusion
 {
 namespace io
 {
+bool
+hasField (const pcl::PCLPointCloud2& cloud, const std::string& name)
+{
+  for (const auto& f : cloud.fields)
+    if (f.name == name)
+      return true;
+  return false;
+}
+
 void
 saveMapPCD (const std::string& path, const pcl::PointCloud<pcl::PointXYZRGBL>& cloud)
 {
@@ -24,14 +33,6 @@ saveMapPCD (const std::string& path, const pcl::PointCloud<pcl::PointXYZRGBL>& c
 
 namespace
 {
-bool
-hasField (const pcl::PCLPointCloud2& cloud, const std::string& name)
-{
-  for (const auto& f : cloud.fields)
-    if (f.name == name)
-      return true;
-  return false;
-}
 
 template <typename T>
 void

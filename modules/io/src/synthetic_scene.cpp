@@ -226,14 +226,20 @@ OrbitTrajectory::poseAt (double s) const
   const Eigen::Vector3d position =
     target + Eigen::Vector3d (radius * std::cos (azimuth), radius * std::sin (azimuth),
                               height + bob * std::sin (2.0 * kPi * s));
-  const Eigen::Vector3d forward = (target - position).normalized ();
+  return lookAt (position, target);
+}
+
+Eigen::Isometry3d
+lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target)
+{
+  const Eigen::Vector3d forward = (target - eye).normalized ();
   const Eigen::Vector3d right = forward.cross (Eigen::Vector3d::UnitZ ()).normalized ();
   const Eigen::Vector3d down = forward.cross (right);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
   pose.linear ().col (0) = right;
   pose.linear ().col (1) = down;
   pose.linear ().col (2) = forward;
-  pose.translation () = position;
+  pose.translation () = eye;
   return pose;
 }
 

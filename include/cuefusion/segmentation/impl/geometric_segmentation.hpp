@@ -14,21 +14,10 @@ namespace segmentation
 
 template <typename PointT, typename PointNT>
 void
-GeometricSegmentation<PointT, PointNT>::setConfig (const GeometricSegmentationConfig& config)
-{
-  config.validate ();
-  config_ = config;
-}
-
-template <typename PointT, typename PointNT>
-void
 GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<pcl::Label>& labels)
 {
-  checkOrganizedInput<PointT, PointNT> ("GeometricSegmentation", input_.get (), normals_.get ());
-  if (!normals_)
-    throw Error ("GeometricSegmentation", "no input normals (setInputNormals)");
   pcl::StopWatch watch;
-  planes_.assign (*input_, *normals_);
+  this->toPlanes ("GeometricSegmentation", planes_);
   const double copy_ms = watch.getTime ();
   segment (planes_);
   watch.reset ();
@@ -46,26 +35,27 @@ GeometricSegmentation<PointT, PointNT>::segment (const SurfacePlanes& planes)
   if (w < 2 || h < 2 || planes.z.size () != static_cast<std::size_t> (w) * h)
     throw Error ("GeometricSegmentation", "surface planes are empty or not organized");
   timings_ = GeometricSegmentationTimings ();
+  const GeometricSegmentationConfig& config = this->config_;
   pcl::StopWatch watch;
-  const bool both = config_.use_concavity_edges && config_.use_discontinuity_edges;
-  if (both && config_.concavity.neighbour_step == config_.discontinuity.neighbour_step)
-    computeEdgeMasks (planes, config_.concavity.neighbour_step, config_.concavity.convexity_test,
-                      config_.concavity.threshold, config_.discontinuity.noise_factor, concavity_edges_,
+  const bool both = config.use_concavity_edges && config.use_discontinuity_edges;
+  if (both && config.concavity.neighbour_step == config.discontinuity.neighbour_step)
+    computeEdgeMasks (planes, config.concavity.neighbour_step, config.concavity.convexity_test,
+                      config.concavity.threshold, config.discontinuity.noise_factor, concavity_edges_,
                       discontinuity_edges_);
   else
   {
     cv::Mat values;
     concavity_edges_ = cv::Mat::zeros (h, w, CV_8U);
-    if (config_.use_concavity_edges)
+    if (config.use_concavity_edges)
     {
-      computeConcavityMap (planes, config_.concavity.neighbour_step, config_.concavity.convexity_test, values);
-      concavityEdges (values, config_.concavity.threshold, concavity_edges_);
+      computeConcavityMap (planes, config.concavity.neighbour_step, config.concavity.convexity_test, values);
+      concavityEdges (values, config.concavity.threshold, concavity_edges_);
     }
     discontinuity_edges_ = cv::Mat::zeros (h, w, CV_8U);
-    if (config_.use_discontinuity_edges)
+    if (config.use_discontinuity_edges)
     {
-      computeDiscontinuityMap (planes, config_.discontinuity.neighbour_step, values);
-      discontinuityEdges (planes, values, config_.discontinuity.noise_factor, discontinuity_edges_);
+      computeDiscontinuityMap (planes, config.discontinuity.neighbour_step, values);
+      discontinuityEdges (planes, values, config.discontinuity.noise_factor, discontinuity_edges_);
     }
   }
   timings_.edges_ms = watch.getTime ();
@@ -73,7 +63,7 @@ GeometricSegmentation<PointT, PointNT>::segment (const SurfacePlanes& planes)
   watch.reset ();
   cv::bitwise_or (concavity_edges_, discontinuity_edges_, edges_);
   const cv::Mat depth (h, w, CV_32F, const_cast<float*> (planes.z.data ()));
-  segment_count_ = labelEdgeMap (edges_, depth, config_.labeling, label_image_);
+  segment_count_ = labelEdgeMap (edges_, depth, config.labeling, label_image_);
   timings_.labeling_ms = watch.getTime ();
 }
 
