@@ -268,3 +268,38 @@ TEST (SegmentationInput, BadInputIsAClearError)
   EXPECT_THROW (discontinuity.setNoiseFactor (-1.f), ParameterError);
   EXPECT_THROW (concavity.setNeighbourStep (0), ParameterError);
 }
+
+TEST (NoiseAdaptiveBilateral, KeepsFlatDepthAndSteps)
+{
+  // Left half at 1.000 m, right half at 1.020 m: a 2 cm step, ~10 σ_z at 1 m — the kind of
+  // convex boundary §4.1.2 warns the filter must not erase. Plus one invalid pixel.
+  cv::Mat depth (40, 40, CV_32F, cv::Scalar (1.f));
+  depth.colRange (20, 40).setTo (1.02f);
+  depth.at<float> (5, 5) = 0.f;
+  cv::Mat filtered;
+  noiseAdaptiveBilateral (depth, 5, 8.f, 4.5f, filtered);
+  ASSERT_EQ (filtered.type (), CV_32F);
+  EXPECT_EQ (filtered.at<float> (5, 5), 0.f);  // invalid stays invalid and weighs nothing:
+  EXPECT_NEAR (filtered.at<float> (5, 6), 1.f, 1e-4f);
+  for (int y = 0; y < 40; ++y)
+  {
+    // Away from the step (outside the 5-pixel window) depth is unchanged: the mapping to
+    // noise units and back is exact to 0.1 mm.
+    for (int x = 0; x < 40; ++x)
+      if ((x < 18 || x > 21) && !(x == 5 && y == 5))
+      {
+        EXPECT_NEAR (filtered.at<float> (y, x), depth.at<float> (y, x), 1e-4f) << x << "," << y;
+      }
+    // At the step the range kernel (8 σ_z wide) lets some weight across, but most of the
+    // 20 mm remain: still > 5 σ_z, far above the Γ threshold.
+    EXPECT_GT (filtered.at<float> (y, 20) - filtered.at<float> (y, 19), 0.010f) << y;
+  }
+  // Noise of about σ_z is smoothed: alternating ±2 mm is at least halved (a 5-pixel
+  // disc holds nearly as many pixels of one sign as of the other).
+  cv::Mat noisy (40, 40, CV_32F);
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 40; ++x)
+      noisy.at<float> (y, x) = 1.f + (((x + y) % 2) ? 0.002f : -0.002f);
+  noiseAdaptiveBilateral (noisy, 5, 8.f, 4.5f, filtered);
+  EXPECT_LT (std::abs (filtered.at<float> (20, 20) - 1.f), 0.001f);
+}
