@@ -1,0 +1,40 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/recognition/instance_segmenter.h>
+
+#include <boost/algorithm/string/trim.hpp>
+#include <boost/filesystem.hpp>
+
+#include <cstdlib>
+#include <fstream>
+
+namespace cuefusion
+{
+namespace recognition
+{
+std::vector<std::string>
+readClassNames (const std::string& path)
+{
+  std::ifstream in (path);
+  if (!in)
+    throw Error (path, "cannot read class names");
+  std::vector<std::string> names;
+  std::string line;
+  while (std::getline (in, line))
+  {
+    boost::algorithm::trim (line);
+    if (!line.empty ())
+      names.push_back (line);
+  }
+  if (names.empty ())
+    throw Error (path, "holds no class name");
+  return names;
+}
+
+std::string
+defaultClassNamesPath ()
+{
+  const char* dir = std::getenv ("CUEFUSION_DATA_DIR");
+  return (boost::filesystem::path (dir ? dir : CUEFUSION_DATA_DIR) / "classes" / "coco.names").string ();
+}
+}  // namespace recognition
+}  // namespace cuefusion

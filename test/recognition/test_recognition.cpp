@@ -1,0 +1,254 @@
+// Instance mask sources: a real ONNX file through OpenCV DNN (generated at test time in
+// the exact YOLO-seg layouts, outputs known), and mask folders.
+#include "test_utils.h"
+
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/sequence.h>
+#include <cuefusion/io/sequence_writer.h>
+#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/recognition/mask_folder_segmenter.h>
+#include <cuefusion/recognition/onnx_instance_segmenter.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+
+using namespace cuefusion;
+using namespace cuefusion::recognition;
+
+namespace
+{
+/** Writes SPEC as JSON and runs test/recognition/make_yolo_seg_onnx.py on it. */
+std::string
+makeModel (const test::TempDir& dir, const std::string& name, const nlohmann::json& spec)
+{
+  const std::string spec_path = dir / (name + ".json"), model = dir / (name + ".onnx");
+  test::writeFile (spec_path, spec.dump ());
+  const std::string cmd = std::string ("/usr/bin/python3 ") + CUEFUSION_TEST_SOURCE_DIR +
+                          "/recognition/make_yolo_seg_onnx.py " + spec_path + " " + model;
+  EXPECT_EQ (std::system (cmd.c_str ()), 0) << cmd;
+  return model;
+}
+
+// 64×64 input, 3 classes, 4 mask coefficients, 16×16 prototypes (input / 4).
+// Prototype regions (channel, y0, y1, x0, x1 in prototype pixels, inclusive):
+//   0: rows 0–15, cols 0–15 (everything)      1: rows 10–14, all columns
+// Detections (cx, cy, w, h, objectness, class, class score, coefficient channel):
+//   A: box x 12–52, y 8–40, class 1, score 0.9·0.8 = 0.72, mask channel 0 → the box
+//   B: box x 8–32, y 30–56, class 2, score 0.855, channel 1 → rows 40–55 of the box
+//      (the region starts at prototype row 10 = input row 40; the box ends at 56)
+//   C: A moved 2 px, class 1, score 0.3 → suppressed by A (same class, IoU 0.9)
+//   D: A's box, class 0, score 0.5 → kept: NMS is per class
+//   E: score 0.05 → below the threshold
+nlohmann::json
+spec (const std::string& layout)
+{
+  return {{"layout", layout},
+          {"input", 64},
+          {"classes", 3},
+          {"coefficients", 4},
+          {"proto_size", 16},
+          {"regions", {{0, 0, 15, 0, 15}, {1, 10, 14, 0, 15}}},
+          {"detections",
+           {{32, 24, 40, 32, 0.9, 1, 0.8, 0},
+            {20, 43, 24, 26, 0.95, 2, 0.9, 1},
+            {34, 24, 40, 32, 0.5, 1, 0.6, 0},
+            {32, 24, 40, 32, 1.0, 0, 0.5, 0},
+            {5, 5, 4, 4, 0.1, 0, 0.5, 2}}}};
+}
+
+class OnnxSegmenter : public ::testing::Test
+{
+protected:
+  void
+  SetUp () override
+  {
+    test::writeFile (dir / "abc.names", "alpha\nbeta\n  gamma  \n\n");
+    config.classes_path = dir / "abc.names";
+    config.input_size = 64;
+  }
+
+  std::vector<Instance>
+  run (const std::string& model, const cv::Mat& color, YoloSegLayout* layout = nullptr)
+  {
+    config.model_path = model;
+    OnnxInstanceSegmenter segmenter (config);
+    if (layout)
+      *layout = segmenter.layout ();
+    RGBDFrame frame;
+    frame.color = color;
+    std::vector<Instance> instances;
+    EXPECT_TRUE (segmenter.segment (frame, instances));
+    return instances;
+  }
+
+  static cv::Mat
+  boxMask (cv::Size size, const cv::Rect& box)
+  {
+    cv::Mat mask = cv::Mat::zeros (size, CV_8U);
+    mask (box).setTo (1);
+    return mask;
+  }
+
+  test::TempDir dir;
+  OnnxSegmenterConfig config;
+};
+}  // namespace
+
+TEST_F (OnnxSegmenter, DecodesBothYoloLayoutsExactly)
+{
+  for (const std::string layout : {"v5", "v8"})
+  {
+    YoloSegLayout found;
+    const auto instances = run (makeModel (dir, layout, spec (layout)), cv::Mat (64, 64, CV_8UC3, cv::Scalar (9, 9, 9)), &found);
+    EXPECT_EQ (found, layout == "v5" ? YoloSegLayout::V5 : YoloSegLayout::V8);
+    ASSERT_EQ (instances.size (), 3u) << layout;
+    // Highest score first: B (0.855), A (0.72, or 0.8 in v8 which has no objectness), D.
+    const float a_score = layout == "v5" ? 0.72f : 0.8f, b_score = layout == "v5" ? 0.855f : 0.9f;
+    const Instance& b = instances[0];
+    const Instance& a = instances[1];
+    const Instance& d = instances[2];
+    EXPECT_EQ (b.class_id, 2);
+    EXPECT_EQ (b.class_name, "gamma");
+    EXPECT_NEAR (b.score, b_score, 1e-6f);
+    EXPECT_EQ (b.box, cv::Rect (8, 30, 24, 26));
+    EXPECT_EQ (cv::countNonZero (b.mask != boxMask (cv::Size (64, 64), cv::Rect (8, 40, 24, 16))), 0) << layout;
+    EXPECT_EQ (a.class_id, 1);
+    EXPECT_EQ (a.class_name, "beta");
+    EXPECT_NEAR (a.score, a_score, 1e-6f);
+    EXPECT_EQ (a.box, cv::Rect (12, 8, 40, 32));
+    EXPECT_EQ (cv::countNonZero (a.mask != boxMask (cv::Size (64, 64), a.box)), 0) << layout;
+    EXPECT_EQ (d.class_id, 0);
+    EXPECT_EQ (d.box, a.box);
+  }
+}
+
+TEST_F (OnnxSegmenter, LetterboxMapsBackToTheFrame)
+{
+  // A 128×64 frame is scaled by 0.5 and padded 16 rows top and bottom in the 64×64 input:
+  // input (x, y) is frame (2x, 2(y − 16)).
+  Letterbox box;
+  const cv::Mat input = OnnxInstanceSegmenter::letterbox (cv::Mat (64, 128, CV_8UC3, cv::Scalar (0, 0, 200)), 64, box);
+  EXPECT_FLOAT_EQ (box.scale, 0.5f);
+  EXPECT_EQ (box.pad_x, 0);
+  EXPECT_EQ (box.pad_y, 16);
+  EXPECT_EQ (input.at<cv::Vec3b> (5, 5), cv::Vec3b (114, 114, 114));
+  EXPECT_EQ (input.at<cv::Vec3b> (30, 30), cv::Vec3b (0, 0, 200));
+
+  nlohmann::json s = spec ("v5");
+  s["detections"] = {{32, 32, 40, 16, 1.0, 1, 0.9, 0}};  // input x 12–52, y 24–40
+  const auto instances = run (makeModel (dir, "letterbox", s), cv::Mat (64, 128, CV_8UC3, cv::Scalar (9, 9, 9)));
+  ASSERT_EQ (instances.size (), 1u);
+  EXPECT_EQ (instances[0].box, cv::Rect (24, 16, 80, 32));
+  EXPECT_EQ (instances[0].mask.size (), cv::Size (128, 64));
+  EXPECT_EQ (cv::countNonZero (instances[0].mask != boxMask (cv::Size (128, 64), cv::Rect (24, 16, 80, 32))), 0);
+}
+
+TEST_F (OnnxSegmenter, BadModelsAreClearErrors)
+{
+  config.model_path = dir / "missing.onnx";
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "missing.onnx", "no such model file");
+
+  test::writeFile (dir / "junk.onnx", "not a protobuf at all");
+  config.model_path = dir / "junk.onnx";
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "junk.onnx", "cannot load");
+
+  // Detections flattened to [1, N·D]: no YOLO-seg layout; the message names the shapes.
+  config.model_path = makeModel (dir, "flat", spec ("flat"));
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "flat.onnx", "[1, 60]");
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "flat.onnx", "do not match");
+
+  // The right layout with the wrong class list (80 COCO names for a 3-class model).
+  config.model_path = makeModel (dir, "v5", spec ("v5"));
+  config.classes_path = "";
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "v5.onnx", "C = 80");
+
+  config.classes_path = dir / "none.names";
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "none.names", "cannot read");
+  config.input_size = 100;
+  EXPECT_THROW (OnnxInstanceSegmenter s (config), ParameterError);
+}
+
+TEST (ClassNames, BundledCocoList)
+{
+  const auto names = readClassNames (defaultClassNamesPath ());
+  ASSERT_EQ (names.size (), 80u);
+  EXPECT_EQ (names[0], "person");
+  EXPECT_EQ (names[41], "cup");
+  EXPECT_EQ (names[79], "toothbrush");
+}
+
+TEST (MaskFolderSegmenter, ReadsIdPNGsWithTheirJSONByNameOrIndex)
+{
+  test::TempDir dir;
+  cv::Mat ids = cv::Mat::zeros (20, 30, CV_16U);
+  ids (cv::Rect (2, 3, 5, 4)).setTo (7);
+  ids (cv::Rect (10, 10, 6, 6)).setTo (3);
+  io::writeImageAtomic (dir / "frame-000012.png", ids);
+  test::writeFile (dir / "frame-000012.json",
+                   R"({"instances": [{"id": 3, "class_id": 41, "score": 0.5}, {"id": 7, "class_id": 2, "class_name": "car", "score": 0.9}, {"id": 9, "class_id": 1}]})");
+  io::writeImageAtomic (dir / "5.png", ids);  // matched by index, no JSON
+
+  MaskFolderSegmenter folder (dir.str (), readClassNames (defaultClassNamesPath ()));
+  RGBDFrame frame;
+  frame.depth = cv::Mat::zeros (20, 30, CV_32F);
+  frame.name = "frame-000012";
+  frame.index = 99;
+  std::vector<Instance> instances;
+  ASSERT_TRUE (folder.segment (frame, instances));
+  ASSERT_EQ (instances.size (), 2u);  // increasing id: 3, then 7; id 9 is not in the PNG
+  EXPECT_EQ (instances[0].class_name, "cup");  // named from the class list
+  EXPECT_FLOAT_EQ (instances[0].score, 0.5f);
+  EXPECT_EQ (cv::countNonZero (instances[0].mask), 36);
+  EXPECT_EQ (instances[1].class_name, "car");
+  EXPECT_EQ (instances[1].box, cv::Rect (2, 3, 5, 4));
+
+  frame.name = "something-else";
+  frame.index = 12;  // falls back to the number in the stem
+  ASSERT_TRUE (folder.segment (frame, instances));
+  EXPECT_EQ (instances.size (), 2u);
+  frame.index = 5;
+  ASSERT_TRUE (folder.segment (frame, instances));
+  EXPECT_EQ (instances[0].class_id, -1);
+  EXPECT_FLOAT_EQ (instances[0].score, 1.f);
+  frame.index = 6;
+  EXPECT_FALSE (folder.segment (frame, instances));  // no masks: geometry only
+  EXPECT_TRUE (instances.empty ());
+
+  frame.index = 12;
+  frame.depth = cv::Mat::zeros (21, 30, CV_32F);
+  test::expectError ([&] { folder.segment (frame, instances); }, "frame-000012.png", "mask image is 30x20");
+  frame.depth = cv::Mat::zeros (20, 30, CV_32F);
+  test::writeFile (dir / "frame-000012.json", "{ broken");
+  test::expectError ([&] { folder.segment (frame, instances); }, "frame-000012.json", "not a mask description");
+  test::expectError ([&] { MaskFolderSegmenter bad (dir / "nope"); }, "nope", "not a folder");
+}
+
+TEST (MaskFolderSegmenter, ReadsTheSyntheticDetectorsMasks)
+{
+  test::TempDir dir;
+  io::SyntheticSequenceConfig config;
+  config.frames = 3;
+  config.width = 160;
+  config.height = 120;
+  config.detector.boundary_px = 2;
+  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  io::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq");
+  const auto grabber = io::openDataset (dir / "seq");
+  MaskFolderSegmenter folder (dir / "seq/detections");
+  for (std::size_t i = 0; i < 3; ++i)
+  {
+    const RGBDFrame::Ptr frame = grabber->readFrame (i);
+    const io::DetectionResult truth = sequence.detections (*sequence.frame (i));
+    std::vector<Instance> instances;
+    ASSERT_TRUE (folder.segment (*frame, instances)) << i;
+    ASSERT_EQ (instances.size (), truth.detections.size ());
+    for (std::size_t k = 0; k < instances.size (); ++k)
+    {
+      EXPECT_EQ (instances[k].class_name, truth.detections[k].class_name);
+      EXPECT_NEAR (instances[k].score, truth.detections[k].score, 1e-5f);
+      EXPECT_EQ (cv::countNonZero (instances[k].mask != (truth.ids == truth.detections[k].id) / 255), 0);
+    }
+  }
+}
