@@ -4,7 +4,9 @@
 #include "test_utils.h"
 
 #include <cuefusion/common/label_colors.h>
+#include <cuefusion/common/instance.h>
 #include <cuefusion/io/scene_renderer.h>
+#include <cuefusion/io/simulated_detector.h>
 #include <cuefusion/io/synthetic_scene.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
@@ -93,6 +95,28 @@ segmentScene (const std::string& scene_body, const Eigen::Vector3d& eye, const E
     cv::imwrite (std::string (dir) + "/view" + std::to_string (counter++) + ".png", row);
   }
   return out;
+}
+
+/** The simulated network's instances on a rendered view of \a scene_body (the same text
+  * segmentScene rendered), with the detector errors of \a errors.
+  */
+inline std::vector<Instance>
+simulatedInstances (const std::string& scene_body, const SegmentedView& s, const io::DetectorErrorConfig& errors)
+{
+  const io::SyntheticScene scene =
+    io::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + scene_body, "test scene");
+  const io::DetectionResult result = io::SimulatedDetector (scene, errors, 3).detect (s.view.instance, 0);
+  std::vector<int> ids;
+  std::vector<Instance> instances = instancesFromIdImage (result.ids, &ids);
+  for (std::size_t i = 0; i < instances.size (); ++i)
+    for (const io::Detection& d : result.detections)
+      if (d.id == ids[i])
+      {
+        instances[i].class_id = d.class_id;
+        instances[i].class_name = d.class_name;
+        instances[i].score = d.score;
+      }
+  return instances;
 }
 
 /** How one ground-truth object of a view is segmented. */
