@@ -8,7 +8,11 @@
 #include <cuefusion/io/camera_io.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/map_io.h>
+#include <cuefusion/common/instance.h>
+#include <cuefusion/recognition/mask_folder_segmenter.h>
+#include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
+#include <cuefusion/segmentation/instance_guided_region_merge.h>
 #include <cuefusion/segmentation/support_plane_removal.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
 
@@ -27,6 +31,7 @@
 #include <iomanip>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <set>
 
 namespace fs = boost::filesystem;
@@ -156,9 +161,87 @@ edgePicture (const cv::Mat& concavity, const cv::Mat& discontinuity, const Cloud
   return picture;
 }
 
+/** BGR image of a cloud's colours (for a network). */
+cv::Mat
+colorImage (const Cloud& cloud)
+{
+  cv::Mat image (static_cast<int> (cloud.height), static_cast<int> (cloud.width), CV_8UC3);
+  for (int y = 0; y < image.rows; ++y)
+    for (int x = 0; x < image.cols; ++x)
+    {
+      const auto& p = cloud (x, y);
+      image.at<cv::Vec3b> (y, x) = cv::Vec3b (p.b, p.g, p.r);
+    }
+  return image;
+}
+
+/** L_t = InstanceGuidedRegionMerge (L^G, masks). */
+cv::Mat
+fuseWithMasks (const segmentation::InstanceGuidedRegionMerge& merger, const cv::Mat& geometric,
+               const std::vector<Instance>& instances, std::vector<segmentation::SegmentInstance>& segments)
+{
+  cv::Mat fused;
+  merger.merge (geometric, instances, fused, &segments);
+  return fused;
+}
+
+/** The masks alone as segments (label i + 1 for instance i, the higher score on overlaps),
+  * on pixels with depth only: a segment is a set of 3D points.
+  */
+cv::Mat
+masksOnly (const std::vector<Instance>& instances, cv::Size size, const segmentation::SurfacePlanes& planes,
+           std::vector<segmentation::SegmentInstance>& segments)
+{
+  cv::Mat labels;
+  instancesToIdImage (instances, size).convertTo (labels, CV_32S);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)
+      if (!std::isfinite (planes.z[static_cast<std::size_t> (y) * size.width + x]))
+        labels.at<std::int32_t> (y, x) = 0;
+  segments.assign (1, segmentation::SegmentInstance ());
+  for (std::size_t i = 0; i < instances.size (); ++i)
+  {
+    segmentation::SegmentInstance info;
+    info.instance = static_cast<int> (i);
+    info.class_id = instances[i].class_id;
+    info.class_name = instances[i].class_name;
+    info.score = instances[i].score;
+    segments.push_back (info);
+  }
+  return labels;
+}
+
+/** What each label of the output is: its instance's class and score, or geometry only. */
+std::string
+segmentsJson (const std::vector<segmentation::SegmentInstance>& segments, const cv::Mat& labels)
+{
+  std::vector<int> pixels (segments.size (), 0);
+  for (int y = 0; y < labels.rows; ++y)
+    for (int x = 0; x < labels.cols; ++x)
+    {
+      const int label = labels.at<std::int32_t> (y, x);
+      if (label > 0 && static_cast<std::size_t> (label) < pixels.size ())
+        ++pixels[static_cast<std::size_t> (label)];
+    }
+  nlohmann::json list = nlohmann::json::array ();
+  for (std::size_t label = 1; label < segments.size (); ++label)
+  {
+    if (pixels[label] == 0)
+      continue;  // dropped with the support plane, or hidden by an overlapping mask
+    const auto& s = segments[label];
+    nlohmann::json entry = {{"label", label}, {"pixels", pixels[label]}};
+    if (s.instance >= 0)
+      entry.update ({{"class_id", s.class_id}, {"class_name", s.class_name}, {"score", s.score}});
+    if (s.geometric_segments > 0)
+      entry["geometric_segments"] = s.geometric_segments;
+    list.push_back (entry);
+  }
+  return nlohmann::json ({{"segments", list}}).dump (1) + "\n";
+}
+
 struct FrameTimes
 {
-  double load_ms = 0, smoothing_ms = 0, normals_ms = 0, edges_ms = 0, labeling_ms = 0,
+  double load_ms = 0, smoothing_ms = 0, normals_ms = 0, edges_ms = 0, labeling_ms = 0, masks_ms = 0,
          plane_ms = 0, write_ms = 0;
   double segmentation () const { return smoothing_ms + normals_ms + edges_ms + labeling_ms; }
 };
@@ -190,6 +273,9 @@ int
 runSegmentFrame (const std::vector<std::string>& args)
 {
   std::string input, out, intrinsics_path, rgb, png, edges_png, timings_path, normals = "central", convexity = "divergence";
+  std::string masks, mode;
+  recognition::OnnxSegmenterConfig onnx;
+  segmentation::InstanceGuidedMergeConfig merge_config;
   double depth_scale = 1000.0;
   bool drop_plane = false, verbose = false, no_concavity = false, no_depth_edges = false;
   segmentation::SurfacePreprocessingConfig pre;
@@ -204,6 +290,13 @@ runSegmentFrame (const std::vector<std::string>& args)
     ("rgb", po::value (&rgb), "colour image for the output's colours (a folder for folder input: same stems)")
     ("png", po::value (&png), "also write a colour-coded label PNG (a folder for folder input)")
     ("edges-png", po::value (&edges_png), "also write the edge maps (red concave, green depth edges, grey no depth; a folder for folder input)")
+    ("masks", po::value (&masks), "instance masks: a 16-bit id PNG (+ JSON of the same stem), or for folder input a folder of them matched by file stem")
+    ("model", po::value (&onnx.model_path), "instance masks from a YOLO-seg ONNX model run on the colour image (OpenCV DNN, CPU)")
+    ("classes", po::value (&onnx.classes_path), "class names of --model, one per line (default data/classes/coco.names)")
+    ("input-size", po::value (&onnx.input_size)->default_value (onnx.input_size), "network input size of --model (px)")
+    ("score-threshold", po::value (&onnx.score_threshold)->default_value (onnx.score_threshold), "--model detections below are dropped")
+    ("mode", po::value (&mode), "geometry (L^G), masks (instance masks only) or fused (InstanceGuidedRegionMerge, the default with --masks/--model)")
+    ("min-overlap", po::value (&merge_config.min_overlap)->default_value (merge_config.min_overlap), "fused: share of a geometric segment inside one instance to join it")
     ("drop-support-plane", po::bool_switch (&drop_plane), "label the dominant plane (table, floor) 0")
     ("verbose,v", po::bool_switch (&verbose), "print per-stage timings per frame")
     ("timings", po::value (&timings_path), "write per-frame stage timings (ms) to this JSON file")
@@ -254,6 +347,16 @@ runSegmentFrame (const std::vector<std::string>& args)
   pre.validate ();
   geo.validate ();
   plane.validate ();
+  merge_config.validate ();
+  if (!masks.empty () && !onnx.model_path.empty ())
+    throw UsageError ("--masks and --model exclude each other");
+  const bool have_source = !masks.empty () || !onnx.model_path.empty ();
+  if (mode.empty ())
+    mode = have_source ? "fused" : "geometry";
+  if (mode != "geometry" && mode != "masks" && mode != "fused")
+    throw ParameterError ("--mode", "must be geometry, masks or fused, not '" + mode + "'");
+  if (mode != "geometry" && !have_source)
+    throw UsageError ("--mode " + mode + " needs --masks or --model");
 
   boost::system::error_code ec;
   const bool folder = fs::is_directory (input, ec);
@@ -268,6 +371,18 @@ runSegmentFrame (const std::vector<std::string>& args)
       if (!dir.empty () && !fs::create_directories (dir, ec) && ec)
         throw Error (dir, "cannot create folder: " + ec.message ());
   }
+  std::unique_ptr<recognition::InstanceSegmenter> source;
+  if (!masks.empty ())
+  {
+    if (folder != fs::is_directory (masks, ec))
+      throw Error (masks, folder ? "folder input needs a folder of masks" : "a single input needs a single mask PNG");
+    if (folder)
+      source = std::make_unique<recognition::MaskFolderSegmenter> (masks);
+  }
+  else if (!onnx.model_path.empty ())
+    source = std::make_unique<recognition::OnnxInstanceSegmenter> (onnx);
+  const segmentation::InstanceGuidedRegionMerge merger (merge_config);
+  bool warned_missing = false;
   PinholeCamera camera;
   bool have_camera = false;
   if (!intrinsics_path.empty ())
@@ -323,6 +438,32 @@ runSegmentFrame (const std::vector<std::string>& args)
     t.edges_ms = st.edges_ms;
     t.labeling_ms = st.labeling_ms;
     cv::Mat label_image = segmenter.getLabelImage ().clone ();
+    std::vector<segmentation::SegmentInstance> segments;
+    if (mode != "geometry")
+    {
+      watch.reset ();
+      std::vector<Instance> instances;
+      bool have_masks = true;
+      if (!source)
+        instances = recognition::MaskFolderSegmenter::readInstanceMasks (masks, label_image.size ());
+      else
+      {
+        RGBDFrame frame;
+        frame.index = static_cast<std::size_t> (&path - inputs.data ());
+        frame.name = fs::path (path).stem ().string ();
+        frame.color = colorImage (*cloud);
+        have_masks = source->segment (frame, instances);
+      }
+      if (!have_masks && !warned_missing)
+      {
+        std::cerr << "segment-frame: no masks for " << path << " (nor, maybe, for later inputs): geometry only there\n";
+        warned_missing = true;
+      }
+      if (have_masks)
+        label_image = mode == "fused" ? fuseWithMasks (merger, label_image, instances, segments)
+                                      : masksOnly (instances, label_image.size (), planes, segments);
+      t.masks_ms = watch.getTime ();
+    }
     if (drop_plane)
     {
       watch.reset ();
@@ -336,6 +477,9 @@ runSegmentFrame (const std::vector<std::string>& args)
     io::saveMapPCD (outputPath (out, folder, path, ".pcd"), labelled);
     if (!png.empty ())
       io::writeImageAtomic (outputPath (png, folder, path, ".png"), colorizeLabels (label_image));
+    if (!segments.empty ())
+      io::writeTextAtomic (folder ? outputPath (out, true, path, ".json") : fs::path (out).replace_extension (".json").string (),
+                           segmentsJson (segments, label_image));
     if (!edges_png.empty ())
       io::writeImageAtomic (outputPath (edges_png, folder, path, ".png"),
                             edgePicture (segmenter.getConcavityEdges (), segmenter.getDiscontinuityEdges (), *cloud));
@@ -355,6 +499,7 @@ runSegmentFrame (const std::vector<std::string>& args)
                        {"edges_ms", t.edges_ms},
                        {"labeling_ms", t.labeling_ms},
                        {"segmentation_ms", t.segmentation ()},
+                       {"masks_ms", t.masks_ms},
                        {"plane_ms", t.plane_ms},
                        {"write_ms", t.write_ms}});
     if (verbose)

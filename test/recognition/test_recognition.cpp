@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <pcl/io/pcd_io.h>
 
 #include <cstdlib>
 
@@ -251,4 +252,36 @@ TEST (MaskFolderSegmenter, ReadsTheSyntheticDetectorsMasks)
       EXPECT_EQ (cv::countNonZero (instances[k].mask != (truth.ids == truth.detections[k].id) / 255), 0);
     }
   }
+}
+
+TEST_F (OnnxSegmenter, SegmentFrameRunsTheModel)
+{
+  // A 64×48 wall 1 m away, coloured: the model's boxes land on it as mask segments.
+  pcl::PointCloud<pcl::PointXYZRGBA> wall (64, 48);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x)
+    {
+      auto& p = wall (x, y);
+      p.x = (x - 32) / 500.f;
+      p.y = (y - 24) / 500.f;
+      p.z = 1.f;
+      p.r = p.g = p.b = 100;
+    }
+  ASSERT_EQ (pcl::io::savePCDFileBinary (dir / "wall.pcd", wall), 0);
+  const std::string model = makeModel (dir, "v8", spec ("v8"));
+  const auto r = test::runCuefusion ("segment-frame " + (dir / "wall.pcd") + " --out " + (dir / "out.pcd") + " --model " +
+                                       model + " --classes " + (dir / "abc.names") + " --input-size 64 --mode masks",
+                                     dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  pcl::PointCloud<pcl::PointXYZRGBL> out;
+  ASSERT_EQ (pcl::io::loadPCDFile (dir / "out.pcd", out), 0);
+  // Letterbox: 64×48 sits at rows 8–55 of the input. Instance B (highest score, on top)
+  // covers input rows 40–55 of x 8–31 → frame rows 32–47; A input x 12–51, y 8–39 →
+  // frame y 0–31.
+  EXPECT_EQ (out (20, 40).label, 1u);  // B
+  EXPECT_EQ (out (40, 10).label, 2u);  // A (D has A's box with a lower score: hidden)
+  EXPECT_EQ (out (60, 40).label, 0u);
+  const auto json = nlohmann::json::parse (test::readFile (dir / "out.json"));
+  EXPECT_EQ (json.at ("segments").at (0).at ("class_name"), "gamma");
+  EXPECT_EQ (json.at ("segments").at (1).at ("class_name"), "beta");
 }

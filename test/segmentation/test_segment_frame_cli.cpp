@@ -7,7 +7,10 @@
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <nlohmann/json.hpp>
 #include <pcl/io/pcd_io.h>
+
+#include <map>
 
 using namespace cuefusion;
 
@@ -166,4 +169,73 @@ TEST_F (SegmentFrame, BadInputIsOneLine)
     EXPECT_NE (r.err.find (std::string (bad).substr (0, std::string (bad).find (' '))), std::string::npos) << r.err;
   }
   EXPECT_FALSE (boost::filesystem::exists (dir / "o.pcd"));
+}
+
+TEST_F (SegmentFrame, InstanceMasksFusedOrAlone)
+{
+  // Masks = the true instances of box (2) and ball (3), as an external tool would write.
+  cv::Mat ids = cv::Mat::zeros (480, 640, CV_16U);
+  ids.setTo (4, view.view.instance == 2);
+  ids.setTo (9, view.view.instance == 3);
+  io::writeImageAtomic (dir / "masks.png", ids);
+  test::writeFile (dir / "masks.json", R"({"instances": [{"id": 4, "class_id": 73, "class_name": "book", "score": 0.8},
+                                                          {"id": 9, "class_id": 32, "class_name": "sports ball", "score": 0.9}]})");
+  for (const std::string mode : {"fused", "masks"})
+  {
+    const std::string out = dir / (mode + ".pcd");
+    const auto r = test::runCuefusion ("segment-frame " + pcd + " --out " + out + " --masks " + (dir / "masks.png") +
+                                         " --mode " + mode,
+                                       dir);
+    ASSERT_EQ (r.code, 0) << r.err;
+    pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+    view.labels = readLabels (out, cloud);
+    for (const std::uint16_t id : {2, 3})
+      EXPECT_GE (test::scoreObject (view, id).best_iou, 0.75) << mode << " object " << id;
+    // The sidecar JSON names the class of the segment each object landed in.
+    const auto json = nlohmann::json::parse (test::readFile (dir / (mode + ".json")));
+    std::map<int, std::string> classes;
+    for (const auto& s : json.at ("segments"))
+      if (s.contains ("class_name"))
+        classes[s.at ("label").get<int> ()] = s.at ("class_name").get<std::string> ();
+    EXPECT_EQ (classes[test::scoreObject (view, 2).best_label], "book") << mode;
+    EXPECT_EQ (classes[test::scoreObject (view, 3).best_label], "sports ball") << mode;
+    if (mode == "masks")  // the table is in no mask: no segment
+      EXPECT_LT (test::scoreObject (view, 1).best_iou, 0.01);
+    else  // fused: geometry keeps the table
+      EXPECT_GE (test::scoreObject (view, 1).best_iou, 0.75);
+  }
+  // Usage errors: a mode needing masks without any, both sources, a folder/file mismatch.
+  auto r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "o.pcd") + " --mode masks", dir);
+  EXPECT_EQ (r.code, 2);
+  EXPECT_NE (r.err.find ("--mode masks needs --masks or --model"), std::string::npos) << r.err;
+  r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "o.pcd") + " --masks a.png --model b.onnx", dir);
+  EXPECT_EQ (r.code, 2);
+  r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "o.pcd") + " --masks " + dir.str (), dir);
+  EXPECT_EQ (r.code, 1);
+  EXPECT_NE (r.err.find ("single mask PNG"), std::string::npos) << r.err;
+  r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "o.pcd") + " --model " + (dir / "none.onnx"), dir);
+  EXPECT_EQ (r.code, 1);
+  EXPECT_NE (r.err.find ("no such model file"), std::string::npos) << r.err;
+  EXPECT_FALSE (boost::filesystem::exists (dir / "o.pcd"));
+}
+
+TEST_F (SegmentFrame, FolderMasksMatchedByStemMissingMeansGeometry)
+{
+  boost::filesystem::create_directories (dir / "masks");
+  cv::Mat ids = cv::Mat::zeros (480, 640, CV_16U);
+  ids.setTo (1, view.view.instance == 2);
+  io::writeImageAtomic (dir / "masks/view.png", ids);
+  boost::filesystem::copy_file (pcd, dir / "in/other.pcd");  // no masks for this one
+  const auto r = test::runCuefusion ("segment-frame " + (dir / "in") + " --out " + (dir / "out") + " --masks " +
+                                       (dir / "masks") + " --mode masks",
+                                     dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_NE (r.err.find ("no masks for"), std::string::npos) << r.err;
+  EXPECT_EQ (std::count (r.err.begin (), r.err.end (), '\n'), 1) << r.err;  // logged once
+  pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+  view.labels = readLabels (dir / "out/view.pcd", cloud);
+  EXPECT_GE (test::scoreObject (view, 2).best_iou, 0.75);
+  EXPECT_LT (test::scoreObject (view, 3).best_iou, 0.01);  // masks mode: the ball has no mask
+  view.labels = readLabels (dir / "out/other.pcd", cloud);  // geometry only
+  EXPECT_GE (test::scoreObject (view, 3).best_iou, 0.75);
 }

@@ -33,7 +33,16 @@ public:
   std::string maskPathFor (const RGBDFrame& frame) const;
 
   /** \brief Reads one id PNG (and its JSON when present) at \a size. */
-  std::vector<Instance> readMasks (const std::string& png, cv::Size size) const;
+  std::vector<Instance> readMasks (const std::string& png, cv::Size size) const
+  {
+    return readInstanceMasks (png, size, class_names_);
+  }
+
+  /** \brief Reads one 16-bit instance-id PNG and, when there is one, the JSON of the
+    * same stem; the image must be \a size. Throws cuefusion::Error naming the file.
+    */
+  static std::vector<Instance> readInstanceMasks (const std::string& png, cv::Size size,
+                                                  const std::vector<std::string>& class_names = {});
 
 private:
   std::string folder_;

@@ -61,7 +61,7 @@ MaskFolderSegmenter::maskPathFor (const RGBDFrame& frame) const
 }
 
 std::vector<Instance>
-MaskFolderSegmenter::readMasks (const std::string& png, cv::Size size) const
+MaskFolderSegmenter::readInstanceMasks (const std::string& png, cv::Size size, const std::vector<std::string>& class_names)
 {
   const cv::Mat ids = io::readLabelImage (png);
   if (ids.size () != size)
@@ -87,8 +87,8 @@ MaskFolderSegmenter::readMasks (const std::string& png, cv::Size size) const
       instance.class_id = entry.value ("class_id", -1);
       instance.class_name = entry.value ("class_name", std::string ());
       if (instance.class_name.empty () && instance.class_id >= 0 &&
-          static_cast<std::size_t> (instance.class_id) < class_names_.size ())
-        instance.class_name = class_names_[static_cast<std::size_t> (instance.class_id)];
+          static_cast<std::size_t> (instance.class_id) < class_names.size ())
+        instance.class_name = class_names[static_cast<std::size_t> (instance.class_id)];
       instance.score = entry.value ("score", 1.f);
     }
   }
