@@ -10,6 +10,9 @@ In one run, on the same clouds:
     EuclideanClusterComparator), scored and timed the same way;
   * ablations of cuefusion's choices (thesis tangent-plane convexity test, no edge
     assignment, one closing, integral-image normals, ...);
+  * the instance cue: masks derived from the OSD ground truth with the synthetic
+    generator's detector error model (build/apps/cuefusion_bench_osd_masks), several
+    error settings, each scored geometry-only, masks-only and fused;
   * normal accuracy on noisy synthetic views (build/apps/cuefusion_bench_normals).
 Everything is printed as Markdown, ready for docs/benchmarks.md.
 """
@@ -56,6 +59,15 @@ def medians(timing_files, keys):
 def run_ours(binary, data, out, extra, timings):
     subprocess.run([binary, "segment-frame", data, "--out", out, "--drop-support-plane", "--timings", timings] + extra,
                    check=True, stdout=subprocess.DEVNULL)
+
+
+MASK_SETTINGS = [
+    ("perfect masks", ["--dilate", "0", "--jitter", "0", "--merge", "0", "--miss", "0"]),
+    ("typical network (dilate 2 px ± 1, merge 0.2, miss 0.1)", []),
+    ("leaky masks (dilate 6 px ± 2)", ["--dilate", "6", "--jitter", "2", "--merge", "0", "--miss", "0"]),
+    ("merging network (every touching pair merged)", ["--dilate", "2", "--jitter", "1", "--merge", "1", "--miss", "0"]),
+    ("missing network (miss 0.5)", ["--dilate", "2", "--jitter", "1", "--merge", "0", "--miss", "0.5"]),
+]
 
 
 def fmt_scores(s):
@@ -110,6 +122,22 @@ def main():
                 s = score(args.evaluator, args.osd, pred, tmp)
                 print("| %s (`%s`) | %s | %.1f |" % (name, " ".join(extra), fmt_scores(s),
                                                   medians([timing], ["segmentation_ms"])["segmentation_ms"]))
+        print("\n| masks from the GT with the detector error model | mode | O-P | O-R | O-F | B-P | B-R | B-F | %75 | ms (segmentation + masks) |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        masker = os.path.join(args.build, "cuefusion_bench_osd_masks")
+        for name, extra in MASK_SETTINGS:
+            masks = os.path.join(tmp, "masks")
+            subprocess.run(["rm", "-rf", masks])
+            subprocess.run([masker, args.osd, masks] + extra, check=True)
+            for mode in ("geometry", "masks", "fused"):
+                pred = os.path.join(tmp, "pred_" + mode)
+                timing = os.path.join(tmp, "t_" + mode + ".json")
+                subprocess.run(["rm", "-rf", pred])
+                run_ours(binary, args.osd, pred, ["--masks", masks, "--mode", mode], timing)
+                s = score(args.evaluator, args.osd, pred, tmp)
+                t = medians([timing], ["segmentation_ms", "masks_ms"])
+                print("| %s | %s | %s | %.1f + %.1f |" % (name if mode == "geometry" else "", mode, fmt_scores(s),
+                                                        t["segmentation_ms"], t["masks_ms"]))
     scene = os.path.join(os.path.dirname(__file__), "..", "data", "scenes", "tabletop.scene")
     print()
     sys.stdout.flush()
