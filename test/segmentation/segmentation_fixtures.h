@@ -25,6 +25,19 @@ namespace test
 {
 using io::lookAt;
 
+// Scene bodies shared by the segmentation tests (object ids follow file order: the
+// table is 1), seen from kObliqueEye towards kTableTarget unless a test says otherwise.
+const std::string kTable = "object table class=dining_table color=140,100,60 detectable=no\n"
+                           "  box center=0,0,0.72 size=1.2,0.8,0.04\n";
+/** Two boxes touching side by side; box_b stands 2 cm further back, so a concave seam shows. */
+const std::string kTwoBoxes = kTable +
+                              "object box_a class=box color=220,120,30\n"
+                              "  box center=-0.07,0,0.84 size=0.14,0.10,0.20\n"
+                              "object box_b class=box color=30,170,190\n"
+                              "  box center=0.07,0.02,0.81 size=0.14,0.06,0.14\n";
+const Eigen::Vector3d kTableTarget (0.0, 0.0, 0.8);
+const Eigen::Vector3d kObliqueEye (0.45, -0.85, 1.3);
+
 /** One rendered view and its geometric segmentation. */
 struct SegmentedView
 {

@@ -14,14 +14,10 @@ using test::segmentScene;
 
 namespace
 {
-const std::string kTable = "object table class=table color=140,100,60 detectable=no\n"
-                           "  box center=0,0,0.72 size=1.2,0.8,0.04\n";
-// Object ids follow file order: the table is 1.
-const std::string kTwoBoxes = kTable +
-                              "object box_a class=box color=220,120,30\n"
-                              "  box center=-0.07,0,0.84 size=0.14,0.10,0.20\n"
-                              "object box_b class=box color=30,170,190\n"
-                              "  box center=0.07,0.02,0.81 size=0.14,0.06,0.14\n";
+using test::kTable;
+using test::kTwoBoxes;
+using test::kTableTarget;
+using test::kObliqueEye;
 const std::string kConvex = kTable +
                             "object box class=box color=200,40,40\n"
                             "  box center=-0.25,0.05,0.80 size=0.16,0.12,0.12 yaw=30\n"
@@ -39,9 +35,6 @@ const std::string kWall = "object floor class=floor color=170,165,150 detectable
                           "  box center=0,1.2,1.0 size=4,0.1,2.0\n"
                           "object crate class=box color=200,120,40\n"
                           "  box center=0,0.5,0.7 size=0.3,0.3,0.3\n";  // floats 0.55 m above the floor, 0.5 m before the wall
-
-const Eigen::Vector3d kTableTarget (0.0, 0.0, 0.8);
-const Eigen::Vector3d kObliqueEye (0.45, -0.85, 1.3);
 }  // namespace
 
 // Thresholds, stated before running: noise-free views reproduce each object closely

@@ -15,8 +15,8 @@ using test::segmentScene;
 
 namespace
 {
-const std::string kTable = "object table class=dining_table color=140,100,60 detectable=no\n"
-                           "  box center=0,0,0.72 size=1.2,0.8,0.04\n";
+using test::kTable;
+using test::kTwoBoxes;
 // An L whose arms differ in height: geometry cuts it in two (GeometricSegmentation.NonConvexBlocks).
 const std::string kSteppedL = kTable +
                               "object lblock class=block color=150,60,170\n"
@@ -24,13 +24,8 @@ const std::string kSteppedL = kTable +
                               "  box center=-0.07,-0.08,0.815 size=0.06,0.10,0.15\n"
                               "object ball class=sports_ball color=40,60,210\n"
                               "  sphere center=0.25,0.05,0.81 radius=0.07\n";
-const std::string kTwoBoxes = kTable +
-                              "object box_a class=box color=220,120,30\n"
-                              "  box center=-0.07,0,0.84 size=0.14,0.10,0.20\n"
-                              "object box_b class=box color=30,170,190\n"
-                              "  box center=0.07,0.02,0.81 size=0.14,0.06,0.14\n";
-const Eigen::Vector3d kTarget (0.0, 0.0, 0.8);
-const Eigen::Vector3d kEye (0.45, -0.85, 1.3);
+const Eigen::Vector3d kTarget = test::kTableTarget;
+const Eigen::Vector3d kEye = test::kObliqueEye;
 
 /** L_t of a view: scores use the fused labels in place of L^G. */
 test::SegmentedView
