@@ -1,0 +1,104 @@
+#pragma once
+
+#include <cuefusion/common/pinhole_camera.h>
+#include <cuefusion/segmentation/global_segment_map.h>
+
+#include <opencv2/core.hpp>
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+class TSDFVolume;
+}
+
+namespace segmentation
+{
+/** \brief Parameters of SegmentPropagation (§4.2.2). */
+struct SegmentPropagationConfig
+{
+  float normal_agreement = 0.7f;   ///< τ_N: N(u)·N^m(u) must exceed this
+  float inherit_overlap = 0.3f;    ///< τ_l: Π̃ above this inherits the model label
+  float noise_factor = 1.f;        ///< the distance test is |(V − V^m)·V/|V|| < k·σ_d(u)
+  int min_segment_size = 50;       ///< frame segments with fewer pixels get label 0
+  float candidate_overlap = 0.2f;  ///< §4.2.3: Π̃ above this makes a merge candidate
+  void validate () const;
+};
+
+/** \brief Result of one propagation: L^p and the frame's merge candidates. */
+struct PropagationResult
+{
+  cv::Mat labels;                                                     ///< L^p, CV_32S global labels
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> candidates;    ///< (label given, other model label)
+  std::vector<std::pair<int, std::uint32_t>> assignment;              ///< frame label → global label (0 = dropped)
+  int inherited = 0, fresh = 0, dropped = 0;
+};
+
+/** \brief Carries frame segments over to the map's global labels (§4.2.2).
+  *
+  * Π(l_i, l_j) counts the pixels u where frame segment l_j meets model label l_i and the
+  * surfaces agree: |(V(u) − V^m(u))·V(u)/|V(u)|| < k·σ_d(u) (the distance along the
+  * viewing ray, σ_d the Kinect noise model at u) and N(u)·N^m(u) > τ_N. With Π̃ = Π / #l_j,
+  * l_j inherits the l_i of the largest Π̃ when it exceeds τ_l, else it gets a fresh label
+  * from the map; every other l_i with Π̃ > 0.2 is a merge candidate for the label given
+  * (§4.2.3). Model labels are resolved through the map's equivalence. The cost is one
+  * pass over the image and a table of the pairs seen: it does not depend on the map's size
+  * (§4.2.2.1). Frame labels are handled in increasing order, so fresh labels are
+  * deterministic.
+  */
+class SegmentPropagation
+{
+public:
+  explicit SegmentPropagation (const SegmentPropagationConfig& config = SegmentPropagationConfig ());
+  const SegmentPropagationConfig& config () const { return config_; }
+
+  /** \param[in] vertices, normals frame V and N (CV_32FC3, camera frame, NaN = none)
+    * \param[in] frame_labels L_t (CV_32S, 0 = none)
+    * \param[in] model_vertices, model_normals, model_labels the raycast V^m, N^m, L^m of
+    *            the same camera (CV_32FC3, CV_32FC3, CV_32S)
+    * \param[in,out] map allocates fresh labels and records what was seen
+    * \param[in] frame index, for the map's first/last frame
+    * \param[in] segments optional: class info per frame label (from InstanceGuidedRegionMerge)
+    */
+  void propagate (const cv::Mat& vertices, const cv::Mat& normals, const cv::Mat& frame_labels,
+                  const cv::Mat& model_vertices, const cv::Mat& model_normals, const cv::Mat& model_labels,
+                  GlobalSegmentMap& map, std::size_t frame, PropagationResult& result,
+                  const std::vector<SegmentInstance>* segments = nullptr) const;
+
+private:
+  SegmentPropagationConfig config_;
+};
+
+/** \brief Parameters of the per-voxel label update (§4.2.4). */
+struct SegmentUpdateConfig
+{
+  int max_confidence = 10;    ///< Ψ_max
+  float band = 1.f;           ///< voxels with |sdf| < band (in truncation units) are updated
+  void validate () const;
+};
+
+/** \brief §4.2.4: every observed voxel of the blocks integrated this frame that lies in
+  * the truncation band of the surface a labelled pixel of L^p sees (|z_voxel − D(u)| < τ
+  * along that pixel's ray — voxels of surfaces hidden behind it are not touched) is updated: unlabelled →
+  * the pixel's label with Ψ = 0; the same label (resolved) → Ψ = min(Ψ + 1, Ψ_max); a
+  * different one → Ψ = max(Ψ − 1, 0), and at 0 the label is replaced. Voxels are visited
+  * once each (projective association, as integration does), so no two pixels race for a
+  * voxel. \a depth is the frame's depth (CV_32F metres, 0/NaN invalid). Returns the
+  * number of voxel writes (label or Ψ changed).
+  */
+std::size_t
+updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const cv::Mat& depth, const PinholeCamera& camera,
+                   const Eigen::Isometry3d& pose, const GlobalSegmentMap& map,
+                   const SegmentUpdateConfig& config = SegmentUpdateConfig ());
+
+/** \brief A raycast label map (voxel labels) resolved through the map's equivalence. */
+cv::Mat
+resolveLabels (const cv::Mat& labels, const GlobalSegmentMap& map);
+}  // namespace segmentation
+}  // namespace cuefusion

@@ -1,0 +1,230 @@
+// The global segment map (§4.2.2–4.2.4): label equivalence, merge confidences,
+// propagation and voxel label updates over a synthetic sequence with exact truth.
+#include "test_utils.h"
+
+#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/reconstruction/tsdf_volume.h>
+#include <cuefusion/reconstruction/vertex_maps.h>
+#include <cuefusion/segmentation/global_segment_map.h>
+#include <cuefusion/segmentation/segment_propagation.h>
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <iostream>
+#include <map>
+#include <set>
+
+using namespace cuefusion;
+using namespace cuefusion::segmentation;
+
+TEST (LabelEquivalence, MergesResolveOnReadAndCompact)
+{
+  LabelEquivalence eq;
+  EXPECT_EQ (eq.find (7), 7u);
+  EXPECT_EQ (eq.unite (3, 7), 3u);
+  EXPECT_EQ (eq.unite (7, 9), 3u);  // 9 joins 7's root, which is 3
+  EXPECT_EQ (eq.unite (1, 3), 1u);
+  for (const std::uint32_t l : {1u, 3u, 7u, 9u})
+    EXPECT_EQ (eq.find (l), 1u) << l;
+  EXPECT_EQ (eq.find (5), 5u);
+  EXPECT_EQ (eq.find (0), 0u);
+  eq.compact ();
+  EXPECT_EQ (eq.find (9), 1u);
+}
+
+TEST (MergeConfidence, PlusOneWhenSeenMinusOneWhenNotConfirmAtFive)
+{
+  MergeConfidence confidence;
+  for (int frame = 0; frame < 4; ++frame)
+    EXPECT_TRUE (confidence.update ({{2, 5}, {5, 2}}).empty ());  // duplicates count once
+  EXPECT_EQ (confidence.confidence (5, 2), 4);
+  confidence.update ({});  // unseen: −1
+  EXPECT_EQ (confidence.confidence (2, 5), 3);
+  confidence.update ({{2, 5}});
+  const auto confirmed = confidence.update ({{2, 5}, {4, 6}});
+  ASSERT_EQ (confirmed.size (), 1u);
+  EXPECT_EQ (confirmed[0], std::make_pair (2u, 5u));
+  EXPECT_EQ (confidence.confidence (4, 6), 1);
+  confidence.update ({});
+  EXPECT_EQ (confidence.trackedPairs (), 0u);  // floor 0: forgotten
+}
+
+TEST (GlobalSegmentMap, MergeKeepsTheOlderLabelAndCombinesRecords)
+{
+  GlobalSegmentMap map;
+  const std::uint32_t a = map.newSegment (0), b = map.newSegment (3);
+  SegmentInstance cup;
+  cup.instance = 0;
+  cup.class_name = "cup";
+  cup.score = 0.8f;
+  map.observe (b, 4, &cup);
+  map.observe (b, 6, &cup);
+  map.observe (a, 5);
+  EXPECT_EQ (map.merge (b, a), a);
+  EXPECT_EQ (map.resolve (b), a);
+  const SegmentRecord* record = map.record (b);
+  ASSERT_NE (record, nullptr);
+  EXPECT_EQ (record->id, a);
+  EXPECT_EQ (record->first_frame, 0u);
+  EXPECT_EQ (record->last_frame, 6u);
+  EXPECT_EQ (record->bestClass (), "cup");
+  EXPECT_FLOAT_EQ (record->bestScore (), 0.8f);
+  EXPECT_EQ (map.segments ().size (), 1u);
+}
+
+namespace
+{
+/** A static scene, 30 frames with exact poses and masks, fused with its labels. */
+class PropagationFixture : public ::testing::Test
+{
+protected:
+  void
+  SetUp () override
+  {
+    io::SyntheticSequenceConfig config;
+    config.frames = 30;
+    config.width = 320;
+    config.height = 240;
+    sequence.reset (new io::SyntheticSequence (io::SyntheticScene::load (test::tabletopScenePath ()), config));
+    reconstruction::TSDFVolumeConfig volume_config;
+    volume_config.voxel_size = 0.01;
+    volume.reset (new reconstruction::TSDFVolume (volume_config));
+  }
+
+  /** L_t for frame i: the true instances under ids that change every frame, so that only
+    * propagation can make them stable.
+    */
+  static cv::Mat
+  frameLabels (const RGBDFrame& frame, std::size_t i)
+  {
+    cv::Mat labels (frame.instance_mask.size (), CV_32S);
+    for (int y = 0; y < labels.rows; ++y)
+      for (int x = 0; x < labels.cols; ++x)
+      {
+        const int id = frame.instance_mask.at<std::uint16_t> (y, x);
+        labels.at<std::int32_t> (y, x) = id == 0 ? 0 : static_cast<int> ((id * 7 + i * 13) % 101) + 1;
+      }
+    return labels;
+  }
+
+  /** Integrate frame i, raycast, propagate, update the voxels; returns L^p. */
+  cv::Mat
+  step (std::size_t i, const cv::Mat& frame_labels_override = cv::Mat ())
+  {
+    const RGBDFrame::Ptr frame = sequence->frame (i);
+    const Eigen::Isometry3d pose = sequence->poseAt (i);
+    volume->integrate (frame->depth, frame->color, frame->camera, pose);
+    reconstruction::RaycastResult model;
+    volume->raycast (frame->camera, pose, model);
+    cv::Mat vertices, normals;
+    reconstruction::computeVertexMap (frame->depth, frame->camera, vertices);
+    reconstruction::computeNormalMap (vertices, normals);
+    PropagationResult result;
+    propagation.propagate (vertices, normals, frame_labels_override.empty () ? frameLabels (*frame, i) : frame_labels_override,
+                           model.vertices, model.normals, model.labels, map, i, result);
+    // CUEFUSION_TEST_VERBOSE=1 lists the merges the map confirms.
+    for (const auto& m : map.updateMerges (result.candidates))
+      if (std::getenv ("CUEFUSION_TEST_VERBOSE"))
+        std::cerr << "frame " << i << " merge " << m.first << " " << m.second << "\n";
+    writes += updateVoxelLabels (*volume, result.labels, frame->depth, frame->camera, pose, map);
+    truth = frame->instance_mask;
+    return result.labels;
+  }
+
+  /** The label most pixels of object \a id carry in \a labels (0 when none). */
+  std::uint32_t
+  majority (const cv::Mat& labels, std::uint16_t id) const
+  {
+    std::map<std::int32_t, int> votes;
+    for (int y = 0; y < labels.rows; ++y)
+      for (int x = 0; x < labels.cols; ++x)
+        if (truth.at<std::uint16_t> (y, x) == id && labels.at<std::int32_t> (y, x) > 0)
+          ++votes[labels.at<std::int32_t> (y, x)];
+    std::uint32_t best = 0;
+    int best_votes = 0;
+    for (const auto& [label, n] : votes)
+      if (n > best_votes)
+      {
+        best = static_cast<std::uint32_t> (label);
+        best_votes = n;
+      }
+    return map.resolve (best);
+  }
+
+  std::unique_ptr<io::SyntheticSequence> sequence;
+  std::unique_ptr<reconstruction::TSDFVolume> volume;
+  GlobalSegmentMap map;
+  SegmentPropagation propagation;
+  cv::Mat truth;
+  std::size_t writes = 0;
+};
+}  // namespace
+
+TEST_F (PropagationFixture, LabelsStayStableOverAStaticSequence)
+{
+  std::map<std::uint16_t, std::uint32_t> first;
+  const cv::Mat l0 = step (0);
+  const std::vector<std::uint16_t> objects = {5, 6, 7, 8, 9, 10, 11, 12};  // the table-top objects (ids in file order)
+  for (const std::uint16_t id : objects)
+    first[id] = majority (l0, id);
+  for (std::size_t i = 1; i < 30; ++i)
+  {
+    const cv::Mat lp = step (i);
+    for (const std::uint16_t id : objects)
+      if (first[id] != 0 && cv::countNonZero (truth == id) > 200)
+      {
+        EXPECT_EQ (majority (lp, id), first[id]) << "object " << id << " frame " << i;
+      }
+  }
+  // Different objects kept different labels, and the map knows them all.
+  std::set<std::uint32_t> distinct;
+  for (const auto& [id, label] : first)
+    if (label)
+      distinct.insert (label);
+  EXPECT_GE (distinct.size (), 6u);
+  EXPECT_EQ (distinct.size (), static_cast<std::size_t> (std::count_if (first.begin (), first.end (), [] (const auto& e) { return e.second != 0; })));
+  map.refreshStatistics (*volume);
+  for (const std::uint32_t label : distinct)
+  {
+    ASSERT_NE (map.record (label), nullptr);
+    EXPECT_GT (map.record (label)->voxels, 20u) << label;
+  }
+}
+
+TEST_F (PropagationFixture, OneNoisyFrameDoesNotFlipVoxelLabelsAndMergesWriteNoVoxel)
+{
+  for (std::size_t i = 0; i < 12; ++i)
+    step (i);
+  reconstruction::RaycastResult model;
+  const Eigen::Isometry3d pose = sequence->poseAt (11);
+  volume->raycast (sequence->camera (), pose, model);
+  const cv::Mat before = resolveLabels (model.labels, map);
+  const std::uint32_t mug = majority (before, 5), ball = majority (before, 6);
+  ASSERT_NE (mug, 0u);
+  ASSERT_NE (ball, 0u);
+  ASSERT_NE (mug, ball);
+
+  // One frame in which the mug is labelled as the ball: Ψ only drops.
+  const RGBDFrame::Ptr frame = sequence->frame (11);
+  cv::Mat wrong = cv::Mat::zeros (frame->instance_mask.size (), CV_32S);
+  wrong.setTo (static_cast<int> (ball), frame->instance_mask == 5);
+  updateVoxelLabels (*volume, wrong, frame->depth, frame->camera, pose, map);
+  volume->raycast (sequence->camera (), pose, model);
+  EXPECT_EQ (majority (resolveLabels (model.labels, map), 5), mug);
+
+  // A merge is an equivalence entry: no voxel changes, yet reads resolve to one label.
+  std::vector<std::uint32_t> stored;
+  for (const auto& block : volume->blocks ())
+    for (const auto& voxel : block->voxels)
+      stored.push_back (voxel.label);
+  EXPECT_EQ (map.merge (mug, ball), std::min (mug, ball));
+  std::size_t k = 0, changed = 0;
+  for (const auto& block : volume->blocks ())
+    for (const auto& voxel : block->voxels)
+      changed += voxel.label != stored[k++] ? 1 : 0;
+  EXPECT_EQ (changed, 0u);
+  volume->raycast (sequence->camera (), pose, model);
+  const cv::Mat after = resolveLabels (model.labels, map);
+  EXPECT_EQ (majority (after, 5), majority (after, 6));
+}
