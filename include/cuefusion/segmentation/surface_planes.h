@@ -70,6 +70,11 @@ struct SurfacePlanes
     });
   }
 
+  /** \brief Points back-projected from a depth map (CV_32F metres, ≤ 0 or NaN invalid)
+    * through pinhole intrinsics; the normal planes are sized but unset.
+    */
+  void assignDepth (const cv::Mat& depth, double fx, double fy, double cx, double cy);
+
   /** \brief Copies \a cloud's points and \a normals' normal_x/y/z (same size, organized).
     * A point counts only when x, y and z are all finite and z > 0; a normal only when its point does.
     */

@@ -94,6 +94,14 @@ protected:
   double normal_ms_ = 0.0;
 };
 
+/** \brief The smoothing and normals of SurfacePreprocessing on planes whose points are
+  * already set (e.g. by SurfacePlanes::assignDepth): smooths x, y, z in place and fills
+  * the normal planes. Milliseconds of each part go to \a smoothing_ms / \a normal_ms.
+  */
+void
+preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& config, double* smoothing_ms = nullptr,
+                  double* normal_ms = nullptr);
+
 /** \brief Bilateral filter of a depth map (CV_32F metres, ≤ 0 invalid) whose range σ is
   * \a range_sigma times the axial noise σ_z(z) of kinectAxialNoise at θ = 0: depth is
   * mapped to noise units u(z) = ∫ dz/σ_z, filtered with OpenCV's bilateral filter

@@ -1,0 +1,105 @@
+// preprocessPlanes: the work of SurfacePreprocessing on SurfacePlanes.
+#include <cuefusion/segmentation/edge_operators.h>
+#include <cuefusion/segmentation/parallel.h>
+#include <cuefusion/segmentation/surface_preprocessing.h>
+
+#include <pcl/common/time.h>
+#include <pcl/features/integral_image_normal.h>
+
+#include <limits>
+
+namespace cuefusion
+{
+namespace segmentation
+{
+void
+preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& config, double* smoothing_ms, double* normal_ms)
+{
+  config.validate ();
+  const int w = planes.width, h = planes.height;
+  pcl::StopWatch watch;
+  if (config.bilateral_filter)
+  {
+    const cv::Mat depth (h, w, CV_32F, planes.z.data ());  // NaN = invalid
+    cv::Mat filtered;
+    noiseAdaptiveBilateral (depth, config.bilateral_diameter, config.range_sigma, config.sigma_space, filtered);
+    parallelFor (h, [&] (int y) {
+      const float* out = filtered.ptr<float> (y);
+      for (int x = 0; x < w; ++x)
+      {
+        const std::size_t i = static_cast<std::size_t> (y) * w + x;
+        if (planes.z[i] > 0.f && out[x] > 0.f)
+        {
+          const float scale = out[x] / planes.z[i];  // slide along the viewing ray
+          planes.x[i] *= scale;
+          planes.y[i] *= scale;
+          planes.z[i] = out[x];
+        }
+      }
+    });
+  }
+  if (smoothing_ms)
+    *smoothing_ms = watch.getTime ();
+
+  watch.reset ();
+  if (config.normal_method == NormalMethod::CentralDifference)
+    computeNormalPlanes (planes, config.normal_step, config.max_depth_jump);
+  else
+  {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr points (new pcl::PointCloud<pcl::PointXYZ> (w, h));
+    for (std::size_t i = 0; i < points->size (); ++i)
+      (*points)[i] = pcl::PointXYZ (planes.x[i], planes.y[i], planes.z[i]);
+    pcl::PointCloud<pcl::Normal> normals;
+    pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
+    estimation.setNormalEstimationMethod (estimation.AVERAGE_3D_GRADIENT);
+    estimation.setMaxDepthChangeFactor (config.max_depth_jump);
+    estimation.setNormalSmoothingSize (config.integral_smoothing);
+    // setDepthDependentSmoothing(true) crashes in PCL 1.13.0: left at its default (false).
+    estimation.setInputCloud (points);
+    estimation.compute (normals);
+    for (std::size_t i = 0; i < normals.size (); ++i)
+    {
+      Eigen::Vector3f n = normals[i].getNormalVector3fMap ();
+      if (n.dot ((*points)[i].getVector3fMap ()) > 0.f)
+        n = -n;
+      const bool ok = isFiniteVector (n) && std::isfinite (planes.z[i]);
+      planes.nx[i] = ok ? n.x () : std::numeric_limits<float>::quiet_NaN ();
+      planes.ny[i] = ok ? n.y () : std::numeric_limits<float>::quiet_NaN ();
+      planes.nz[i] = ok ? n.z () : std::numeric_limits<float>::quiet_NaN ();
+    }
+  }
+  if (normal_ms)
+    *normal_ms = watch.getTime ();
+}
+}  // namespace segmentation
+}  // namespace cuefusion
+
+namespace cuefusion
+{
+namespace segmentation
+{
+void
+SurfacePlanes::assignDepth (const cv::Mat& depth, double fx, double fy, double cx, double cy)
+{
+  CV_Assert (depth.type () == CV_32F);
+  width = depth.cols;
+  height = depth.rows;
+  const std::size_t n = depth.total ();
+  for (std::vector<float>* plane : {&x, &y, &z, &nx, &ny, &nz})
+    plane->resize (n);
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  parallelFor (height, [&] (int v) {
+    const float* d = depth.ptr<float> (v);
+    const float ry = static_cast<float> ((v - cy) / fy);
+    for (int u = 0; u < width; ++u)
+    {
+      const std::size_t i = static_cast<std::size_t> (v) * width + u;
+      const bool valid = d[u] > 0.f && std::isfinite (d[u]);
+      x[i] = valid ? static_cast<float> ((u - cx) / fx) * d[u] : nan;
+      y[i] = valid ? ry * d[u] : nan;
+      z[i] = valid ? d[u] : nan;
+    }
+  });
+}
+}  // namespace segmentation
+}  // namespace cuefusion
