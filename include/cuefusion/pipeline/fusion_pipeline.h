@@ -1,0 +1,119 @@
+#pragma once
+
+#include <cuefusion/common/instance.h>
+#include <cuefusion/common/rgbd_frame.h>
+#include <cuefusion/reconstruction/dense_reconstruction.h>
+#include <cuefusion/segmentation/geometric_segmentation.h>
+#include <cuefusion/segmentation/global_segment_map.h>
+#include <cuefusion/segmentation/instance_guided_region_merge.h>
+#include <cuefusion/segmentation/segment_propagation.h>
+#include <cuefusion/segmentation/surface_preprocessing.h>
+
+#include <pcl/PolygonMesh.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <string>
+#include <vector>
+
+namespace cuefusion
+{
+namespace pipeline
+{
+/** \brief Which cues make the frame segments L_t. */
+enum class SegmentationMode
+{
+  Fused,     ///< geometry grouped by instance masks (InstanceGuidedRegionMerge), the default
+  Geometry,  ///< geometry only: the Tateno et al. 2015 baseline the thesis compares against
+  Masks      ///< instance masks only (on pixels with depth)
+};
+
+/** \brief "fused", "geometry", "masks"; throws ParameterError naming --mode otherwise. */
+SegmentationMode
+parseSegmentationMode (const std::string& name);
+std::string
+segmentationModeName (SegmentationMode mode);
+
+/** \brief Everything FusionPipeline runs with; each part keeps the reference's defaults. */
+struct FusionPipelineConfig
+{
+  reconstruction::DenseReconstructionConfig reconstruction;
+  segmentation::SurfacePreprocessingConfig preprocessing;
+  segmentation::GeometricSegmentationConfig geometry;
+  segmentation::InstanceGuidedMergeConfig instance_merge;
+  segmentation::SegmentPropagationConfig propagation;
+  segmentation::SegmentMergingConfig merging;
+  segmentation::SegmentUpdateConfig update;
+  SegmentationMode mode = SegmentationMode::Fused;
+  void validate () const;
+};
+
+/** \brief Milliseconds of the segmentation stages of one frame. */
+struct SegmentationTimings
+{
+  double geometry_ms = 0.0;     ///< preprocessing + L^G
+  double instances_ms = 0.0;    ///< InstanceGuidedRegionMerge (or masks only)
+  double propagation_ms = 0.0;
+  double merging_ms = 0.0;
+  double update_ms = 0.0;       ///< voxel labels
+  double total () const { return geometry_ms + instances_ms + propagation_ms + merging_ms + update_ms; }
+};
+
+/** \brief What happened to one frame. */
+struct PipelineFrameReport
+{
+  reconstruction::FrameReport reconstruction;
+  bool segmented = false;        ///< false when the frame was not fused (tracking lost)
+  bool had_masks = false;
+  int frame_segments = 0;        ///< labelled segments of L^p
+  int fresh_segments = 0;
+  std::size_t merges = 0;        ///< confirmed this frame
+  std::size_t voxel_writes = 0;
+  SegmentationTimings segmentation;
+};
+
+/** \brief The incremental pipeline of the thesis (chapter 3, §4.1–4.2), one frame at a
+  * time: preprocess → track → integrate → raycast (DenseReconstruction) → geometric
+  * segmentation (SurfacePreprocessing, GeometricSegmentation) → instance masks →
+  * InstanceGuidedRegionMerge → SegmentPropagation → segment merging (GlobalSegmentMap) →
+  * per-voxel label update. Frames are processed in the order given and deterministically;
+  * whoever drives it (a grabber's callback in `cuefusion run`) passes each frame's masks,
+  * or none (the frame is then segmented by geometry alone).
+  */
+class FusionPipeline
+{
+public:
+  explicit FusionPipeline (const FusionPipelineConfig& config = FusionPipelineConfig ());
+  const FusionPipelineConfig& config () const { return config_; }
+
+  /** \param[in] instances the frame's instance masks, nullptr when there are none */
+  PipelineFrameReport process (const RGBDFrame& frame, const std::vector<Instance>* instances);
+
+  const reconstruction::DenseReconstruction& reconstruction () const { return reconstruction_; }
+  const segmentation::GlobalSegmentMap& segmentMap () const { return map_; }
+  /** \brief The last frame's L^p (global labels), empty before the first segmented frame. */
+  const cv::Mat& frameLabels () const { return frame_labels_; }
+  /** \brief The model's labels seen from the last pose, resolved (CV_32S). */
+  cv::Mat modelLabels () const;
+
+  /** \brief Surface points (world frame) with colour and resolved segment label. */
+  pcl::PointCloud<pcl::PointXYZRGBL>::Ptr labelledCloud () const;
+  /** \brief Marching-cubes mesh with resolved labels, vertices coloured by segment
+    * (labelColor) when \a color_by_segment, else by the fused colour.
+    */
+  pcl::PolygonMesh labelledMesh (bool color_by_segment = true) const;
+  /** \brief Refreshes and returns the segment records (voxel counts, bounds). */
+  std::vector<segmentation::SegmentRecord> segments ();
+
+private:
+  FusionPipelineConfig config_;
+  reconstruction::DenseReconstruction reconstruction_;
+  segmentation::GeometricSegmentation<pcl::PointXYZ, pcl::Normal> geometry_;
+  segmentation::InstanceGuidedRegionMerge instance_merge_;
+  segmentation::SegmentPropagation propagation_;
+  segmentation::GlobalSegmentMap map_;
+  segmentation::SurfacePlanes planes_;
+  cv::Mat frame_labels_;
+};
+}  // namespace pipeline
+}  // namespace cuefusion

@@ -1,0 +1,197 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/label_colors.h>
+#include <cuefusion/pipeline/fusion_pipeline.h>
+
+#include <pcl/common/time.h>
+
+#include <cstring>
+#include <set>
+
+namespace cuefusion
+{
+namespace pipeline
+{
+SegmentationMode
+parseSegmentationMode (const std::string& name)
+{
+  if (name == "fused")
+    return SegmentationMode::Fused;
+  if (name == "geometry")
+    return SegmentationMode::Geometry;
+  if (name == "masks")
+    return SegmentationMode::Masks;
+  throw ParameterError ("--mode", "must be fused, geometry or masks, not '" + name + "'");
+}
+
+std::string
+segmentationModeName (SegmentationMode mode)
+{
+  switch (mode)
+  {
+    case SegmentationMode::Fused:
+      return "fused";
+    case SegmentationMode::Geometry:
+      return "geometry";
+    case SegmentationMode::Masks:
+      return "masks";
+  }
+  return "fused";
+}
+
+void
+FusionPipelineConfig::validate () const
+{
+  reconstruction.validate ();
+  preprocessing.validate ();
+  geometry.validate ();
+  instance_merge.validate ();
+  propagation.validate ();
+  merging.validate ();
+  update.validate ();
+}
+
+FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
+  : config_ (config)
+  , reconstruction_ (config.reconstruction)
+  , geometry_ (config.geometry)
+  , instance_merge_ (config.instance_merge)
+  , propagation_ (config.propagation)
+  , map_ (config.merging)
+{
+  config_.validate ();
+}
+
+PipelineFrameReport
+FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* instances)
+{
+  PipelineFrameReport report;
+  report.reconstruction = reconstruction_.process (frame);
+  if (!report.reconstruction.tracked)
+    return report;
+  report.segmented = true;
+  pcl::StopWatch watch;
+
+  // L^G from the frame's depth (§4.2.1.1).
+  const PinholeCamera& camera = frame.camera;
+  planes_.assignDepth (frame.depth, camera.fx, camera.fy, camera.cx, camera.cy);
+  segmentation::preprocessPlanes (planes_, config_.preprocessing);
+  geometry_.segment (planes_);
+  report.segmentation.geometry_ms = watch.getTime ();
+
+  // L_t: geometry, grouped by the masks, or the masks alone (§4.2.1.3).
+  watch.reset ();
+  report.had_masks = instances != nullptr;
+  cv::Mat frame_segments;
+  std::vector<segmentation::SegmentInstance> info;
+  if (config_.mode == SegmentationMode::Geometry || (config_.mode == SegmentationMode::Fused && !instances))
+    frame_segments = geometry_.getLabelImage ();
+  else if (config_.mode == SegmentationMode::Fused)
+    instance_merge_.merge (geometry_.getLabelImage (), *instances, frame_segments, &info);
+  else
+  {
+    frame_segments = cv::Mat::zeros (frame.depth.size (), CV_32S);
+    if (instances)
+    {
+      instancesToIdImage (*instances, frame.depth.size ()).convertTo (frame_segments, CV_32S);
+      info.assign (1, segmentation::SegmentInstance ());
+      for (std::size_t i = 0; i < instances->size (); ++i)
+      {
+        segmentation::SegmentInstance s;
+        s.instance = static_cast<int> (i);
+        s.class_id = (*instances)[i].class_id;
+        s.class_name = (*instances)[i].class_name;
+        s.score = (*instances)[i].score;
+        info.push_back (s);
+      }
+    }
+    for (int y = 0; y < frame_segments.rows; ++y)
+      for (int x = 0; x < frame_segments.cols; ++x)
+        if (!std::isfinite (planes_.z[static_cast<std::size_t> (y) * frame_segments.cols + x]))
+          frame_segments.at<std::int32_t> (y, x) = 0;
+  }
+  report.segmentation.instances_ms = watch.getTime ();
+
+  // L^p against the model seen from the fused pose (§4.2.2).
+  watch.reset ();
+  const reconstruction::PyramidLevel& level = reconstruction_.framePyramid ().front ();
+  const reconstruction::RaycastResult& model = reconstruction_.model ();
+  segmentation::PropagationResult propagated;
+  propagation_.propagate (level.vertices, level.normals, frame_segments, model.vertices, model.normals, model.labels, map_,
+                          frame.index, propagated, info.empty () ? nullptr : &info);
+  frame_labels_ = propagated.labels;
+  report.fresh_segments = propagated.fresh;
+  report.frame_segments = propagated.inherited + propagated.fresh;
+  report.segmentation.propagation_ms = watch.getTime ();
+
+  // Merges confirmed over frames (§4.2.3), then the voxel labels (§4.2.4).
+  watch.reset ();
+  report.merges = map_.updateMerges (propagated.candidates).size ();
+  report.segmentation.merging_ms = watch.getTime ();
+  watch.reset ();
+  report.voxel_writes = segmentation::updateVoxelLabels (reconstruction_.volume (), propagated.labels, frame.depth, camera,
+                                                         report.reconstruction.pose, map_, config_.update);
+  report.segmentation.update_ms = watch.getTime ();
+  return report;
+}
+
+cv::Mat
+FusionPipeline::modelLabels () const
+{
+  const cv::Mat& labels = reconstruction_.model ().labels;
+  return labels.empty () ? cv::Mat () : segmentation::resolveLabels (labels, map_);
+}
+
+pcl::PointCloud<pcl::PointXYZRGBL>::Ptr
+FusionPipeline::labelledCloud () const
+{
+  pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZRGBL>);
+  reconstruction_.volume ().extractPointCloud (*cloud);
+  for (auto& p : cloud->points)
+    p.label = map_.resolve (p.label);
+  return cloud;
+}
+
+pcl::PolygonMesh
+FusionPipeline::labelledMesh (bool color_by_segment) const
+{
+  pcl::PolygonMesh mesh = reconstruction_.volume ().extractMesh ();
+  int label_offset = -1, color_offset = -1;
+  for (const auto& field : mesh.cloud.fields)
+  {
+    if (field.name == "label")
+      label_offset = static_cast<int> (field.offset);
+    if (field.name == "rgba" || field.name == "rgb")
+      color_offset = static_cast<int> (field.offset);
+  }
+  if (label_offset < 0)
+    return mesh;
+  const std::size_t points = static_cast<std::size_t> (mesh.cloud.width) * mesh.cloud.height;
+  for (std::size_t i = 0; i < points; ++i)
+  {
+    std::uint8_t* point = mesh.cloud.data.data () + i * mesh.cloud.point_step;
+    std::uint32_t label;
+    std::memcpy (&label, point + label_offset, sizeof label);
+    label = map_.resolve (label);
+    std::memcpy (point + label_offset, &label, sizeof label);
+    if (color_by_segment && color_offset >= 0)
+    {
+      const cv::Vec3b rgb = label ? labelColor (label) : cv::Vec3b (160, 160, 160);
+      const std::uint32_t packed = 0xff000000u | (std::uint32_t (rgb[0]) << 16) | (std::uint32_t (rgb[1]) << 8) | rgb[2];
+      std::memcpy (point + color_offset, &packed, sizeof packed);
+    }
+  }
+  return mesh;
+}
+
+std::vector<segmentation::SegmentRecord>
+FusionPipeline::segments ()
+{
+  map_.refreshStatistics (reconstruction_.volume ());
+  std::vector<segmentation::SegmentRecord> all = map_.segments (), kept;
+  for (auto& s : all)
+    if (s.voxels > 0)
+      kept.push_back (std::move (s));
+  return kept;
+}
+}  // namespace pipeline
+}  // namespace cuefusion
