@@ -79,7 +79,7 @@ private:
 struct SegmentUpdateConfig
 {
   int max_confidence = 10;    ///< Ψ_max
-  float band = 1.f;           ///< voxels with |sdf| < band (in truncation units) are updated
+  float band = 1.f;           ///< voxels within band × truncation of the surface (by sdf and along the pixel's ray) are updated: the whole band, as §4.2.4 says (measured: 0.25 lost 20–30 % IoU)
   void validate () const;
 };
 

@@ -170,7 +170,7 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
             continue;
           const std::int32_t observed = labels.at<std::int32_t> (py, px);
           const float measured = depth.at<float> (py, px);
-          if (observed <= 0 || !(std::abs (p.z () - measured) < truncation))
+          if (observed <= 0 || !(std::abs (p.z () - measured) < config.band * truncation))
             continue;  // unlabelled, or the pixel sees another surface (occlusion)
           const std::uint32_t label = static_cast<std::uint32_t> (observed);
           if (voxel.label == 0)

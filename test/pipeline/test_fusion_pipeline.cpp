@@ -1,0 +1,123 @@
+// FusionPipeline on generated sequences, scored against the generator's labelled
+// ground-truth cloud.
+#include "test_utils.h"
+
+#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/pipeline/fusion_pipeline.h>
+
+#include <gtest/gtest.h>
+#include <pcl/kdtree/kdtree_flann.h>
+
+#include <cstdlib>
+#include <iostream>
+#include <map>
+
+using namespace cuefusion;
+
+namespace
+{
+/** Runs the pipeline over a 320×240 tabletop orbit with the sequence's poses. */
+pipeline::FusionPipeline
+runSequence (pipeline::SegmentationMode mode, const io::SyntheticSequence& sequence)
+{
+  pipeline::FusionPipelineConfig config;
+  config.mode = mode;
+  config.reconstruction.use_reference_poses = true;
+  pipeline::FusionPipeline fusion (config);
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    const io::DetectionResult detections = sequence.detections (*frame);
+    std::vector<int> ids;
+    std::vector<Instance> instances = instancesFromIdImage (detections.ids, &ids);
+    for (std::size_t k = 0; k < instances.size (); ++k)
+      for (const io::Detection& d : detections.detections)
+        if (d.id == ids[k])
+        {
+          instances[k].class_name = d.class_name;
+          instances[k].score = d.score;
+        }
+    const auto report = fusion.process (*frame, &instances);
+    EXPECT_TRUE (report.segmented) << i;
+  }
+  return fusion;
+}
+
+/** Best IoU, over the map's points, of each ground-truth object with one map segment. */
+std::map<std::uint16_t, double>
+objectIoU (const pcl::PointCloud<pcl::PointXYZRGBL>& map, const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr& truth)
+{
+  pcl::KdTreeFLANN<pcl::PointXYZRGBL> tree;
+  tree.setInputCloud (truth);
+  std::map<std::uint16_t, int> object_size;
+  std::map<std::uint32_t, int> segment_size;
+  std::map<std::pair<std::uint16_t, std::uint32_t>, int> both;
+  std::vector<int> index (1);
+  std::vector<float> distance (1);
+  for (const auto& p : map.points)
+  {
+    if (tree.nearestKSearch (p, 1, index, distance) < 1 || distance[0] > 0.02f * 0.02f)
+      continue;
+    const auto object = static_cast<std::uint16_t> ((*truth)[static_cast<std::size_t> (index[0])].label);
+    ++object_size[object];
+    if (p.label == 0)
+      continue;
+    ++segment_size[p.label];
+    ++both[{object, p.label}];
+  }
+  if (std::getenv ("CUEFUSION_TEST_VERBOSE"))
+    for (const auto& [key, n] : both)
+      if (n > 20)
+        std::cerr << "object " << key.first << " (" << object_size[key.first] << " map points) label " << key.second << " ("
+                  << segment_size[key.second] << "): " << n << "\n";
+  std::map<std::uint16_t, double> best;
+  for (const auto& [key, n] : both)
+  {
+    const double iou = static_cast<double> (n) / (object_size[key.first] + segment_size[key.second] - n);
+    best[key.first] = std::max (best[key.first], iou);
+  }
+  return best;
+}
+}  // namespace
+
+TEST (FusionPipeline, LabelledMapMatchesTheGroundTruthAndFusionBeatsGeometry)
+{
+  io::SyntheticSequenceConfig config;
+  config.frames = 30;
+  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  const auto truth = sequence.groundTruthCloud ();
+
+  pipeline::FusionPipeline fused = runSequence (pipeline::SegmentationMode::Fused, sequence);
+  pipeline::FusionPipeline geometry = runSequence (pipeline::SegmentationMode::Geometry, sequence);
+  const auto fused_iou = objectIoU (*fused.labelledCloud (), truth);
+  const auto geometry_iou = objectIoU (*geometry.labelledCloud (), truth);
+
+  // Object ids in file order: 5 mug, 6 ball, 7 book, 8 bottle, 9 L-block, 10 teddy,
+  // 11 and 12 the touching boxes. Threshold: ≥ 0.7 for every single object in fused mode
+  // with a perfect detector (1 cm voxels: points within a voxel of a neighbour go either
+  // way, up to a quarter of a 5–10 cm object's points).
+  for (std::uint16_t id = 5; id <= 10; ++id)
+  {
+    if (std::getenv ("CUEFUSION_TEST_VERBOSE") && fused_iou.count (id))
+      std::cerr << "object " << id << " IoU fused " << fused_iou.at (id) << " geometry "
+                << (geometry_iou.count (id) ? geometry_iou.at (id) : 0.0) << "\n";
+    ASSERT_TRUE (fused_iou.count (id)) << id;
+    EXPECT_GE (fused_iou.at (id), 0.7) << "object " << id;
+  }
+  // Documented limitation (thesis Fig. 5.19): the two boxes stand side by side with
+  // coplanar faces, so geometry rarely sees a seam between them, and the instance cue only
+  // groups geometric segments — it never splits one. They share a segment here.
+  ASSERT_TRUE (fused_iou.count (11) && fused_iou.count (12));
+  // The teddy (six spheres) is cut by geometry and re-united by the masks (§4.2.1.3); the
+  // extruded L-block is whole in geometry already (its flat top joins the arms).
+  EXPECT_GT (fused_iou.at (10), geometry_iou.count (10) ? geometry_iou.at (10) + 0.1 : 0.1);
+  EXPECT_GE (fused_iou.at (9), geometry_iou.count (9) ? geometry_iou.at (9) : 0.0);
+
+  // Segments carry the detector's classes.
+  std::map<std::string, int> classes;
+  for (const auto& s : fused.segments ())
+    if (!s.bestClass ().empty ())
+      ++classes[s.bestClass ()];
+  for (const char* name : {"cup", "sports ball", "book", "bottle", "block", "teddy bear", "box"})
+    EXPECT_GE (classes[name], 1) << name;
+}
