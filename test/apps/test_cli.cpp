@@ -7,6 +7,9 @@
 #include <gtest/gtest.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
+#include <nlohmann/json.hpp>
+
+#include <set>
 
 #include <cstdlib>
 #include <sys/wait.h>
@@ -139,4 +142,52 @@ TEST_F (Cli, SynthInfoRun)
     EXPECT_EQ (lines (r.err), 1) << r.err;
     EXPECT_NE (r.err.find (option.substr (0, option.find (' '))), std::string::npos) << r.err;
   }
+}
+
+TEST_F (Cli, RunSegmentsWithMasks)
+{
+  const std::string seq = dir / "seq";
+  Result r = run ("synth --scene tabletop --frames 12 --size 320x240 --layout redwood --out " + seq);
+  ASSERT_EQ (r.code, 0) << r.err;
+  r = run ("run " + seq + " --use-gt-poses --out " + (dir / "run") + " --masks " + seq + "/detections --save-every 5");
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_NE (r.out.find ("mode fused"), std::string::npos) << r.out;
+  // segments.json names the classes the simulated network reported.
+  const auto segments = nlohmann::json::parse (test::readFile (dir / "run/segments.json")).at ("segments");
+  std::set<std::string> classes;
+  for (const auto& s : segments)
+  {
+    EXPECT_GT (s.at ("voxels").get<int> (), 0);
+    if (!s.at ("class").is_null ())
+      classes.insert (s.at ("class").get<std::string> ());
+  }
+  EXPECT_TRUE (classes.count ("sports ball")) << segments.dump ();
+  EXPECT_TRUE (classes.count ("teddy bear")) << segments.dump ();
+  // The map's points carry segment labels that segments.json lists.
+  pcl::PointCloud<pcl::PointXYZRGBL> map;
+  ASSERT_EQ (pcl::io::loadPCDFile (dir / "run/map.pcd", map), 0);
+  std::set<std::uint32_t> listed, used;
+  for (const auto& s : segments)
+    listed.insert (s.at ("id").get<std::uint32_t> ());
+  for (const auto& p : map.points)
+    if (p.label)
+      used.insert (p.label);
+  EXPECT_GT (used.size (), 5u);
+  for (const std::uint32_t label : used)
+    EXPECT_TRUE (listed.count (label)) << label;
+  for (const char* png : {"run/labels/000000.png", "run/labels/000005.png", "run/labels/000010.png"})
+    EXPECT_TRUE (boost::filesystem::exists (dir / png)) << png;
+  const auto timings = nlohmann::json::parse (test::readFile (dir / "run/timings.json"));
+  EXPECT_EQ (timings.at ("stages").at ("segmentation").at ("frames").get<int> (), 12);
+
+  // Usage errors: a mode that needs masks without any; a missing mask folder.
+  r = run ("run " + seq + " --out " + (dir / "run2") + " --mode fused");
+  EXPECT_EQ (r.code, 2);
+  EXPECT_NE (r.err.find ("--mode fused needs --masks or --model"), std::string::npos) << r.err;
+  r = run ("run " + seq + " --out " + (dir / "run2") + " --masks " + (dir / "nope"));
+  EXPECT_EQ (r.code, 1);
+  EXPECT_NE (r.err.find ("nope"), std::string::npos) << r.err;
+  r = run ("run " + seq + " --out " + (dir / "run2") + " --mode sideways");
+  EXPECT_EQ (r.code, 2);
+  EXPECT_NE (r.err.find ("--mode"), std::string::npos) << r.err;
 }
