@@ -7,8 +7,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <map>
-#include <unordered_map>
 
 namespace cuefusion
 {
@@ -51,50 +49,65 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
   if (frame_labels.type () != CV_32S || model_labels.type () != CV_32S || model_labels.size () != size)
     throw Error ("SegmentPropagation", "label maps must be CV_32S of one size");
 
-  // #l_j and Π(l_i, l_j) over the pixels where both maps agree (§4.2.2.3).
-  std::map<int, int> frame_size;
-  std::unordered_map<std::uint64_t, int> pairs;  // (l_j << 32 | l_i) → Π
+  // #l_j and Π(l_i, l_j) over the pixels where both maps agree (§4.2.2.3). Frame labels
+  // are small (1..N), so per-label vectors; each holds the few (l_i, Π) it meets.
+  double max_frame_label = 0.0;
+  cv::minMaxLoc (frame_labels, nullptr, &max_frame_label);
+  const std::size_t labels = static_cast<std::size_t> (std::max (0.0, max_frame_label)) + 1;
+  std::vector<int> frame_count (labels, 0);
+  std::vector<std::vector<std::pair<std::uint32_t, int>>> by_frame_label (labels);
   for (int y = 0; y < size.height; ++y)
   {
     const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
     const std::int32_t* li = model_labels.ptr<std::int32_t> (y);
+    const cv::Vec3f* v_row = vertices.ptr<cv::Vec3f> (y);
+    const cv::Vec3f* n_row = normals.ptr<cv::Vec3f> (y);
+    const cv::Vec3f* vm_row = model_vertices.ptr<cv::Vec3f> (y);
+    const cv::Vec3f* nm_row = model_normals.ptr<cv::Vec3f> (y);
     for (int x = 0; x < size.width; ++x)
     {
       if (lj[x] <= 0)
         continue;
-      ++frame_size[lj[x]];
+      ++frame_count[static_cast<std::size_t> (lj[x])];
       if (li[x] <= 0)
         continue;
-      const cv::Vec3f& v = vertices.at<cv::Vec3f> (y, x);
-      const cv::Vec3f& n = normals.at<cv::Vec3f> (y, x);
-      const cv::Vec3f& vm = model_vertices.at<cv::Vec3f> (y, x);
-      const cv::Vec3f& nm = model_normals.at<cv::Vec3f> (y, x);
-      const Eigen::Vector3f V (v[0], v[1], v[2]), N (n[0], n[1], n[2]), Vm (vm[0], vm[1], vm[2]), Nm (nm[0], nm[1], nm[2]);
+      const Eigen::Vector3f V (v_row[x][0], v_row[x][1], v_row[x][2]), N (n_row[x][0], n_row[x][1], n_row[x][2]);
+      const Eigen::Vector3f Vm (vm_row[x][0], vm_row[x][1], vm_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
       if (!isFiniteVector (V) || !isFiniteVector (N) || !isFiniteVector (Vm) || !isFiniteVector (Nm))
         continue;
-      const float along_ray = std::abs ((V - Vm).dot (V) / V.norm ());
-      if (along_ray < config_.noise_factor * axialNoiseAt (V, N) && N.dot (Nm) > config_.normal_agreement)
-      {
-        const std::uint32_t global = map.resolve (static_cast<std::uint32_t> (li[x]));
-        ++pairs[(static_cast<std::uint64_t> (lj[x]) << 32) | global];
-      }
+      if (!(N.dot (Nm) > config_.normal_agreement))
+        continue;
+      const float along_ray = std::abs ((V - Vm).dot (V)) / V.norm ();
+      if (!(along_ray < config_.noise_factor * axialNoiseLowerBound (V.z ())) &&
+          !(along_ray < config_.noise_factor * axialNoiseAt (V, N)))
+        continue;
+      const std::uint32_t global = map.resolve (static_cast<std::uint32_t> (li[x]));
+      auto& list = by_frame_label[static_cast<std::size_t> (lj[x])];
+      auto it = std::find_if (list.begin (), list.end (), [global] (const std::pair<std::uint32_t, int>& e) {
+        return e.first == global;
+      });
+      if (it == list.end ())
+        list.emplace_back (global, 1);
+      else
+        ++it->second;
     }
   }
-  std::map<int, std::vector<std::pair<std::uint32_t, int>>> by_frame_label;  // l_j → (l_i, Π), sorted by l_i
-  for (const auto& [key, count] : pairs)
-    by_frame_label[static_cast<int> (key >> 32)].emplace_back (static_cast<std::uint32_t> (key & 0xffffffffu), count);
 
   // §4.2.2.4: inherit, fresh label, or drop; candidates of §4.2.3.
   result = PropagationResult ();
-  std::map<int, std::uint32_t> given;
-  for (const auto& [lj, count] : frame_size)
+  std::vector<std::uint32_t> given (labels, 0);
+  for (std::size_t j = 1; j < labels; ++j)
   {
+    const int count = frame_count[j];
+    if (count == 0)
+      continue;
+    const int lj = static_cast<int> (j);
     std::uint32_t label = 0;
     if (count < config_.min_segment_size)
       ++result.dropped;
     else
     {
-      auto& list = by_frame_label[lj];
+      auto& list = by_frame_label[j];
       std::sort (list.begin (), list.end ());
       std::uint32_t best = 0;
       int best_count = 0;
@@ -121,7 +134,7 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
         segments && static_cast<std::size_t> (lj) < segments->size () ? &(*segments)[static_cast<std::size_t> (lj)] : nullptr;
       map.observe (label, frame, info);
     }
-    given[lj] = label;
+    given[j] = label;
     result.assignment.emplace_back (lj, label);
   }
   result.labels.create (size, CV_32S);
@@ -130,7 +143,7 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
     const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
     std::int32_t* out = result.labels.ptr<std::int32_t> (y);
     for (int x = 0; x < size.width; ++x)
-      out[x] = lj[x] > 0 ? static_cast<std::int32_t> (given[lj[x]]) : 0;
+      out[x] = lj[x] > 0 ? static_cast<std::int32_t> (given[static_cast<std::size_t> (lj[x])]) : 0;
   }
 }
 
