@@ -27,16 +27,7 @@ runSequence (pipeline::SegmentationMode mode, const io::SyntheticSequence& seque
   for (std::size_t i = 0; i < sequence.size (); ++i)
   {
     const RGBDFrame::Ptr frame = sequence.frame (i);
-    const io::DetectionResult detections = sequence.detections (*frame);
-    std::vector<int> ids;
-    std::vector<Instance> instances = instancesFromIdImage (detections.ids, &ids);
-    for (std::size_t k = 0; k < instances.size (); ++k)
-      for (const io::Detection& d : detections.detections)
-        if (d.id == ids[k])
-        {
-          instances[k].class_name = d.class_name;
-          instances[k].score = d.score;
-        }
+    const std::vector<Instance> instances = io::toInstances (sequence.detections (*frame));
     const auto report = fusion.process (*frame, &instances);
     EXPECT_TRUE (report.segmented) << i;
   }

@@ -118,18 +118,7 @@ simulatedInstances (const std::string& scene_body, const SegmentedView& s, const
 {
   const io::SyntheticScene scene =
     io::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + scene_body, "test scene");
-  const io::DetectionResult result = io::SimulatedDetector (scene, errors, 3).detect (s.view.instance, 0);
-  std::vector<int> ids;
-  std::vector<Instance> instances = instancesFromIdImage (result.ids, &ids);
-  for (std::size_t i = 0; i < instances.size (); ++i)
-    for (const io::Detection& d : result.detections)
-      if (d.id == ids[i])
-      {
-        instances[i].class_id = d.class_id;
-        instances[i].class_name = d.class_name;
-        instances[i].score = d.score;
-      }
-  return instances;
+  return io::toInstances (io::SimulatedDetector (scene, errors, 3).detect (s.view.instance, 0));
 }
 
 /** How one ground-truth object of a view is segmented. */

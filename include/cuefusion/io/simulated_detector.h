@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cuefusion/common/instance.h>
 #include <cuefusion/io/synthetic_scene.h>
 
 #include <opencv2/core.hpp>
@@ -68,6 +69,10 @@ private:
   DetectorErrorConfig config_;
   std::uint64_t seed_;
 };
+
+/** \brief The detections as instance masks (in id order), with class names and scores. */
+std::vector<Instance>
+toInstances (const DetectionResult& result);
 
 /** \brief The per-frame JSON written next to a detection PNG:
   * {"instances": [{"id", "class_id", "class_name", "score"}, …]}.

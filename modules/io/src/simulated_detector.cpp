@@ -206,6 +206,22 @@ SimulatedDetector::detect (const cv::Mat& truth, std::size_t frame_index) const
   return result;
 }
 
+std::vector<Instance>
+toInstances (const DetectionResult& result)
+{
+  std::vector<int> ids;
+  std::vector<Instance> instances = instancesFromIdImage (result.ids, &ids);
+  for (std::size_t i = 0; i < instances.size (); ++i)
+    for (const Detection& d : result.detections)
+      if (d.id == ids[i])
+      {
+        instances[i].class_id = d.class_id;
+        instances[i].class_name = d.class_name;
+        instances[i].score = d.score;
+      }
+  return instances;
+}
+
 std::string
 detectionsToJson (const DetectionResult& result)
 {
