@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <map>
+#include <set>
 
 using namespace cuefusion;
 
@@ -111,4 +112,52 @@ TEST (FusionPipeline, LabelledMapMatchesTheGroundTruthAndFusionBeatsGeometry)
       ++classes[s.bestClass ()];
   for (const char* name : {"cup", "sports ball", "book", "bottle", "block", "teddy bear", "box"})
     EXPECT_GE (classes[name], 1) << name;
+}
+
+TEST (FusionPipeline, AnObjectSeenInTwoPartsIsMergedOnceRevealed)
+{
+  // Thesis Fig. 4.17: at first a pole stands between the camera and a long box, so the box
+  // is seen as two parts that get two labels; as the camera moves the pole no longer
+  // splits it, a frame segment covers both labels, and after enough frames they merge.
+  const std::string text = "scene occluder\n"
+                           "camera 640 480 525 525 319.5 239.5\n"
+                           "trajectory target=0,0,0.8 radius=1.2 height=0.0 start=270 sweep=70 bob=0\n"
+                           "object floor class=floor color=170,165,150 detectable=no\n"
+                           "  box center=0,0,-0.01 size=6,6,0.02\n"
+                           "object wall class=wall color=200,200,190 detectable=no\n"
+                           "  box center=0,1.5,1.25 size=6,0.1,2.5\n"
+                           "object bench class=box color=200,120,40\n"
+                           "  box center=0,0,0.8 size=0.6,0.1,0.2\n"
+                           "object pole class=pole color=60,60,60\n"
+                           "  cylinder center=0,-0.5,0.8 radius=0.03 height=1.0\n";
+  io::SyntheticSequenceConfig config;
+  config.frames = 30;
+  const io::SyntheticSequence sequence (io::SyntheticScene::parse (text, "occluder scene"), config);
+  pipeline::FusionPipelineConfig pipeline_config;
+  pipeline_config.mode = pipeline::SegmentationMode::Geometry;
+  pipeline_config.reconstruction.use_reference_poses = true;
+  pipeline::FusionPipeline fusion (pipeline_config);
+  std::size_t merges = 0;
+  bool split_at_first = false;
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    merges += fusion.process (*frame, nullptr).merges;
+    if (i == 0)
+    {
+      // The precondition: the box is seen in two parts with two labels.
+      std::set<std::int32_t> labels;
+      const cv::Mat& lp = fusion.frameLabels ();
+      for (int y = 0; y < lp.rows; ++y)
+        for (int x = 0; x < lp.cols; ++x)
+          if (frame->instance_mask.at<std::uint16_t> (y, x) == 3 && lp.at<std::int32_t> (y, x) > 0)
+            labels.insert (lp.at<std::int32_t> (y, x));
+      split_at_first = labels.size () >= 2;
+    }
+  }
+  ASSERT_TRUE (split_at_first);
+  EXPECT_GE (merges, 1u);
+  const auto iou = objectIoU (*fusion.labelledCloud (), sequence.groundTruthCloud ());
+  ASSERT_TRUE (iou.count (3));
+  EXPECT_GE (iou.at (3), 0.8);  // one segment for the whole box
 }
