@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cuefusion/pipeline/fusion_pipeline.h>
+
 #include <boost/program_options.hpp>
 #include <nlohmann/json.hpp>
 
@@ -41,6 +43,12 @@ timingSummary (std::vector<double> values);
   * \a extensions (lower case, with the dot), sorted by name; or the file itself. */
 std::vector<std::string>
 listInputs (const std::string& path, const std::vector<std::string>& extensions);
+
+/** --mode with its default (fused when --masks or --model is given, else geometry);
+  * UsageError for both sources at once or a mode that needs one without any,
+  * ParameterError for an unknown mode. */
+pipeline::SegmentationMode
+chooseSegmentationMode (const std::string& mode, const std::string& masks, const std::string& model);
 
 int runSynth (const std::vector<std::string>& args);
 int runInfo (const std::vector<std::string>& args);

@@ -162,12 +162,7 @@ runRun (const std::vector<std::string>& args)
   if (!(max_depth > 0.2 && max_depth <= 100.0))
     throw ParameterError ("--max-depth", "must lie in (0.2, 100] metres");
 
-  if (!masks.empty () && !onnx.model_path.empty ())
-    throw UsageError ("--masks and --model exclude each other");
-  const bool have_source = !masks.empty () || !onnx.model_path.empty ();
-  pipeline_config.mode = pipeline::parseSegmentationMode (mode.empty () ? (have_source ? "fused" : "geometry") : mode);
-  if (pipeline_config.mode != pipeline::SegmentationMode::Geometry && !have_source)
-    throw UsageError ("--mode " + mode + " needs --masks or --model");
+  pipeline_config.mode = chooseSegmentationMode (mode, masks, onnx.model_path);
   std::unique_ptr<recognition::InstanceSegmenter> mask_source;
   if (!masks.empty ())
     mask_source = std::make_unique<recognition::MaskFolderSegmenter> (masks);

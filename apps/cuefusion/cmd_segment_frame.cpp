@@ -9,6 +9,7 @@
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/map_io.h>
 #include <cuefusion/common/instance.h>
+#include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
@@ -185,29 +186,12 @@ fuseWithMasks (const segmentation::InstanceGuidedRegionMerge& merger, const cv::
   return fused;
 }
 
-/** The masks alone as segments (label i + 1 for instance i, the higher score on overlaps),
-  * on pixels with depth only: a segment is a set of 3D points.
-  */
 cv::Mat
-masksOnly (const std::vector<Instance>& instances, cv::Size size, const segmentation::SurfacePlanes& planes,
-           std::vector<segmentation::SegmentInstance>& segments)
+masksOnlyLabels (const std::vector<Instance>& instances, const segmentation::SurfacePlanes& planes,
+                 std::vector<segmentation::SegmentInstance>& segments)
 {
   cv::Mat labels;
-  instancesToIdImage (instances, size).convertTo (labels, CV_32S);
-  for (int y = 0; y < size.height; ++y)
-    for (int x = 0; x < size.width; ++x)
-      if (!std::isfinite (planes.z[static_cast<std::size_t> (y) * size.width + x]))
-        labels.at<std::int32_t> (y, x) = 0;
-  segments.assign (1, segmentation::SegmentInstance ());
-  for (std::size_t i = 0; i < instances.size (); ++i)
-  {
-    segmentation::SegmentInstance info;
-    info.instance = static_cast<int> (i);
-    info.class_id = instances[i].class_id;
-    info.class_name = instances[i].class_name;
-    info.score = instances[i].score;
-    segments.push_back (info);
-  }
+  segmentation::masksAsSegments (instances, planes, labels, &segments);
   return labels;
 }
 
@@ -348,15 +332,7 @@ runSegmentFrame (const std::vector<std::string>& args)
   geo.validate ();
   plane.validate ();
   merge_config.validate ();
-  if (!masks.empty () && !onnx.model_path.empty ())
-    throw UsageError ("--masks and --model exclude each other");
-  const bool have_source = !masks.empty () || !onnx.model_path.empty ();
-  if (mode.empty ())
-    mode = have_source ? "fused" : "geometry";
-  if (mode != "geometry" && mode != "masks" && mode != "fused")
-    throw ParameterError ("--mode", "must be geometry, masks or fused, not '" + mode + "'");
-  if (mode != "geometry" && !have_source)
-    throw UsageError ("--mode " + mode + " needs --masks or --model");
+  mode = pipeline::segmentationModeName (chooseSegmentationMode (mode, masks, onnx.model_path));
 
   boost::system::error_code ec;
   const bool folder = fs::is_directory (input, ec);
@@ -461,7 +437,7 @@ runSegmentFrame (const std::vector<std::string>& args)
       }
       if (have_masks)
         label_image = mode == "fused" ? fuseWithMasks (merger, label_image, instances, segments)
-                                      : masksOnly (instances, label_image.size (), planes, segments);
+                                      : masksOnlyLabels (instances, planes, segments);
       t.masks_ms = watch.getTime ();
     }
     if (drop_plane)

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cuefusion/common/instance.h>
+#include <cuefusion/segmentation/surface_planes.h>
 
 #include <opencv2/core.hpp>
 
@@ -67,5 +68,12 @@ public:
 private:
   InstanceGuidedMergeConfig config_;
 };
+/** \brief The masks alone as segments (the "masks" mode): label i + 1 for instance i,
+  * the higher score where masks overlap, on pixels with a point in \a planes only (a
+  * segment is a set of 3D points). \a segments, when given, describes each label.
+  */
+void
+masksAsSegments (const std::vector<Instance>& instances, const SurfacePlanes& planes, cv::Mat& labels,
+                 std::vector<SegmentInstance>* segments = nullptr);
 }  // namespace segmentation
 }  // namespace cuefusion

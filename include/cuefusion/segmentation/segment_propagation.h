@@ -36,7 +36,6 @@ struct PropagationResult
 {
   cv::Mat labels;                                                     ///< L^p, CV_32S global labels
   std::vector<std::pair<std::uint32_t, std::uint32_t>> candidates;    ///< (label given, other model label)
-  std::vector<std::pair<int, std::uint32_t>> assignment;              ///< frame label → global label (0 = dropped)
   int inherited = 0, fresh = 0, dropped = 0;
 };
 

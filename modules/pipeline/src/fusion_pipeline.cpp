@@ -88,27 +88,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   else if (config_.mode == SegmentationMode::Fused)
     instance_merge_.merge (geometry_.getLabelImage (), *instances, frame_segments, &info);
   else
-  {
-    frame_segments = cv::Mat::zeros (frame.depth.size (), CV_32S);
-    if (instances)
-    {
-      instancesToIdImage (*instances, frame.depth.size ()).convertTo (frame_segments, CV_32S);
-      info.assign (1, segmentation::SegmentInstance ());
-      for (std::size_t i = 0; i < instances->size (); ++i)
-      {
-        segmentation::SegmentInstance s;
-        s.instance = static_cast<int> (i);
-        s.class_id = (*instances)[i].class_id;
-        s.class_name = (*instances)[i].class_name;
-        s.score = (*instances)[i].score;
-        info.push_back (s);
-      }
-    }
-    for (int y = 0; y < frame_segments.rows; ++y)
-      for (int x = 0; x < frame_segments.cols; ++x)
-        if (!std::isfinite (planes_.z[static_cast<std::size_t> (y) * frame_segments.cols + x]))
-          frame_segments.at<std::int32_t> (y, x) = 0;
-  }
+    segmentation::masksAsSegments (instances ? *instances : std::vector<Instance> (), planes_, frame_segments, &info);
   report.segmentation.instances_ms = watch.getTime ();
 
   // L^p against the model seen from the fused pose (§4.2.2).

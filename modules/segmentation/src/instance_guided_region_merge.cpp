@@ -125,5 +125,29 @@ InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<In
         ++(*segments)[static_cast<std::size_t> (output.at (key))].geometric_segments;
       }
 }
+
+void
+masksAsSegments (const std::vector<Instance>& instances, const SurfacePlanes& planes, cv::Mat& labels,
+                 std::vector<SegmentInstance>* segments)
+{
+  const cv::Size size (planes.width, planes.height);
+  instancesToIdImage (instances, size).convertTo (labels, CV_32S);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)
+      if (!std::isfinite (planes.z[static_cast<std::size_t> (y) * size.width + x]))
+        labels.at<std::int32_t> (y, x) = 0;
+  if (!segments)
+    return;
+  segments->assign (1, SegmentInstance ());
+  for (std::size_t i = 0; i < instances.size (); ++i)
+  {
+    SegmentInstance info;
+    info.instance = static_cast<int> (i);
+    info.class_id = instances[i].class_id;
+    info.class_name = instances[i].class_name;
+    info.score = instances[i].score;
+    segments->push_back (info);
+  }
+}
 }  // namespace segmentation
 }  // namespace cuefusion

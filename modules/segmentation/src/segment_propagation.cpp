@@ -101,7 +101,6 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
     const int count = frame_count[j];
     if (count == 0)
       continue;
-    const int lj = static_cast<int> (j);
     std::uint32_t label = 0;
     if (count < config_.min_segment_size)
       ++result.dropped;
@@ -131,11 +130,10 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
         if (li != label && static_cast<float> (c) > config_.candidate_overlap * static_cast<float> (count))
           result.candidates.emplace_back (label, li);
       const SegmentInstance* info =
-        segments && static_cast<std::size_t> (lj) < segments->size () ? &(*segments)[static_cast<std::size_t> (lj)] : nullptr;
+        segments && j < segments->size () ? &(*segments)[j] : nullptr;
       map.observe (label, frame, info);
     }
     given[j] = label;
-    result.assignment.emplace_back (lj, label);
   }
   result.labels.create (size, CV_32S);
   for (int y = 0; y < size.height; ++y)
