@@ -1,6 +1,6 @@
 # All dependencies come from Debian packages (scripts/setup installs them).
 find_package(PCL 1.13 REQUIRED COMPONENTS common io filters features sample_consensus segmentation)
-find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs)
+find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs videoio)
 find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(Boost REQUIRED COMPONENTS program_options filesystem)
 find_package(Threads REQUIRED)

@@ -54,5 +54,7 @@ int runSynth (const std::vector<std::string>& args);
 int runInfo (const std::vector<std::string>& args);
 int runRun (const std::vector<std::string>& args);
 int runSegmentFrame (const std::vector<std::string>& args);
+int runEval (const std::vector<std::string>& args);
+int runRender (const std::vector<std::string>& args);
 }  // namespace cli
 }  // namespace cuefusion

@@ -11,6 +11,10 @@
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
+#include <cuefusion/visualization/frame_view.h>
+#include <cuefusion/visualization/live_viewer.h>
+
+#include <opencv2/videoio.hpp>
 
 #include <boost/filesystem.hpp>
 #include <nlohmann/json.hpp>
@@ -75,6 +79,80 @@ segmentsJson (const std::vector<segmentation::SegmentRecord>& segments)
   return {{"segments", list}};
 }
 
+/** --video: frames go to a temporary file next to the target, renamed into place when the
+  * run ends well (a failed run leaves no half-written video). The container follows the
+  * extension: .avi → Motion-JPEG (always available in OpenCV), .mp4 → MPEG-4 part 2. */
+class VideoOutput
+{
+public:
+  VideoOutput (const std::string& path, double fps) : path_ (path), fps_ (fps)
+  {
+    const std::string ext = fs::path (path).extension ().string ();
+    if (ext == ".avi")
+      fourcc_ = cv::VideoWriter::fourcc ('M', 'J', 'P', 'G');
+    else if (ext == ".mp4")
+      fourcc_ = cv::VideoWriter::fourcc ('m', 'p', '4', 'v');
+    else
+      throw ParameterError ("--video", "the file must end in .avi or .mp4, not '" + ext + "'");
+    const fs::path target (path);
+    temporary_ = (target.parent_path () / fs::unique_path ("." + target.stem ().string () + ".tmp-%%%%%%" + ext)).string ();
+  }
+  ~VideoOutput ()
+  {
+    if (writer_.isOpened ())
+      writer_.release ();
+    if (!finished_)
+    {
+      boost::system::error_code ec;
+      fs::remove (temporary_, ec);
+    }
+  }
+  void write (const cv::Mat& image)
+  {
+    if (!writer_.isOpened ())
+    {
+      if (!writer_.open (temporary_, fourcc_, fps_, image.size ()))
+        throw Error (path_, "OpenCV cannot write this video format here");
+      size_ = image.size ();
+    }
+    if (image.size () != size_)
+      throw Error (path_, "frame size changed during the run");
+    writer_.write (image);
+  }
+  void finish ()
+  {
+    if (!writer_.isOpened ())
+      return;
+    writer_.release ();
+    boost::system::error_code ec;
+    fs::rename (temporary_, path_, ec);
+    if (ec)
+      throw Error (path_, "cannot move the finished video into place: " + ec.message ());
+    finished_ = true;
+  }
+
+private:
+  std::string path_, temporary_;
+  double fps_;
+  int fourcc_ = 0;
+  cv::Size size_;
+  cv::VideoWriter writer_;
+  bool finished_ = false;
+};
+
+/** The map's labels seen from the camera as a 16-bit id PNG (for `cuefusion eval`). */
+cv::Mat
+labelsAs16Bit (const cv::Mat& labels, const std::string& path)
+{
+  double max_label = 0.0;
+  cv::minMaxLoc (labels, nullptr, &max_label);
+  if (max_label > 65535.0)
+    throw Error (path, "segment label " + std::to_string (static_cast<long long> (max_label)) + " does not fit a 16-bit PNG");
+  cv::Mat out;
+  labels.convertTo (out, CV_16U);
+  return out;
+}
+
 nlohmann::json
 timingsJson (const std::vector<reconstruction::FrameReport>& reports,
              const std::vector<pipeline::SegmentationTimings>& segmentation)
@@ -122,6 +200,8 @@ runRun (const std::vector<std::string>& args)
   bool use_gt_poses = false, save_volume = false;
   std::string masks, mode;
   std::size_t save_every = 0;
+  std::string render_dir, video_path, screenshot;
+  bool view = false;
   recognition::OnnxSegmenterConfig onnx;
   po::options_description options ("options");
   options.add_options ()
@@ -141,7 +221,11 @@ runRun (const std::vector<std::string>& args)
     ("classes", po::value (&onnx.classes_path), "class names of --model (default data/classes/coco.names)")
     ("input-size", po::value (&onnx.input_size)->default_value (onnx.input_size), "network input size of --model (px)")
     ("score-threshold", po::value (&onnx.score_threshold)->default_value (onnx.score_threshold), "--model detections below are dropped")
-    ("save-every", po::value (&save_every)->default_value (0), "every K-th frame, write the map's labels seen from the camera to labels/FRAME.png (0 = never)");
+    ("save-every", po::value (&save_every)->default_value (0), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
+    ("render", po::value (&render_dir), "write per-frame PNGs to DIR: input colour, depth and the map's segments seen from the camera")
+    ("video", po::value (&video_path), "the same panels as a video (.avi Motion-JPEG or .mp4)")
+    ("view", po::bool_switch (&view), "show the map growing in a PCLVisualizer window (needs a display)")
+    ("view-screenshot", po::value (&screenshot), "with --view: save the window as PNG when the run ends and close it");
   po::positional_options_description positional;
   positional.add ("sequence", 1);
   po::variables_map vm;
@@ -162,6 +246,8 @@ runRun (const std::vector<std::string>& args)
   if (!(max_depth > 0.2 && max_depth <= 100.0))
     throw ParameterError ("--max-depth", "must lie in (0.2, 100] metres");
 
+  if (!screenshot.empty () && !view)
+    throw UsageError ("--view-screenshot needs --view");
   pipeline_config.mode = chooseSegmentationMode (mode, masks, onnx.model_path);
   std::unique_ptr<recognition::InstanceSegmenter> mask_source;
   if (!masks.empty ())
@@ -185,12 +271,22 @@ runRun (const std::vector<std::string>& args)
     throw Error (out, "cannot create output folder" + (ec ? ": " + ec.message () : std::string ()));
 
   pipeline::FusionPipeline fusion (pipeline_config);
-  if (save_every > 0)
+  for (const std::string& folder : {save_every > 0 ? (fs::path (out) / "labels").string () : std::string (), render_dir})
   {
-    fs::create_directories (fs::path (out) / "labels", ec);
-    if (ec)
-      throw Error ((fs::path (out) / "labels").string (), "cannot create folder: " + ec.message ());
+    if (folder.empty ())
+      continue;
+    fs::create_directories (folder, ec);
+    if (ec || !fs::is_directory (folder))
+      throw Error (folder, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
   }
+  std::unique_ptr<VideoOutput> video;
+  if (!video_path.empty ())
+    video = std::make_unique<VideoOutput> (video_path, dataset && dataset->getFramesPerSecond () > 0.f ? dataset->getFramesPerSecond () : 30.0);
+  // The window belongs to this (the main) thread; processing moves to a worker below.
+  std::unique_ptr<visualization::LiveViewer> viewer;
+  if (view)
+    viewer = std::make_unique<visualization::LiveViewer> ("cuefusion run: " + source);
+  auto last_view_post = std::chrono::steady_clock::now () - std::chrono::seconds (10);
   RunOutputs result;
   std::mutex mutex;
   std::string callback_error;
@@ -217,11 +313,36 @@ runRun (const std::vector<std::string>& args)
       {
         result.segmentation.push_back (full.segmentation);
         result.merges += full.merges;
-        if (save_every > 0 && frame->index % save_every == 0)
+        std::ostringstream name;
+        name << std::setw (6) << std::setfill ('0') << frame->index << ".png";
+        const bool save_labels = save_every > 0 && frame->index % save_every == 0;
+        if (save_labels || !render_dir.empty () || video)
         {
-          std::ostringstream name;
-          name << std::setw (6) << std::setfill ('0') << frame->index << ".png";
-          io::writeImageAtomic ((fs::path (out) / "labels" / name.str ()).string (), colorizeLabels (fusion.modelLabels ()));
+          const cv::Mat labels = fusion.modelLabels ();
+          if (save_labels)
+          {
+            const std::string path = (fs::path (out) / "labels" / name.str ()).string ();
+            io::writeImageAtomic (path, labelsAs16Bit (labels, path));
+          }
+          if (!render_dir.empty () || video)
+          {
+            const cv::Mat panel = visualization::composeFrameView (*frame, labels);
+            if (!render_dir.empty ())
+              io::writeImageAtomic ((fs::path (render_dir) / name.str ()).string (), panel);
+            if (video)
+              video->write (panel);
+          }
+        }
+      }
+      if (viewer && report.tracked)
+      {
+        // The map is re-extracted at most twice a second: it grows with the scene.
+        const auto now = std::chrono::steady_clock::now ();
+        viewer->postFrame (frame->camera, report.pose, toPointCloud (*frame));
+        if (now - last_view_post > std::chrono::milliseconds (500))
+        {
+          viewer->postMap (fusion.labelledCloud ());
+          last_view_post = now;
         }
       }
       if (report.tracked)
@@ -238,29 +359,75 @@ runRun (const std::vector<std::string>& args)
   };
   const boost::signals2::connection connection = grabber->registerCallback (on_frame);
   const auto previous_handler = std::signal (SIGINT, onInterrupt);
-  grabber->start ();
-  if (dataset)
-  {
-    while (!g_interrupted && dataset->trigger ())
+  const auto process = [&] {
+    grabber->start ();
+    if (dataset)
     {
-      const std::lock_guard<std::mutex> lock (mutex);
-      if (!callback_error.empty ())
-        break;
+      while (!g_interrupted && dataset->trigger ())
+      {
+        const std::lock_guard<std::mutex> lock (mutex);
+        if (!callback_error.empty ())
+          break;
+      }
     }
+    else
+    {
+      std::cerr << "cuefusion run: reconstructing from " << source << "; Ctrl-C stops and writes the map\n";
+      for (;;)
+      {
+        std::this_thread::sleep_for (std::chrono::milliseconds (20));
+        const std::lock_guard<std::mutex> lock (mutex);
+        if (g_interrupted || !grabber->isRunning () || !callback_error.empty () ||
+            (max_frames && result.reports.size () >= max_frames))
+          break;
+      }
+    }
+    grabber->stop ();
+  };
+  if (viewer)
+  {
+    std::atomic<bool> done{false};
+    std::thread worker ([&] {
+      try
+      {
+        process ();
+      }
+      catch (const std::exception& e)
+      {
+        const std::lock_guard<std::mutex> lock (mutex);
+        callback_error = e.what ();
+      }
+      done = true;
+    });
+    bool window_open = true;
+    while (!done)
+      if (window_open && !viewer->spinOnce (30))
+      {
+        window_open = false;  // closing the window stops the run, which still writes its map
+        g_interrupted = true;
+      }
+      else if (!window_open)
+        std::this_thread::sleep_for (std::chrono::milliseconds (30));
+    worker.join ();
+    if (window_open)
+    {
+      viewer->postMap (fusion.labelledCloud ());
+      viewer->spinOnce (30);
+      if (!screenshot.empty ())
+        viewer->saveScreenshot (screenshot);
+      else
+      {
+        std::cerr << "cuefusion run: done; close the window to write the outputs\n";
+        viewer->setFollowCamera (false);  // the mouse has the view now
+        while (viewer->spinOnce (30))
+        {
+        }
+      }
+    }
+    viewer.reset ();
   }
   else
-  {
-    std::cerr << "cuefusion run: reconstructing from " << source << "; Ctrl-C stops and writes the map\n";
-    for (;;)
-    {
-      std::this_thread::sleep_for (std::chrono::milliseconds (20));
-      const std::lock_guard<std::mutex> lock (mutex);
-      if (g_interrupted || !grabber->isRunning () || !callback_error.empty () ||
-          (max_frames && result.reports.size () >= max_frames))
-        break;
-    }
-  }
-  grabber->stop ();
+    process ();
   connection.disconnect ();
   std::signal (SIGINT, previous_handler);
   progress.finish ();
@@ -286,6 +453,8 @@ runRun (const std::vector<std::string>& args)
     io::writeTumTrajectory ((dir / "reference_trajectory.txt").string (), result.reference);
   if (save_volume)
     volume.save ((dir / "volume.tsdf").string ());
+  if (video)
+    video->finish ();
 
   nlohmann::json tracking;
   nlohmann::json lost = nlohmann::json::array ();

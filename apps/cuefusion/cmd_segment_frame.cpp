@@ -51,23 +51,7 @@ using io::hasField;
 Cloud::Ptr
 loadOrganizedPCD (const std::string& path)
 {
-  pcl::PCLPointCloud2 blob;
-  {
-    // PCL 1.13's reader crashes on a file whose header has no fields: check it first.
-    pcl::PCDReader reader;
-    Eigen::Vector4f origin;
-    Eigen::Quaternionf orientation;
-    int version = 0, data_type = 0;
-    unsigned int data_offset = 0;
-    if (reader.readHeader (path, blob, origin, orientation, version, data_type, data_offset) < 0 || blob.fields.empty () ||
-        static_cast<std::size_t> (blob.width) * blob.height == 0)
-      throw Error (path, "not a PCD file with points (no FIELDS, WIDTH or HEIGHT in its header)");
-  }
-  if (pcl::io::loadPCDFile (path, blob) < 0)
-    throw Error (path, "cannot read PCD file (truncated or corrupt)");
-  for (const char* field : {"x", "y", "z"})
-    if (!hasField (blob, field))
-      throw Error (path, std::string ("PCD has no '") + field + "' field");
+  const pcl::PCLPointCloud2 blob = io::readPCD (path);
   if (blob.height < 2 || blob.width * blob.height == 0)
     throw Error (path, "PCD is not organized (height " + std::to_string (blob.height) + "); segment-frame needs an image-shaped cloud");
   Cloud::Ptr cloud (new Cloud);

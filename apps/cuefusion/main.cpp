@@ -20,6 +20,8 @@ const char* kUsage =
   "  run     process a sequence (folder, openni2[:DEVICE] or .oni file) into a map\n"
   "  segment-frame\n"
   "          geometric segmentation of organized clouds or depth images (PCD/PNG, or folders)\n"
+  "  eval    score runs against a sequence's truth: ATE/RPE, per-frame object IoU, 3D instance AP\n"
+  "  render  draw a run's labelled mesh from N viewpoints to PNG (no display needed)\n"
   "\n"
   "'cuefusion COMMAND --help' describes a command's options.\n";
 }
@@ -29,7 +31,7 @@ main (int argc, char** argv)
 {
   using namespace cuefusion::cli;
   const std::map<std::string, int (*) (const std::vector<std::string>&)> commands = {
-    {"synth", runSynth}, {"info", runInfo}, {"run", runRun}, {"segment-frame", runSegmentFrame}};
+    {"synth", runSynth}, {"info", runInfo}, {"run", runRun}, {"segment-frame", runSegmentFrame}, {"eval", runEval}, {"render", runRender}};
   if (argc < 2)
   {
     std::cerr << kUsage;

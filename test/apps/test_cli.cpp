@@ -55,7 +55,7 @@ TEST_F (Cli, UsageErrorsExitWith2)
 
 TEST_F (Cli, HelpForEveryCommand)
 {
-  for (const char* command : {"--help", "synth --help", "info --help", "run --help", "segment-frame --help"})
+  for (const char* command : {"--help", "synth --help", "info --help", "run --help", "segment-frame --help", "eval --help", "render --help"})
   {
     const Result r = run (command);
     EXPECT_EQ (r.code, 0) << command;

@@ -6,18 +6,26 @@
 #include <pcl/point_types.h>
 
 #include <string>
+#include <vector>
 
 namespace cuefusion
 {
 namespace io
 {
-/** \brief Saves a binary-compressed PCD atomically (temporary file, then rename), so an
-  * existing map is replaced whole or not at all. Throws cuefusion::Error on failure.
-  */
 /** \brief True when \a cloud has a field called \a name. */
 bool
 hasField (const pcl::PCLPointCloud2& cloud, const std::string& name);
 
+/** \brief Reads any PCD into a blob, checking its header first (PCL 1.13's reader crashes
+  * on a header without FIELDS). Throws cuefusion::Error naming the file when it is
+  * missing, corrupt, has no points or lacks one of \a required_fields.
+  */
+pcl::PCLPointCloud2
+readPCD (const std::string& path, const std::vector<std::string>& required_fields = {"x", "y", "z"});
+
+/** \brief Saves a binary-compressed PCD atomically (temporary file, then rename), so an
+  * existing map is replaced whole or not at all. Throws cuefusion::Error on failure.
+  */
 void
 saveMapPCD (const std::string& path, const pcl::PointCloud<pcl::PointXYZRGBL>& cloud);
 

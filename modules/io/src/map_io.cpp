@@ -22,6 +22,28 @@ hasField (const pcl::PCLPointCloud2& cloud, const std::string& name)
   return false;
 }
 
+pcl::PCLPointCloud2
+readPCD (const std::string& path, const std::vector<std::string>& required_fields)
+{
+  pcl::PCLPointCloud2 blob;
+  {
+    pcl::PCDReader reader;
+    Eigen::Vector4f origin;
+    Eigen::Quaternionf orientation;
+    int version = 0, data_type = 0;
+    unsigned int data_offset = 0;
+    if (reader.readHeader (path, blob, origin, orientation, version, data_type, data_offset) < 0 || blob.fields.empty () ||
+        static_cast<std::size_t> (blob.width) * blob.height == 0)
+      throw Error (path, "not a PCD file with points (no FIELDS, WIDTH or HEIGHT in its header)");
+  }
+  if (pcl::io::loadPCDFile (path, blob) < 0)
+    throw Error (path, "cannot read PCD file (truncated or corrupt)");
+  for (const std::string& field : required_fields)
+    if (!hasField (blob, field))
+      throw Error (path, "PCD has no '" + field + "' field");
+  return blob;
+}
+
 void
 saveMapPCD (const std::string& path, const pcl::PointCloud<pcl::PointXYZRGBL>& cloud)
 {

@@ -1,0 +1,579 @@
+// cuefusion eval: tracking (ATE, RPE), per-frame object IoU and 3D instance AP of one or
+// more runs against a sequence's ground truth, as report.json, CSV files and PNG plots.
+#include "cli.h"
+#include "gnuplot.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/progress.h>
+#include <cuefusion/evaluation/instance_ap.h>
+#include <cuefusion/evaluation/object_iou.h>
+#include <cuefusion/evaluation/trajectory_error.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/ground_truth.h>
+#include <cuefusion/io/map_io.h>
+#include <cuefusion/io/mesh_io.h>
+#include <cuefusion/io/pose_io.h>
+#include <cuefusion/io/sequence.h>
+#include <cuefusion/visualization/mesh_rasterizer.h>
+
+#include <Eigen/Eigenvalues>
+#include <boost/filesystem.hpp>
+#include <nlohmann/json.hpp>
+#include <pcl/conversions.h>
+#include <pcl/kdtree/kdtree_flann.h>
+
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <tuple>
+
+namespace fs = boost::filesystem;
+
+namespace cuefusion
+{
+namespace cli
+{
+namespace
+{
+/** What one `cuefusion run` output folder holds, as eval needs it. */
+struct RunData
+{
+  std::string name, dir;
+  io::Trajectory trajectory;
+  std::map<long long, Eigen::Isometry3d, std::less<long long>,
+           Eigen::aligned_allocator<std::pair<const long long, Eigen::Isometry3d>>> pose_at;  ///< µs timestamp → pose
+  io::TriangleMesh mesh;
+  nlohmann::json segments;
+  double voxel_size = 0.01;
+  // results
+  std::vector<std::vector<evaluation::ObjectIoU>> frame_iou;
+  std::vector<std::size_t> frame_index;  ///< sequence index of each frame_iou entry
+  std::size_t frames_skipped = 0;
+};
+
+long long
+microseconds (double t)
+{
+  return std::llround (t * 1e6);
+}
+
+/** --run NAME=DIR or DIR (named after the folder). */
+std::pair<std::string, std::string>
+splitRunSpec (const std::string& spec)
+{
+  const auto eq = spec.find ('=');
+  const std::string dir = eq == std::string::npos ? spec : spec.substr (eq + 1);
+  std::string name = eq == std::string::npos ? fs::path (dir).filename ().string () : spec.substr (0, eq);
+  if (name.empty () || name == ".")
+    name = fs::absolute (dir).parent_path ().filename ().string ();
+  return {name, dir};
+}
+
+RunData
+loadRun (const std::string& spec, bool need_mesh)
+{
+  RunData run;
+  std::tie (run.name, run.dir) = splitRunSpec (spec);
+  if (!fs::is_directory (run.dir))
+    throw Error (run.dir, "is not a `cuefusion run` output folder");
+  const fs::path dir (run.dir);
+  run.trajectory = io::readTumTrajectory ((dir / "trajectory.txt").string ());
+  for (const io::StampedPose& p : run.trajectory)
+    run.pose_at[microseconds (p.timestamp)] = p.pose;
+  if (need_mesh)
+  {
+    run.mesh = io::readMeshPLY ((dir / "mesh.ply").string ());
+    if (run.mesh.labels.empty ())
+      throw Error ((dir / "mesh.ply").string (), "mesh has no per-vertex label (not written by `cuefusion run`?)");
+  }
+  const fs::path segments = dir / "segments.json";
+  try
+  {
+    run.segments = nlohmann::json::parse (io::readTextFile (segments.string ())).at ("segments");
+  }
+  catch (const nlohmann::json::exception& e)
+  {
+    throw Error (segments.string (), std::string ("malformed segments.json: ") + e.what ());
+  }
+  const fs::path tracking = dir / "tracking.json";
+  if (fs::exists (tracking))
+  {
+    try
+    {
+      run.voxel_size = nlohmann::json::parse (io::readTextFile (tracking.string ())).at ("volume").at ("voxel_size").get<double> ();
+    }
+    catch (const nlohmann::json::exception&)
+    {
+      // older or hand-made folders: keep the default voxel size
+    }
+  }
+  return run;
+}
+
+/** The sequence's reference trajectory from its index (poses in the listing or per-frame files). */
+io::Trajectory
+referenceTrajectory (const io::DatasetGrabber& dataset)
+{
+  io::Trajectory reference;
+  for (const io::FrameRecord& r : dataset.records ())
+  {
+    if (r.pose)
+      reference.push_back ({r.timestamp, *r.pose});
+    else if (!r.pose_path.empty ())
+      if (const auto pose = io::readPoseMatrixFile (r.pose_path))
+        reference.push_back ({r.timestamp, *pose});
+  }
+  return reference;
+}
+
+nlohmann::json
+numberOrNull (double v)
+{
+  return std::isfinite (v) ? nlohmann::json (v) : nlohmann::json (nullptr);
+}
+
+std::string
+csvNumber (double v)
+{
+  if (!std::isfinite (v))
+    return "";
+  std::ostringstream s;
+  s << std::setprecision (6) << v;
+  return s.str ();
+}
+
+std::string
+csvText (const std::string& s)
+{
+  if (s.find_first_of (",\"\n") == std::string::npos)
+    return s;
+  std::string out = "\"";
+  for (const char c : s)
+    out += c == '"' ? std::string ("\"\"") : std::string (1, c);
+  return out + "\"";
+}
+
+nlohmann::json
+apJson (const evaluation::APScores& s)
+{
+  return {{"ap", numberOrNull (s.ap)}, {"ap50", numberOrNull (s.ap50)}, {"ap25", numberOrNull (s.ap25)}};
+}
+
+/** Ground-truth points take the segment of the nearest map point within \a radius. */
+std::vector<std::uint32_t>
+transferLabels (const pcl::PointCloud<pcl::PointXYZL>& truth, const pcl::PointCloud<pcl::PointXYZL>::Ptr& map, double radius)
+{
+  std::vector<std::uint32_t> labels (truth.size (), 0);
+  if (map->empty ())
+    return labels;
+  pcl::KdTreeFLANN<pcl::PointXYZL> tree;
+  tree.setInputCloud (map);
+  std::vector<int> index (1);
+  std::vector<float> distance (1);
+  const float r2 = static_cast<float> (radius * radius);
+  for (std::size_t i = 0; i < truth.size (); ++i)
+    if (tree.nearestKSearch (truth[i], 1, index, distance) == 1 && distance[0] <= r2)
+      labels[i] = (*map)[static_cast<std::size_t> (index[0])].label;
+  return labels;
+}
+}  // namespace
+
+int
+runEval (const std::vector<std::string>& args)
+{
+  std::vector<std::string> run_specs;
+  std::string gt, out, format, intrinsics, labels_from;
+  std::size_t every = 1, min_pixels = 100, min_region = 100;
+  double match_radius = 0.0;
+  bool no_plots = false;
+  po::options_description options ("options");
+  options.add_options ()
+    ("run", po::value (&run_specs)->composing (), "[NAME=]DIR of a `cuefusion run`; repeat to compare runs (e.g. geometry=out/geo --run fused=out/fused)")
+    ("gt", po::value (&gt)->required (), "the sequence the runs processed (its poses, instance masks and, when present, labelled ground-truth cloud)")
+    ("out", po::value (&out)->required (), "report folder: report.json, CSV files, plots/")
+    ("format", po::value (&format)->default_value ("auto"), "layout of --gt: auto, tum, redwood, 7scenes, scannet")
+    ("intrinsics", po::value (&intrinsics), "intrinsics file overriding the sequence's own")
+    ("labels", po::value (&labels_from)->default_value ("final"), "per-frame IoU from the 'final' map seen from each estimated pose, or the run's 'per-frame' labels/ (run --save-every)")
+    ("every", po::value (&every)->default_value (every), "score every K-th frame")
+    ("min-pixels", po::value (&min_pixels)->default_value (min_pixels), "objects with fewer visible pixels in a frame are not scored there")
+    ("min-region", po::value (&min_region)->default_value (min_region), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
+    ("match-radius", po::value (&match_radius)->default_value (0.0), "3D AP: ground-truth points take the label of the nearest map point within this (metres; 0 = two voxels)")
+    ("no-plots", po::bool_switch (&no_plots), "write report.json and CSV only");
+  po::positional_options_description positional;
+  po::variables_map vm;
+  if (!parseCommandLine ("eval", "--run [NAME=]DIR [--run ...] --gt SEQUENCE --out REPORT_DIR [options]", args, options, positional, vm))
+    return 0;
+  if (run_specs.empty ())
+    throw UsageError ("at least one --run is needed");
+  if (labels_from != "final" && labels_from != "per-frame")
+    throw ParameterError ("--labels", "must be 'final' or 'per-frame', not '" + labels_from + "'");
+  if (every == 0)
+    throw ParameterError ("--every", "must be at least 1");
+  if (min_pixels == 0 || min_region == 0)
+    throw ParameterError (min_pixels == 0 ? "--min-pixels" : "--min-region", "must be at least 1");
+  if (!(match_radius >= 0.0 && match_radius <= 1.0))
+    throw ParameterError ("--match-radius", "must lie in [0, 1] metres");
+  const bool final_map = labels_from == "final";
+
+  std::vector<RunData> runs;
+  std::set<std::string> names;
+  for (const std::string& spec : run_specs)
+  {
+    const std::string name = splitRunSpec (spec).first;
+    if (!names.insert (name).second)
+      throw UsageError ("two runs are called '" + name + "'; name them with --run NAME=DIR");
+  }
+  for (const std::string& spec : run_specs)
+    runs.push_back (loadRun (spec, final_map));
+
+  io::SequenceOptions opts;
+  opts.format = io::parseSequenceFormat (format);
+  opts.intrinsics_path = intrinsics;
+  if (opts.format == io::SequenceFormat::OpenNI2)
+    throw ParameterError ("--format", "eval needs a recorded sequence folder");
+  const io::DatasetGrabber::Ptr dataset = io::openDataset (gt, opts);
+  const std::optional<io::GroundTruthCloud> gt_cloud = io::findGroundTruthCloud (gt);
+  std::set<std::uint32_t> stuff = gt_cloud ? gt_cloud->ignored : io::syntheticStuffInstances (gt);
+  const auto classOf = [&] (std::uint32_t instance) {
+    if (!gt_cloud)
+      return std::string ();
+    const auto it = gt_cloud->class_names.find (instance);
+    return it == gt_cloud->class_names.end () ? std::string () : it->second;
+  };
+
+  boost::system::error_code ec;
+  fs::create_directories (fs::path (out) / "plots", ec);
+  if (ec || !fs::is_directory (out))
+    throw Error (out, "cannot create report folder" + (ec ? ": " + ec.message () : std::string ()));
+  const fs::path report_dir (out);
+
+  // --- tracking
+  const io::Trajectory reference = referenceTrajectory (*dataset);
+  nlohmann::json report = {{"sequence", gt}, {"labels", labels_from}, {"runs", nlohmann::json::array ()}};
+  std::ostringstream tracking_csv;
+  tracking_csv << "run,pairs,ate_rmse_m,ate_mean_m,ate_median_m,ate_max_m,rpe_frame_trans_rmse_m,rpe_frame_rot_rmse_deg,"
+                  "rpe_1s_trans_rmse_m,rpe_1s_rot_rmse_deg\n";
+  std::vector<nlohmann::json> run_reports (runs.size ());
+  for (std::size_t k = 0; k < runs.size (); ++k)
+  {
+    RunData& run = runs[k];
+    nlohmann::json tracking = nullptr;
+    const evaluation::PosePairs pairs = evaluation::associatePoses (run.trajectory, reference, 1e-3);
+    if (pairs.size () >= 3)
+    {
+      const evaluation::TrajectoryError ate = evaluation::absoluteTrajectoryError (run.trajectory, reference, 1e-3);
+      tracking = {{"pairs", ate.pairs},
+                  {"ate", {{"rmse", ate.rmse}, {"mean", ate.mean}, {"median", ate.median}, {"max", ate.max}}}};
+      std::string rpe_cells[2][2];
+      int column = 0;
+      for (const auto& [key, interval] : {std::make_pair (std::string ("rpe_1_frame"), evaluation::RelativePoseInterval{evaluation::RelativePoseInterval::Unit::Frames, 1.0}),
+                                          std::make_pair (std::string ("rpe_1_s"), evaluation::RelativePoseInterval{evaluation::RelativePoseInterval::Unit::Seconds, 1.0})})
+      {
+        try
+        {
+          const evaluation::RelativePoseError rpe = evaluation::relativePoseError (run.trajectory, reference, interval, 1e-3);
+          tracking[key] = {{"pairs", rpe.pairs},
+                           {"translation_rmse", rpe.translation_rmse},
+                           {"translation_median", rpe.translation_median},
+                           {"rotation_rmse_deg", rpe.rotation_rmse_deg},
+                           {"rotation_median_deg", rpe.rotation_median_deg}};
+          rpe_cells[column][0] = csvNumber (rpe.translation_rmse);
+          rpe_cells[column][1] = csvNumber (rpe.rotation_rmse_deg);
+        }
+        catch (const Error&)
+        {
+          tracking[key] = nullptr;  // the sequence is shorter than the interval
+        }
+        ++column;
+      }
+      tracking_csv << csvText (run.name) << "," << ate.pairs << "," << csvNumber (ate.rmse) << "," << csvNumber (ate.mean) << ","
+                   << csvNumber (ate.median) << "," << csvNumber (ate.max) << "," << rpe_cells[0][0] << "," << rpe_cells[0][1] << ","
+                   << rpe_cells[1][0] << "," << rpe_cells[1][1] << "\n";
+    }
+    run_reports[k] = {{"name", run.name}, {"dir", run.dir}, {"tracking", tracking}};
+  }
+
+  // --- per-frame object IoU
+  std::size_t frames_with_masks = 0;
+  const visualization::MeshRasterizer rasterizer;
+  evaluation::FrameIoUConfig iou_config;
+  iou_config.min_truth_pixels = min_pixels;
+  ProgressReporter progress ("eval", dataset->size ());
+  for (std::size_t i = 0; i < dataset->size (); i += every)
+  {
+    progress.update (i + 1);
+    if (dataset->records ()[i].instance_path.empty ())
+      continue;
+    const RGBDFrame::Ptr frame = dataset->readFrame (i);
+    ++frames_with_masks;
+    cv::Mat truth = frame->instance_mask.clone ();
+    for (int r = 0; r < truth.rows; ++r)
+      for (int c = 0; c < truth.cols; ++c)
+        if (stuff.count (truth.at<std::uint16_t> (r, c)))
+          truth.at<std::uint16_t> (r, c) = 0;
+    cv::Mat valid (frame->depth.size (), CV_8U);
+    for (int r = 0; r < valid.rows; ++r)
+      for (int c = 0; c < valid.cols; ++c)
+        valid.at<std::uint8_t> (r, c) = isValidDepth (frame->depth.at<float> (r, c)) ? 255 : 0;
+    for (RunData& run : runs)
+    {
+      cv::Mat predicted;
+      if (final_map)
+      {
+        const auto pose = run.pose_at.find (microseconds (frame->timestamp));
+        if (pose == run.pose_at.end ())
+        {
+          ++run.frames_skipped;  // not fused (tracking lost) or beyond the run's frames
+          continue;
+        }
+        predicted = rasterizer.render (run.mesh, frame->camera, pose->second).labels;
+      }
+      else
+      {
+        std::ostringstream name;
+        name << std::setw (6) << std::setfill ('0') << i << ".png";
+        const fs::path path = fs::path (run.dir) / "labels" / name.str ();
+        if (!fs::exists (path))
+        {
+          ++run.frames_skipped;
+          continue;
+        }
+        predicted = io::readLabelImage (path.string ());
+        if (predicted.size () != truth.size ())
+          throw Error (path.string (), "label image size differs from the sequence's frames");
+      }
+      run.frame_iou.push_back (evaluation::frameObjectIoU (predicted, truth, valid, iou_config));
+      run.frame_index.push_back (i);
+    }
+  }
+  progress.finish ();
+
+  std::ostringstream iou_csv, iou_frames_csv, ap_csv;
+  iou_csv << "run,instance,class,frames,mean_iou\n";
+  iou_frames_csv << "run,frame,instance,class,segment,truth_pixels,segment_pixels,iou\n";
+  ap_csv << "run,class,ap,ap50,ap25\n";
+  std::set<std::uint32_t> all_objects;
+  for (std::size_t k = 0; k < runs.size (); ++k)
+  {
+    RunData& run = runs[k];
+    const evaluation::SequenceIoU summary = evaluation::summarizeObjectIoU (run.frame_iou);
+    nlohmann::json objects = nlohmann::json::array ();
+    for (const auto& [id, mean] : summary.object_mean)
+    {
+      all_objects.insert (id);
+      objects.push_back ({{"instance", id}, {"class", classOf (id)}, {"frames", summary.object_frames.at (id)}, {"mean_iou", mean}});
+      iou_csv << csvText (run.name) << "," << id << "," << csvText (classOf (id)) << "," << summary.object_frames.at (id) << ","
+              << csvNumber (mean) << "\n";
+    }
+    for (std::size_t f = 0; f < run.frame_iou.size (); ++f)
+      for (const evaluation::ObjectIoU& o : run.frame_iou[f])
+        iou_frames_csv << csvText (run.name) << "," << run.frame_index[f] << "," << o.instance << "," << csvText (classOf (o.instance))
+                       << "," << o.segment << "," << o.truth_pixels << "," << o.segment_pixels << "," << csvNumber (o.iou) << "\n";
+    run_reports[k]["object_iou"] = {{"mean", run.frame_iou.empty () ? nlohmann::json (nullptr) : nlohmann::json (summary.mean)},
+                                    {"frames_scored", run.frame_iou.size ()},
+                                    {"frames_skipped", run.frames_skipped},
+                                    {"objects", objects}};
+  }
+
+  // --- 3D instance AP against the labelled ground-truth cloud
+  if (gt_cloud)
+  {
+    for (std::size_t k = 0; k < runs.size (); ++k)
+    {
+      RunData& run = runs[k];
+      const std::string map_path = (fs::path (run.dir) / "map.pcd").string ();
+      pcl::PointCloud<pcl::PointXYZL>::Ptr map (new pcl::PointCloud<pcl::PointXYZL>);
+      pcl::fromPCLPointCloud2 (io::readPCD (map_path, {"x", "y", "z", "label"}), *map);
+      evaluation::InstanceEvaluationInput input;
+      input.truth.reserve (gt_cloud->cloud->size ());
+      for (const auto& p : *gt_cloud->cloud)
+        input.truth.push_back (p.label);
+      input.predicted = transferLabels (*gt_cloud->cloud, map, match_radius > 0.0 ? match_radius : 2.0 * run.voxel_size);
+      for (const auto& [id, name] : gt_cloud->class_names)
+        input.truth_instances[id] = {name, gt_cloud->ignored.count (id) > 0};
+      for (const nlohmann::json& s : run.segments)
+      {
+        evaluation::PredictedInstance p;
+        if (s.contains ("class") && s.at ("class").is_string ())
+          p.class_name = s.at ("class").get<std::string> ();
+        // Segments with a detector score are ranked by it; the rest (geometry only) tie at 1.
+        if (s.contains ("score") && s.at ("score").is_number ())
+          p.confidence = s.at ("score").get<double> ();
+        input.predicted_instances[s.at ("id").get<std::uint32_t> ()] = p;
+      }
+      evaluation::InstanceAPConfig ap_config;
+      ap_config.min_region_size = min_region;
+      const evaluation::InstanceAPResult ap = evaluation::evaluateInstanceAP (input, ap_config);
+      nlohmann::json per_class = nlohmann::json::object ();
+      for (const auto& [name, scores] : ap.per_class)
+      {
+        per_class[name] = apJson (scores);
+        ap_csv << csvText (run.name) << "," << csvText (name) << "," << csvNumber (scores.ap) << "," << csvNumber (scores.ap50) << ","
+               << csvNumber (scores.ap25) << "\n";
+      }
+      ap_csv << csvText (run.name) << ",(class-agnostic)," << csvNumber (ap.class_agnostic.ap) << "," << csvNumber (ap.class_agnostic.ap50)
+             << "," << csvNumber (ap.class_agnostic.ap25) << "\n";
+      run_reports[k]["instance_ap"] = {{"ground_truth", gt_cloud->source},
+                                       {"class_agnostic", apJson (ap.class_agnostic)},
+                                       {"class_mean", apJson (ap.class_mean)},
+                                       {"per_class", per_class},
+                                       {"truth_instances", ap.truth_instances},
+                                       {"predicted_instances", ap.predicted_instances}};
+    }
+  }
+  for (nlohmann::json& r : run_reports)
+  {
+    if (!r.contains ("instance_ap"))
+      r["instance_ap"] = nullptr;
+    report["runs"].push_back (r);
+  }
+  report["frames_with_masks"] = frames_with_masks;
+  report["ground_truth_cloud"] = gt_cloud ? nlohmann::json (gt_cloud->source) : nlohmann::json (nullptr);
+
+  // --- plots
+  std::vector<std::string> plots;
+  std::string plot_note;
+  if (!no_plots)
+  {
+    const std::string gnuplot = findGnuplot ();
+    if (gnuplot.empty ())
+      plot_note = "skipped: gnuplot not found (Debian package gnuplot-nox; scripts/setup installs it)";
+    else
+    {
+      const fs::path plot_dir = report_dir / "plots";
+      // Per object: IoU over frames, one line per run.
+      for (const std::uint32_t object : all_objects)
+      {
+        PlotSpec spec;
+        spec.output_png = (plot_dir / ("iou_object_" + std::to_string (object) + ".png")).string ();
+        const std::string cls = classOf (object);
+        spec.title = "object " + std::to_string (object) + (cls.empty () ? "" : " (" + cls + ")") + ": IoU per frame";
+        spec.xlabel = "frame";
+        spec.ylabel = "IoU";
+        spec.yrange = "[0:1.05]";
+        for (std::size_t k = 0; k < runs.size (); ++k)
+        {
+          std::ostringstream data;
+          data << "# frame iou\n";
+          for (std::size_t f = 0; f < runs[k].frame_iou.size (); ++f)
+            for (const evaluation::ObjectIoU& o : runs[k].frame_iou[f])
+              if (o.instance == object)
+                data << runs[k].frame_index[f] << " " << o.iou << "\n";
+          const std::string file = (plot_dir / ("iou_object_" + std::to_string (object) + "_run" + std::to_string (k) + ".dat")).string ();
+          io::writeTextAtomic (file, data.str ());
+          spec.series.push_back ({file, 1, 2, runs[k].name, "linespoints"});
+        }
+        renderPlot (gnuplot, spec);
+        plots.push_back (spec.output_png);
+      }
+      // Mean IoU over the objects visible in each frame.
+      if (!all_objects.empty ())
+      {
+        PlotSpec spec;
+        spec.output_png = (plot_dir / "iou_mean.png").string ();
+        spec.title = "mean object IoU per frame";
+        spec.xlabel = "frame";
+        spec.ylabel = "mean IoU";
+        spec.yrange = "[0:1.05]";
+        for (std::size_t k = 0; k < runs.size (); ++k)
+        {
+          std::ostringstream data;
+          data << "# frame mean_iou\n";
+          for (std::size_t f = 0; f < runs[k].frame_iou.size (); ++f)
+          {
+            if (runs[k].frame_iou[f].empty ())
+              continue;
+            double sum = 0.0;
+            for (const evaluation::ObjectIoU& o : runs[k].frame_iou[f])
+              sum += o.iou;
+            data << runs[k].frame_index[f] << " " << sum / static_cast<double> (runs[k].frame_iou[f].size ()) << "\n";
+          }
+          const std::string file = (plot_dir / ("iou_mean_run" + std::to_string (k) + ".dat")).string ();
+          io::writeTextAtomic (file, data.str ());
+          spec.series.push_back ({file, 1, 2, runs[k].name, "lines"});
+        }
+        renderPlot (gnuplot, spec);
+        plots.push_back (spec.output_png);
+      }
+      // Trajectory seen from above: the plane of the reference's two main directions.
+      if (reference.size () >= 3)
+      {
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
+        for (const io::StampedPose& p : reference)
+          mean += p.pose.translation ();
+        mean /= static_cast<double> (reference.size ());
+        Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero ();
+        for (const io::StampedPose& p : reference)
+          covariance += (p.pose.translation () - mean) * (p.pose.translation () - mean).transpose ();
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver (covariance);
+        const Eigen::Vector3d a = solver.eigenvectors ().col (2), b = solver.eigenvectors ().col (1);
+        const auto writeTrack = [&] (const io::Trajectory& track, const std::string& file) {
+          std::ostringstream data;
+          data << "# along_main_axis along_second_axis (metres)\n";
+          for (const io::StampedPose& p : track)
+            data << (p.pose.translation () - mean).dot (a) << " " << (p.pose.translation () - mean).dot (b) << "\n";
+          io::writeTextAtomic (file, data.str ());
+        };
+        PlotSpec spec;
+        spec.output_png = (plot_dir / "trajectory.png").string ();
+        spec.title = "camera trajectory, top view";
+        spec.xlabel = "main axis (m)";
+        spec.ylabel = "second axis (m)";
+        spec.equal_axes = true;
+        const std::string truth_file = (plot_dir / "trajectory_reference.dat").string ();
+        writeTrack (reference, truth_file);
+        spec.series.push_back ({truth_file, 1, 2, "ground truth", "lines"});
+        for (std::size_t k = 0; k < runs.size (); ++k)
+        {
+          const std::string file = (plot_dir / ("trajectory_run" + std::to_string (k) + ".dat")).string ();
+          writeTrack (runs[k].trajectory, file);
+          spec.series.push_back ({file, 1, 2, runs[k].name, "lines"});
+        }
+        renderPlot (gnuplot, spec);
+        plots.push_back (spec.output_png);
+      }
+    }
+  }
+  report["plots"] = plots;
+  if (!plot_note.empty ())
+    report["plots_note"] = plot_note;
+
+  io::writeTextAtomic ((report_dir / "tracking.csv").string (), tracking_csv.str ());
+  io::writeTextAtomic ((report_dir / "object_iou.csv").string (), iou_csv.str ());
+  io::writeTextAtomic ((report_dir / "object_iou_frames.csv").string (), iou_frames_csv.str ());
+  io::writeTextAtomic ((report_dir / "instance_ap.csv").string (), ap_csv.str ());
+  io::writeTextAtomic ((report_dir / "report.json").string (), report.dump (2) + "\n");
+
+  // Summary on stdout, one block per run.
+  std::cout << "evaluated " << runs.size () << " run(s) against " << gt << " (" << frames_with_masks << " frames with instance masks"
+            << (gt_cloud ? ", ground-truth cloud " + gt_cloud->source : std::string (", no labelled ground-truth cloud")) << ")\n";
+  std::cout << std::fixed << std::setprecision (3);
+  for (const nlohmann::json& r : report["runs"])
+  {
+    std::cout << "  " << r["name"].get<std::string> () << ":";
+    if (!r["tracking"].is_null ())
+      std::cout << " ATE " << r["tracking"]["ate"]["rmse"].get<double> () << " m;";
+    if (!r["object_iou"]["mean"].is_null ())
+      std::cout << " mean object IoU " << r["object_iou"]["mean"].get<double> () << " over " << r["object_iou"]["frames_scored"].get<std::size_t> ()
+                << " frames;";
+    if (!r["instance_ap"].is_null ())
+    {
+      const auto& ap = r["instance_ap"]["class_agnostic"];
+      const auto show = [] (const nlohmann::json& v) { return v.is_null () ? std::string ("n/a") : csvNumber (v.get<double> ()); };
+      std::cout << " AP " << show (ap["ap"]) << ", AP50 " << show (ap["ap50"]) << ", AP25 " << show (ap["ap25"]);
+    }
+    std::cout << "\n";
+  }
+  std::cout << "  report: " << (report_dir / "report.json").string () << " (+ CSV files";
+  if (!plots.empty ())
+    std::cout << ", " << plots.size () << " plots in " << (report_dir / "plots").string ();
+  std::cout << ")\n";
+  if (!plot_note.empty ())
+    std::cerr << "cuefusion eval: plots " << plot_note << "\n";
+  return 0;
+}
+}  // namespace cli
+}  // namespace cuefusion

@@ -1,0 +1,78 @@
+// cuefusion render: the labelled mesh of a run from N viewpoints around it, as PNGs,
+// with no display (the project's own rasterizer).
+#include "cli.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/mesh_io.h>
+#include <cuefusion/visualization/mesh_rasterizer.h>
+
+#include <boost/filesystem.hpp>
+
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+namespace fs = boost::filesystem;
+
+namespace cuefusion
+{
+namespace cli
+{
+int
+runRender (const std::vector<std::string>& args)
+{
+  std::string run_dir, out, size = "1280x960", color = "segments";
+  int views = 8;
+  po::options_description options ("options");
+  options.add_options ()
+    ("run", po::value (&run_dir)->required (), "output folder of `cuefusion run` (reads mesh.ply)")
+    ("views", po::value (&views)->default_value (views), "number of viewpoints on a circle around the map, 30° above it")
+    ("out", po::value (&out), "folder for view_NN.png (default RUN/renders)")
+    ("size", po::value (&size)->default_value (size), "image size WxH")
+    ("color", po::value (&color)->default_value (color), "'segments' (fixed palette per label) or 'rgb' (fused colour)");
+  po::positional_options_description positional;
+  po::variables_map vm;
+  if (!parseCommandLine ("render", "--run DIR [--views N] [options]", args, options, positional, vm))
+    return 0;
+  if (views < 1 || views > 360)
+    throw ParameterError ("--views", "must lie in [1, 360]");
+  int width = 0, height = 0;
+  char x = 0;
+  std::istringstream dims (size);
+  if (!(dims >> width >> x >> height) || x != 'x' || width < 16 || height < 16 || width > 8192 || height > 8192)
+    throw ParameterError ("--size", "must be WxH with sides in [16, 8192], not '" + size + "'");
+  if (color != "segments" && color != "rgb")
+    throw ParameterError ("--color", "must be 'segments' or 'rgb', not '" + color + "'");
+  if (out.empty ())
+    out = (fs::path (run_dir) / "renders").string ();
+
+  const io::TriangleMesh mesh = io::readMeshPLY ((fs::path (run_dir) / "mesh.ply").string ());
+  if (mesh.triangles.empty ())
+    throw Error ((fs::path (run_dir) / "mesh.ply").string (), "mesh has no triangles");
+  boost::system::error_code ec;
+  fs::create_directories (out, ec);
+  if (ec || !fs::is_directory (out))
+    throw Error (out, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
+
+  // A virtual camera with a 60° horizontal field of view.
+  const double f = 0.5 * width / std::tan (30.0 * M_PI / 180.0);
+  const PinholeCamera camera (f, f, 0.5 * (width - 1), 0.5 * (height - 1), width, height);
+  visualization::MeshRasterizerConfig config;
+  config.color_by_label = color == "segments";
+  config.cull_back_faces = true;  // see into rooms through the walls that face away
+  const visualization::MeshRasterizer rasterizer (config);
+  const auto poses = visualization::orbitViews (mesh, camera, views);
+  for (int k = 0; k < views; ++k)
+  {
+    std::ostringstream name;
+    name << "view_" << std::setw (2) << std::setfill ('0') << k << ".png";
+    const visualization::MeshView view = rasterizer.render (mesh, camera, poses[static_cast<std::size_t> (k)]);
+    io::writeImageAtomic ((fs::path (out) / name.str ()).string (), view.image);
+  }
+  std::cout << "rendered " << views << " view(s) of " << (fs::path (run_dir) / "mesh.ply").string () << " (" << mesh.triangles.size ()
+            << " triangles) to " << out << "\n";
+  return 0;
+}
+}  // namespace cli
+}  // namespace cuefusion

@@ -1,0 +1,45 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace cuefusion
+{
+namespace cli
+{
+/** One line of a gnuplot chart: columns \a x_column / \a y_column of \a data_file. */
+struct PlotSeries
+{
+  std::string data_file;   ///< whitespace-separated columns, '#' comments
+  int x_column = 1;
+  int y_column = 2;
+  std::string title;
+  std::string style = "lines";   ///< gnuplot "with" clause
+};
+
+struct PlotSpec
+{
+  std::string output_png;
+  std::string title, xlabel, ylabel;
+  std::string yrange;        ///< e.g. "[0:1]", empty = automatic
+  bool equal_axes = false;   ///< same scale on x and y (maps, trajectories)
+  std::vector<PlotSeries> series;
+};
+
+/** gnuplot on PATH, or "" when it is not installed. */
+std::string
+findGnuplot ();
+
+/** Writes \a spec as a gnuplot script next to its PNG (same name, .gp) — kept, so a user
+  * can restyle the chart — and runs \a gnuplot on it. The PNG is rendered to a temporary
+  * name and renamed, never left half-written. Throws cuefusion::Error with gnuplot's
+  * message when it fails.
+  *
+  * gnuplot (Debian gnuplot-nox) draws the charts: a maintained, scriptable plotter with a
+  * headless cairo PNG terminal, needing no Python runtime, no display and no new C++
+  * library in the binary; the .gp files it leaves behind are plain text a user can edit.
+  */
+void
+renderPlot (const std::string& gnuplot, const PlotSpec& spec);
+}  // namespace cli
+}  // namespace cuefusion

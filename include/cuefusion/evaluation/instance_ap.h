@@ -1,0 +1,78 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace cuefusion
+{
+namespace evaluation
+{
+/** \brief A ground-truth instance of the evaluated cloud. */
+struct TruthInstance
+{
+  std::string class_name;   ///< "" when the data has no classes
+  /** Not an object to find (wall, floor, …): like ScanNet's void/stuff points, predictions
+    * lying mostly on it are neither true nor false positives. */
+  bool ignore = false;
+};
+
+/** \brief A predicted instance (a map segment). */
+struct PredictedInstance
+{
+  std::string class_name;   ///< "" when it has no class
+  double confidence = 1.0;  ///< ranks the predictions of a class
+};
+
+/** \brief Everything the AP evaluation needs, per point of the ground-truth cloud. */
+struct InstanceEvaluationInput
+{
+  std::vector<std::uint32_t> truth;       ///< per point: instance id, 0 = void
+  std::vector<std::uint32_t> predicted;   ///< per point: segment id, 0 = none
+  std::map<std::uint32_t, TruthInstance> truth_instances;
+  std::map<std::uint32_t, PredictedInstance> predicted_instances;  ///< segments absent here get the defaults
+};
+
+struct InstanceAPConfig
+{
+  std::size_t min_region_size = 100;   ///< points; smaller instances (truth and predicted) are skipped, as in ScanNet
+  void validate () const;
+};
+
+/** \brief AP averaged over IoU thresholds 0.50, 0.55, …, 0.90 (ScanNet: np.arange(0.5, 0.95, 0.05)), AP at 0.5 and at 0.25 (NaN where undefined: no
+  * ground truth of that class). */
+struct APScores
+{
+  double ap = 0.0;
+  double ap50 = 0.0;
+  double ap25 = 0.0;
+};
+
+struct InstanceAPResult
+{
+  APScores class_agnostic;                 ///< every instance as one class "object"
+  std::map<std::string, APScores> per_class;  ///< classes of the ground truth (empty without classes)
+  APScores class_mean;                     ///< NaN-ignoring mean over per_class (NaN without classes)
+  std::size_t truth_instances = 0;         ///< evaluated (not ignored, ≥ min_region_size)
+  std::size_t predicted_instances = 0;     ///< ≥ min_region_size points
+};
+
+/** \brief 3D instance segmentation AP with the ScanNet benchmark's definition
+  * (evaluate_semantic_instance.py): per class, predictions ranked by confidence, a
+  * prediction is a true positive for the first ground-truth instance it overlaps with
+  * IoU > threshold that no higher-ranked prediction took (a second one is a false
+  * positive), unmatched predictions are false positives unless more than the threshold
+  * of their points lie on void/ignored truth, and AP integrates the precision–recall
+  * curve by its trapezoid-on-steps rule. Throws cuefusion::Error when the two label
+  * vectors differ in length.
+  */
+InstanceAPResult
+evaluateInstanceAP (const InstanceEvaluationInput& input, const InstanceAPConfig& config = InstanceAPConfig ());
+
+/** \brief The IoU thresholds AP averages: 0.50, 0.55, …, 0.90 (9 values, as ScanNet). */
+std::vector<double>
+apThresholds ();
+}  // namespace evaluation
+}  // namespace cuefusion

@@ -1,0 +1,62 @@
+#pragma once
+
+#include <cuefusion/common/pinhole_camera.h>
+#include <cuefusion/io/mesh_io.h>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+namespace cuefusion
+{
+namespace visualization
+{
+/** \brief What a labelled mesh looks like from one camera. */
+struct MeshView
+{
+  cv::Mat labels;   ///< CV_32S segment label per pixel (0 = background or unlabelled)
+  cv::Mat depth;    ///< CV_32F z in metres (0 = background)
+  cv::Mat image;    ///< CV_8UC3 BGR, shaded (labels coloured by labelColor, else vertex colour)
+};
+
+struct MeshRasterizerConfig
+{
+  float near_plane = 0.05f;               ///< metres; triangles crossing it are dropped
+  bool color_by_label = true;             ///< else the mesh's vertex colours
+  /** Skip triangles seen from behind (marching-cubes faces wind counter-clockwise around
+    * the normal that points into free space): walls between an outside viewpoint and a
+    * room's contents disappear, as in a dollhouse view. */
+  bool cull_back_faces = false;
+  cv::Vec3b background{255, 255, 255};    ///< BGR
+  void validate () const;
+};
+
+/** \brief Software z-buffer rendering of a triangle mesh (pinhole camera, pixel centres at
+  * integer coordinates like PinholeCamera::project). Depth is interpolated perspective-
+  * correctly; each pixel takes the label of the triangle corner nearest to it, so label
+  * borders inside a triangle fall where the TSDF's nearest-voxel labels put them.
+  *
+  * The project renders itself rather than through VTK: this works with no display, no
+  * OpenGL and no Xvfb, and gives exact label ids per pixel (an OpenGL colour buffer would
+  * need colour→id decoding and no anti-aliasing). Shading is Lambertian with a headlight.
+  */
+class MeshRasterizer
+{
+public:
+  explicit MeshRasterizer (const MeshRasterizerConfig& config = MeshRasterizerConfig ());
+
+  /** \param[in] pose camera-to-world */
+  MeshView render (const io::TriangleMesh& mesh, const PinholeCamera& camera, const Eigen::Isometry3d& pose) const;
+
+private:
+  MeshRasterizerConfig config_;
+};
+
+/** \brief Camera poses on a circle around \a mesh looking at its centre from 30° above its
+  * up axis (world z), for overview renders; \a views ≥ 1. The circle's radius fits the
+  * bounding sphere of the mesh's labelled vertices (all vertices when none is labelled)
+  * into \a camera's narrower field of view.
+  */
+std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
+orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views);
+}  // namespace visualization
+}  // namespace cuefusion

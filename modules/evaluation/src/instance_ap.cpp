@@ -1,0 +1,280 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/evaluation/instance_ap.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <set>
+#include <unordered_map>
+
+namespace cuefusion
+{
+namespace evaluation
+{
+void
+InstanceAPConfig::validate () const
+{
+  if (min_region_size == 0)
+    throw ParameterError ("min_region_size", "must be at least 1");
+}
+
+std::vector<double>
+apThresholds ()
+{
+  std::vector<double> t;
+  for (int i = 0; i < 9; ++i)
+    t.push_back (0.5 + 0.05 * i);
+  return t;
+}
+
+namespace
+{
+const double kNaN = std::numeric_limits<double>::quiet_NaN ();
+
+/** Point counts the matching needs, gathered in one pass over the cloud. */
+struct Overlaps
+{
+  std::unordered_map<std::uint32_t, std::size_t> truth_size, pred_size;
+  std::unordered_map<std::uint32_t, std::unordered_map<std::uint32_t, std::size_t>> pred_truth;  ///< pred → truth → points
+  std::unordered_map<std::uint32_t, std::size_t> pred_void;  ///< points on truth id 0
+};
+
+/** Average precision of one class at one IoU threshold, as ScanNet's evaluate_matches. */
+double
+averagePrecision (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds,
+                  const Overlaps& o, const InstanceEvaluationInput& input, std::size_t min_region_size,
+                  const std::set<std::uint32_t>& same_class_truth, double threshold)
+{
+  if (truths.empty ())
+    return kNaN;
+  if (preds.empty ())
+    return 0.0;
+  const auto confidence = [&] (std::uint32_t p) {
+    const auto it = input.predicted_instances.find (p);
+    return it == input.predicted_instances.end () ? 1.0 : it->second.confidence;
+  };
+  const auto iouOf = [&] (std::uint32_t t, std::uint32_t p) {
+    const auto& row = o.pred_truth.at (p);
+    const auto it = row.find (t);
+    if (it == row.end ())
+      return 0.0;
+    const double inter = static_cast<double> (it->second);
+    return inter / (static_cast<double> (o.truth_size.at (t) + o.pred_size.at (p)) - inter);
+  };
+  // ScanNet walks each ground-truth instance's overlapping predictions in the order the
+  // predictions were listed; ours are listed by id (deterministic).
+  std::vector<double> y_true, y_score;
+  std::set<std::uint32_t> visited;
+  std::size_t hard_false_negatives = 0;
+  for (const std::uint32_t t : truths)
+  {
+    bool matched = false;
+    double score = -std::numeric_limits<double>::infinity ();
+    for (const std::uint32_t p : preds)
+    {
+      if (visited.count (p) || iouOf (t, p) <= threshold)
+        continue;
+      const double c = confidence (p);
+      if (matched)
+      {
+        // A second prediction above the threshold: the lower-ranked one is a false positive.
+        y_true.push_back (0.0);
+        y_score.push_back (std::min (score, c));
+        score = std::max (score, c);
+      }
+      else
+      {
+        matched = true;
+        score = c;
+        visited.insert (p);
+      }
+    }
+    if (matched)
+    {
+      y_true.push_back (1.0);
+      y_score.push_back (score);
+    }
+    else
+      ++hard_false_negatives;
+  }
+  for (const std::uint32_t p : preds)
+  {
+    bool found = false;
+    std::size_t ignored = o.pred_void.count (p) ? o.pred_void.at (p) : 0;
+    for (const auto& [t, inter] : o.pred_truth.at (p))
+    {
+      const auto info = input.truth_instances.find (t);
+      if (info != input.truth_instances.end () && info->second.ignore)
+      {
+        ignored += inter;  // void for every class, like ScanNet's unevaluated classes
+        continue;
+      }
+      if (!same_class_truth.count (t))
+        continue;  // another class's object: overlapping it is a plain false positive
+      if (iouOf (t, p) > threshold)
+      {
+        found = true;
+        break;
+      }
+      if (o.truth_size.at (t) < min_region_size)
+        ignored += inter;
+    }
+    if (found)
+      continue;
+    if (static_cast<double> (ignored) / static_cast<double> (o.pred_size.at (p)) <= threshold)
+    {
+      y_true.push_back (0.0);
+      y_score.push_back (confidence (p));
+    }
+  }
+
+  // Precision/recall at every distinct score, then ScanNet's step integration.
+  std::vector<std::size_t> order (y_score.size ());
+  std::iota (order.begin (), order.end (), 0);
+  std::stable_sort (order.begin (), order.end (), [&] (std::size_t a, std::size_t b) { return y_score[a] < y_score[b]; });
+  std::vector<double> cumsum (order.size ());
+  double running = 0.0;
+  for (std::size_t i = 0; i < order.size (); ++i)
+    cumsum[i] = running += y_true[order[i]];
+  const double total_true = running;
+  const double examples = static_cast<double> (order.size ());
+  std::vector<double> precision, recall;
+  for (std::size_t i = 0; i < order.size (); ++i)
+  {
+    if (i > 0 && y_score[order[i]] == y_score[order[i - 1]])
+      continue;  // first index of each distinct score, as np.unique(return_index=True)
+    const double below = i > 0 ? cumsum[i - 1] : 0.0;
+    const double tp = total_true - below;
+    const double fp = examples - static_cast<double> (i) - tp;
+    const double fn = below + static_cast<double> (hard_false_negatives);
+    precision.push_back (tp + fp > 0.0 ? tp / (tp + fp) : 0.0);
+    recall.push_back (tp + fn > 0.0 ? tp / (tp + fn) : 0.0);
+  }
+  precision.push_back (1.0);
+  recall.push_back (0.0);
+  // step widths: np.convolve([r0, r0, r1, …, r_last, 0], [-0.5, 0, 0.5], 'valid')
+  std::vector<double> padded;
+  padded.push_back (recall.front ());
+  padded.insert (padded.end (), recall.begin (), recall.end ());
+  padded.push_back (0.0);
+  double ap = 0.0;
+  for (std::size_t k = 0; k < precision.size (); ++k)
+    ap += precision[k] * 0.5 * (padded[k] - padded[k + 2]);
+  return ap;
+}
+
+double
+nanMean (const std::vector<double>& values)
+{
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const double v : values)
+    if (!std::isnan (v))
+    {
+      sum += v;
+      ++n;
+    }
+  return n ? sum / static_cast<double> (n) : kNaN;
+}
+
+APScores
+scoresFor (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds, const Overlaps& o,
+           const InstanceEvaluationInput& input, std::size_t min_region_size, const std::set<std::uint32_t>& same_class_truth)
+{
+  APScores s;
+  std::vector<double> aps;
+  for (const double t : apThresholds ())
+    aps.push_back (averagePrecision (truths, preds, o, input, min_region_size, same_class_truth, t));
+  s.ap = nanMean (aps);
+  s.ap50 = aps.front ();
+  s.ap25 = averagePrecision (truths, preds, o, input, min_region_size, same_class_truth, 0.25);
+  return s;
+}
+}  // namespace
+
+InstanceAPResult
+evaluateInstanceAP (const InstanceEvaluationInput& input, const InstanceAPConfig& config)
+{
+  config.validate ();
+  if (input.truth.size () != input.predicted.size ())
+    throw Error ("evaluateInstanceAP", "ground truth has " + std::to_string (input.truth.size ()) + " points, the prediction " +
+                                           std::to_string (input.predicted.size ()));
+  Overlaps o;
+  for (std::size_t i = 0; i < input.truth.size (); ++i)
+  {
+    const std::uint32_t t = input.truth[i], p = input.predicted[i];
+    if (t)
+      ++o.truth_size[t];
+    if (!p)
+      continue;
+    ++o.pred_size[p];
+    o.pred_truth[p];  // every prediction gets a row
+    if (t)
+      ++o.pred_truth[p][t];
+    else
+      ++o.pred_void[p];
+  }
+  const auto truthInfo = [&] (std::uint32_t t) {
+    const auto it = input.truth_instances.find (t);
+    return it == input.truth_instances.end () ? TruthInstance () : it->second;
+  };
+  const auto predInfo = [&] (std::uint32_t p) {
+    const auto it = input.predicted_instances.find (p);
+    return it == input.predicted_instances.end () ? PredictedInstance () : it->second;
+  };
+
+  std::vector<std::uint32_t> truths, preds;
+  std::set<std::uint32_t> all_truth;
+  std::set<std::string> classes;
+  for (const auto& [t, n] : o.truth_size)
+  {
+    const TruthInstance info = truthInfo (t);
+    if (info.ignore || n < config.min_region_size)
+      continue;
+    truths.push_back (t);
+    all_truth.insert (t);
+    if (!info.class_name.empty ())
+      classes.insert (info.class_name);
+  }
+  for (const auto& [p, n] : o.pred_size)
+    if (n >= config.min_region_size)
+      preds.push_back (p);
+  std::sort (truths.begin (), truths.end ());
+  std::sort (preds.begin (), preds.end ());
+
+  InstanceAPResult result;
+  result.truth_instances = truths.size ();
+  result.predicted_instances = preds.size ();
+  // Class-agnostic: every non-ignored instance is an "object", so truth points of other
+  // objects are not void for it.
+  std::set<std::uint32_t> any_truth;
+  for (const auto& [t, n] : o.truth_size)
+    any_truth.insert (t);
+  result.class_agnostic = scoresFor (truths, preds, o, input, config.min_region_size, any_truth);
+
+  std::vector<double> ap, ap50, ap25;
+  for (const std::string& c : classes)
+  {
+    std::vector<std::uint32_t> class_truths, class_preds;
+    std::set<std::uint32_t> same_class;
+    for (const auto& [t, n] : o.truth_size)
+      if (truthInfo (t).class_name == c)
+        same_class.insert (t);
+    for (const std::uint32_t t : truths)
+      if (same_class.count (t))
+        class_truths.push_back (t);
+    for (const std::uint32_t p : preds)
+      if (predInfo (p).class_name == c)
+        class_preds.push_back (p);
+    const APScores s = scoresFor (class_truths, class_preds, o, input, config.min_region_size, same_class);
+    result.per_class[c] = s;
+    ap.push_back (s.ap);
+    ap50.push_back (s.ap50);
+    ap25.push_back (s.ap25);
+  }
+  result.class_mean = {nanMean (ap), nanMean (ap50), nanMean (ap25)};
+  return result;
+}
+}  // namespace evaluation
+}  // namespace cuefusion

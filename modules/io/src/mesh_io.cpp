@@ -1,0 +1,260 @@
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/mesh_io.h>
+
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace cuefusion
+{
+namespace io
+{
+namespace
+{
+enum class ScalarType
+{
+  Int8,
+  UInt8,
+  Int16,
+  UInt16,
+  Int32,
+  UInt32,
+  Float32,
+  Float64
+};
+
+bool
+parseScalarType (const std::string& name, ScalarType& type)
+{
+  static const std::pair<const char*, ScalarType> names[] = {
+    {"char", ScalarType::Int8},    {"int8", ScalarType::Int8},     {"uchar", ScalarType::UInt8},  {"uint8", ScalarType::UInt8},
+    {"short", ScalarType::Int16},  {"int16", ScalarType::Int16},   {"ushort", ScalarType::UInt16}, {"uint16", ScalarType::UInt16},
+    {"int", ScalarType::Int32},    {"int32", ScalarType::Int32},   {"uint", ScalarType::UInt32},  {"uint32", ScalarType::UInt32},
+    {"float", ScalarType::Float32}, {"float32", ScalarType::Float32}, {"double", ScalarType::Float64}, {"float64", ScalarType::Float64}};
+  for (const auto& [n, t] : names)
+    if (name == n)
+    {
+      type = t;
+      return true;
+    }
+  return false;
+}
+
+std::size_t
+sizeOf (ScalarType type)
+{
+  switch (type)
+  {
+    case ScalarType::Int8:
+    case ScalarType::UInt8: return 1;
+    case ScalarType::Int16:
+    case ScalarType::UInt16: return 2;
+    case ScalarType::Int32:
+    case ScalarType::UInt32:
+    case ScalarType::Float32: return 4;
+    case ScalarType::Float64: return 8;
+  }
+  return 0;
+}
+
+double
+readScalar (const char* p, ScalarType type)
+{
+  switch (type)
+  {
+    case ScalarType::Int8: return static_cast<double> (*reinterpret_cast<const std::int8_t*> (p));
+    case ScalarType::UInt8: return static_cast<double> (*reinterpret_cast<const std::uint8_t*> (p));
+    case ScalarType::Int16: { std::int16_t v; std::memcpy (&v, p, 2); return v; }
+    case ScalarType::UInt16: { std::uint16_t v; std::memcpy (&v, p, 2); return v; }
+    case ScalarType::Int32: { std::int32_t v; std::memcpy (&v, p, 4); return v; }
+    case ScalarType::UInt32: { std::uint32_t v; std::memcpy (&v, p, 4); return v; }
+    case ScalarType::Float32: { float v; std::memcpy (&v, p, 4); return v; }
+    case ScalarType::Float64: { double v; std::memcpy (&v, p, 8); return v; }
+  }
+  return 0.0;
+}
+
+struct Property
+{
+  std::string name;
+  ScalarType type = ScalarType::Float32;
+  bool list = false;
+  ScalarType count_type = ScalarType::UInt8;
+};
+
+struct Element
+{
+  std::string name;
+  std::size_t count = 0;
+  std::vector<Property> properties;
+};
+}  // namespace
+
+TriangleMesh
+readMeshPLY (const std::string& path)
+{
+  std::ifstream in (path, std::ios::binary);
+  if (!in)
+    throw Error (path, "cannot open mesh");
+  std::string line;
+  if (!std::getline (in, line) || line.rfind ("ply", 0) != 0)
+    throw Error (path, "not a PLY file");
+  std::vector<Element> elements;
+  bool binary_le = false;
+  for (;;)
+  {
+    if (!std::getline (in, line))
+      throw Error (path, "PLY header has no end_header");
+    if (!line.empty () && line.back () == '\r')
+      line.pop_back ();
+    std::istringstream words (line);
+    std::string key;
+    words >> key;
+    if (key == "end_header")
+      break;
+    if (key == "format")
+    {
+      std::string format;
+      words >> format;
+      binary_le = format == "binary_little_endian";
+      if (!binary_le)
+        throw Error (path, "PLY format '" + format + "' is not supported (binary_little_endian only)");
+    }
+    else if (key == "element")
+    {
+      Element e;
+      long long count = -1;
+      words >> e.name >> count;
+      if (!words || count < 0)
+        throw Error (path, "malformed PLY element line: " + line);
+      e.count = static_cast<std::size_t> (count);
+      elements.push_back (e);
+    }
+    else if (key == "property")
+    {
+      if (elements.empty ())
+        throw Error (path, "PLY property before any element");
+      Property p;
+      std::string type;
+      words >> type;
+      if (type == "list")
+      {
+        std::string count_type, item_type;
+        words >> count_type >> item_type >> p.name;
+        p.list = true;
+        if (!parseScalarType (count_type, p.count_type) || !parseScalarType (item_type, p.type))
+          throw Error (path, "unknown PLY list type in: " + line);
+      }
+      else
+      {
+        words >> p.name;
+        if (!parseScalarType (type, p.type))
+          throw Error (path, "unknown PLY property type in: " + line);
+      }
+      elements.back ().properties.push_back (p);
+    }
+  }
+  if (!binary_le)
+    throw Error (path, "PLY header has no format line");
+
+  TriangleMesh mesh;
+  bool have_vertices = false;
+  for (const Element& e : elements)
+  {
+    if (e.name == "vertex")
+    {
+      have_vertices = true;
+      std::size_t stride = 0;
+      int ix = -1, iy = -1, iz = -1, ir = -1, ig = -1, ib = -1, il = -1;
+      std::vector<std::size_t> offsets;
+      for (std::size_t k = 0; k < e.properties.size (); ++k)
+      {
+        const Property& p = e.properties[k];
+        if (p.list)
+          throw Error (path, "list properties on vertices are not supported");
+        offsets.push_back (stride);
+        stride += sizeOf (p.type);
+        const int index = static_cast<int> (k);
+        if (p.name == "x") ix = index;
+        else if (p.name == "y") iy = index;
+        else if (p.name == "z") iz = index;
+        else if (p.name == "red") ir = index;
+        else if (p.name == "green") ig = index;
+        else if (p.name == "blue") ib = index;
+        else if (p.name == "label") il = index;
+      }
+      if (ix < 0 || iy < 0 || iz < 0)
+        throw Error (path, "PLY vertices have no x, y, z");
+      const bool color = ir >= 0 && ig >= 0 && ib >= 0;
+      std::vector<char> data (e.count * stride);
+      if (!in.read (data.data (), static_cast<std::streamsize> (data.size ())))
+        throw Error (path, "PLY file ends inside its vertex data (truncated?)");
+      mesh.vertices.resize (e.count);
+      if (color)
+        mesh.colors.resize (e.count);
+      if (il >= 0)
+        mesh.labels.resize (e.count);
+      const auto value = [&] (std::size_t v, int k) {
+        return readScalar (data.data () + v * stride + offsets[static_cast<std::size_t> (k)], e.properties[static_cast<std::size_t> (k)].type);
+      };
+      for (std::size_t v = 0; v < e.count; ++v)
+      {
+        mesh.vertices[v] = Eigen::Vector3f (static_cast<float> (value (v, ix)), static_cast<float> (value (v, iy)),
+                                            static_cast<float> (value (v, iz)));
+        if (color)
+          mesh.colors[v] = {static_cast<std::uint8_t> (value (v, ir)), static_cast<std::uint8_t> (value (v, ig)),
+                            static_cast<std::uint8_t> (value (v, ib))};
+        if (il >= 0)
+          mesh.labels[v] = static_cast<std::uint32_t> (value (v, il));
+      }
+    }
+    else if (e.name == "face")
+    {
+      if (!have_vertices)
+        throw Error (path, "PLY faces come before vertices");
+      for (std::size_t f = 0; f < e.count; ++f)
+        for (const Property& p : e.properties)
+        {
+          char buffer[8];
+          if (!in.read (buffer, static_cast<std::streamsize> (sizeOf (p.list ? p.count_type : p.type))))
+            throw Error (path, "PLY file ends inside its face data (truncated?)");
+          if (!p.list)
+            continue;
+          const double n = readScalar (buffer, p.count_type);
+          if (n < 0 || n > 1024)
+            throw Error (path, "PLY face " + std::to_string (f) + " has an absurd vertex count");
+          std::vector<int> indices (static_cast<std::size_t> (n));
+          for (int& index : indices)
+          {
+            if (!in.read (buffer, static_cast<std::streamsize> (sizeOf (p.type))))
+              throw Error (path, "PLY file ends inside its face data (truncated?)");
+            const double v = readScalar (buffer, p.type);
+            if (v < 0 || v >= static_cast<double> (mesh.vertices.size ()))
+              throw Error (path, "PLY face " + std::to_string (f) + " indexes a vertex that does not exist");
+            index = static_cast<int> (v);
+          }
+          if (p.name != "vertex_indices" && p.name != "vertex_index")
+            continue;
+          for (std::size_t k = 2; k < indices.size (); ++k)
+            mesh.triangles.emplace_back (indices[0], indices[k - 1], indices[k]);
+        }
+    }
+    else
+    {
+      // Skip other elements (only fixed-size ones can be skipped without parsing).
+      std::size_t stride = 0;
+      for (const Property& p : e.properties)
+      {
+        if (p.list)
+          throw Error (path, "cannot skip PLY element '" + e.name + "' with list properties");
+        stride += sizeOf (p.type);
+      }
+      in.seekg (static_cast<std::streamoff> (stride * e.count), std::ios::cur);
+    }
+  }
+  if (!have_vertices)
+    throw Error (path, "PLY file has no vertex element");
+  return mesh;
+}
+}  // namespace io
+}  // namespace cuefusion

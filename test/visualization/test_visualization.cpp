@@ -1,0 +1,179 @@
+// Off-screen rendering: analytic scenes, and the rendered labelled mesh against a raycast
+// of the same map.
+#include "test_utils.h"
+
+#include <cuefusion/common/label_colors.h>
+#include <cuefusion/io/map_io.h>
+#include <cuefusion/io/mesh_io.h>
+#include <cuefusion/io/simulated_detector.h>
+#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/visualization/frame_view.h>
+#include <cuefusion/visualization/mesh_rasterizer.h>
+
+#include <gtest/gtest.h>
+
+using namespace cuefusion;
+
+namespace
+{
+/** A square of side 2·h at depth z (camera at the origin looking down +z), label \a label. */
+void
+addSquare (io::TriangleMesh& mesh, float h, float z, std::uint32_t label)
+{
+  const int base = static_cast<int> (mesh.vertices.size ());
+  for (const auto& [x, y] : {std::pair<float, float>{-h, -h}, {h, -h}, {h, h}, {-h, h}})
+  {
+    mesh.vertices.emplace_back (x, y, z);
+    mesh.labels.push_back (label);
+    mesh.colors.push_back ({200, 100, 50});
+  }
+  mesh.triangles.emplace_back (base, base + 1, base + 2);
+  mesh.triangles.emplace_back (base, base + 2, base + 3);
+}
+}  // namespace
+
+TEST (MeshRasterizer, SquaresAtKnownDepthsWithOcclusion)
+{
+  const PinholeCamera camera (100.0, 100.0, 49.5, 39.5, 100, 80);
+  io::TriangleMesh mesh;
+  addSquare (mesh, 0.5f, 2.0f, 7);   // projects to ±25 px around the centre
+  addSquare (mesh, 0.1f, 1.0f, 3);   // nearer, ±10 px: hides the middle of the first
+  const visualization::MeshRasterizer rasterizer;
+  const visualization::MeshView view = rasterizer.render (mesh, camera, Eigen::Isometry3d::Identity ());
+  ASSERT_EQ (view.labels.size (), cv::Size (100, 80));
+  // Centre: the near square.
+  EXPECT_EQ (view.labels.at<std::int32_t> (39, 49), 3);
+  EXPECT_NEAR (view.depth.at<float> (39, 49), 1.0f, 1e-5f);
+  // Inside the far square but outside the near one.
+  EXPECT_EQ (view.labels.at<std::int32_t> (39, 49 + 20), 7);
+  EXPECT_NEAR (view.depth.at<float> (39, 49 + 20), 2.0f, 1e-5f);
+  // Outside both: background.
+  EXPECT_EQ (view.labels.at<std::int32_t> (39, 49 + 30), 0);
+  EXPECT_EQ (view.depth.at<float> (39, 49 + 30), 0.f);
+  EXPECT_EQ (view.image.at<cv::Vec3b> (39, 49 + 30), cv::Vec3b (255, 255, 255));
+  // Pixel counts: the far square covers u, v with |u − 49.5|, |v − 39.5| ≤ 25 → 50 × 50.
+  int far = 0, near = 0;
+  for (int r = 0; r < 80; ++r)
+    for (int c = 0; c < 100; ++c)
+    {
+      far += view.labels.at<std::int32_t> (r, c) == 7;
+      near += view.labels.at<std::int32_t> (r, c) == 3;
+    }
+  EXPECT_EQ (near, 20 * 20);
+  EXPECT_EQ (far, 50 * 50 - 20 * 20);
+  // Segment colour: the palette colour shaded (head-on, full light).
+  const cv::Vec3b rgb = labelColor (7);
+  const cv::Vec3b bgr = view.image.at<cv::Vec3b> (39, 49 + 20);
+  EXPECT_NEAR (bgr[0], rgb[2], 1);
+  EXPECT_NEAR (bgr[2], rgb[0], 1);
+  // Both squares wind counter-clockwise around +z, i.e. face away from this camera:
+  // back-face culling removes them; turned around, they are kept.
+  visualization::MeshRasterizerConfig culling;
+  culling.cull_back_faces = true;
+  EXPECT_EQ (cv::countNonZero (visualization::MeshRasterizer (culling).render (mesh, camera, Eigen::Isometry3d::Identity ()).labels), 0);
+  io::TriangleMesh flipped = mesh;
+  for (Eigen::Vector3i& t : flipped.triangles)
+    std::swap (t[1], t[2]);
+  EXPECT_EQ (cv::countNonZero (visualization::MeshRasterizer (culling).render (flipped, camera, Eigen::Isometry3d::Identity ()).labels), 50 * 50);
+  // A camera moved behind the squares sees nothing.
+  Eigen::Isometry3d behind = Eigen::Isometry3d::Identity ();
+  behind.translation ().z () = 3.0;
+  EXPECT_EQ (cv::countNonZero (rasterizer.render (mesh, camera, behind).labels), 0);
+}
+
+TEST (MeshRasterizer, OrbitViewsLookAtTheMesh)
+{
+  io::TriangleMesh mesh;
+  addSquare (mesh, 0.5f, 2.0f, 7);
+  const PinholeCamera camera (300.0, 300.0, 159.5, 119.5, 320, 240);
+  const auto poses = visualization::orbitViews (mesh, camera, 6);
+  ASSERT_EQ (poses.size (), 6u);
+  const visualization::MeshRasterizer rasterizer;
+  for (const auto& pose : poses)
+  {
+    const Eigen::Vector3d forward = pose.linear ().col (2);
+    const Eigen::Vector3d to_centre = (Eigen::Vector3d (0, 0, 2) - pose.translation ()).normalized ();
+    EXPECT_GT (forward.dot (to_centre), 0.999);
+    EXPECT_GT (cv::countNonZero (rasterizer.render (mesh, camera, pose).labels), 100);
+  }
+  EXPECT_THROW (visualization::orbitViews (mesh, camera, 0), ParameterError);
+}
+
+TEST (MeshRasterizer, RenderedMapMatchesARaycastOfTheSameMap)
+{
+  // A short orbit of the tabletop in masks mode; the labelled mesh goes through the PLY
+  // writer and reader, is rendered from the last pose and compared with the volume's
+  // own raycast (labels resolved) from that pose.
+  io::SyntheticSequenceConfig sc;
+  sc.frames = 8;
+  sc.width = 320;
+  sc.height = 240;
+  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), sc);
+  pipeline::FusionPipelineConfig config;
+  config.mode = pipeline::SegmentationMode::Masks;
+  config.reconstruction.use_reference_poses = true;
+  pipeline::FusionPipeline fusion (config);
+  RGBDFrame::Ptr frame;
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+  {
+    frame = sequence.frame (i);
+    const std::vector<Instance> instances = io::toInstances (sequence.detections (*frame));
+    ASSERT_TRUE (fusion.process (*frame, &instances).segmented);
+  }
+  test::TempDir dir;
+  io::saveMeshPLY (dir / "mesh.ply", fusion.labelledMesh ());
+  const io::TriangleMesh mesh = io::readMeshPLY (dir / "mesh.ply");
+  ASSERT_FALSE (mesh.labels.empty ());
+  const visualization::MeshView view =
+    visualization::MeshRasterizer ().render (mesh, frame->camera, fusion.reconstruction ().lastGoodPose ());
+  const cv::Mat raycast_labels = fusion.modelLabels ();
+  const cv::Mat raycast_depth = fusion.reconstruction ().model ().depth ();
+  int surface = 0, covered = 0, labelled = 0, agree = 0, depth_close = 0;
+  for (int r = 0; r < raycast_labels.rows; ++r)
+    for (int c = 0; c < raycast_labels.cols; ++c)
+    {
+      const float z = raycast_depth.at<float> (r, c);
+      if (!isValidDepth (z))
+        continue;
+      ++surface;
+      const float rendered = view.depth.at<float> (r, c);
+      if (rendered > 0.f)
+      {
+        ++covered;
+        depth_close += std::abs (rendered - z) < 0.01f;
+      }
+      const int a = raycast_labels.at<std::int32_t> (r, c), b = view.labels.at<std::int32_t> (r, c);
+      if (a > 0 && b > 0)
+      {
+        ++labelled;
+        agree += a == b;
+      }
+    }
+  ASSERT_GT (surface, 30000);
+  EXPECT_GT (static_cast<double> (covered) / surface, 0.97);
+  EXPECT_GT (static_cast<double> (depth_close) / covered, 0.97);
+  ASSERT_GT (labelled, 3000);  // the 8 objects (stuff stays unlabelled in masks mode)
+  EXPECT_GT (static_cast<double> (agree) / labelled, 0.95);
+
+  // The Fig. 5.3 panel: colour | depth | labels over colour, each the frame's size.
+  const cv::Mat panel = visualization::composeFrameView (*frame, raycast_labels);
+  EXPECT_EQ (panel.cols, 3 * frame->color.cols);
+  EXPECT_EQ (panel.rows, frame->color.rows);
+  int tinted = 0, tinted_right = 0;
+  for (int r = 40; r < raycast_labels.rows; ++r)  // below the panel titles
+    for (int c = 0; c < raycast_labels.cols; ++c)
+    {
+      const int label = raycast_labels.at<std::int32_t> (r, c);
+      if (label <= 0)
+        continue;
+      ++tinted;
+      const cv::Vec3b rgb = labelColor (static_cast<std::uint32_t> (label));
+      const cv::Vec3b in = frame->color.at<cv::Vec3b> (r, c);
+      const cv::Vec3b out = panel.at<cv::Vec3b> (r, c + 2 * frame->color.cols);
+      tinted_right += std::abs (out[0] - (0.7 * rgb[2] + 0.3 * in[0])) <= 1.0 && std::abs (out[2] - (0.7 * rgb[0] + 0.3 * in[2])) <= 1.0;
+    }
+  ASSERT_GT (tinted, 1000);
+  EXPECT_EQ (tinted_right, tinted);
+  EXPECT_THROW (visualization::composeFrameView (*frame, cv::Mat::zeros (3, 3, CV_32S)), Error);
+}
