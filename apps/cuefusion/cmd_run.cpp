@@ -9,6 +9,7 @@
 #include <cuefusion/io/sequence.h>
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/recognition/asynchronous_segmenter.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/visualization/frame_view.h>
@@ -201,7 +202,7 @@ runRun (const std::vector<std::string>& args)
   std::string masks, mode;
   std::size_t save_every = 0;
   std::string render_dir, video_path, screenshot;
-  bool view = false;
+  bool view = false, async_masks = false;
   recognition::OnnxSegmenterConfig onnx;
   po::options_description options ("options");
   options.add_options ()
@@ -221,6 +222,7 @@ runRun (const std::vector<std::string>& args)
     ("classes", po::value (&onnx.classes_path), "class names of --model (default data/classes/coco.names)")
     ("input-size", po::value (&onnx.input_size)->default_value (onnx.input_size), "network input size of --model (px)")
     ("score-threshold", po::value (&onnx.score_threshold)->default_value (onnx.score_threshold), "--model detections below are dropped")
+    ("async-masks", po::bool_switch (&async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
     ("save-every", po::value (&save_every)->default_value (0), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
     ("render", po::value (&render_dir), "write per-frame PNGs to DIR: input colour, depth and the map's segments seen from the camera")
     ("video", po::value (&video_path), "the same panels as a video (.avi Motion-JPEG or .mp4)")
@@ -249,11 +251,11 @@ runRun (const std::vector<std::string>& args)
   if (!screenshot.empty () && !view)
     throw UsageError ("--view-screenshot needs --view");
   pipeline_config.mode = chooseSegmentationMode (mode, masks, onnx.model_path);
-  std::unique_ptr<recognition::InstanceSegmenter> mask_source;
+  std::shared_ptr<recognition::InstanceSegmenter> mask_source;
   if (!masks.empty ())
-    mask_source = std::make_unique<recognition::MaskFolderSegmenter> (masks);
+    mask_source = std::make_shared<recognition::MaskFolderSegmenter> (masks);
   else if (!onnx.model_path.empty ())
-    mask_source = std::make_unique<recognition::OnnxInstanceSegmenter> (onnx);
+    mask_source = std::make_shared<recognition::OnnxInstanceSegmenter> (onnx);
 
   io::SequenceOptions opts;
   opts.format = io::parseSequenceFormat (format);
@@ -264,6 +266,10 @@ runRun (const std::vector<std::string>& args)
     throw ParameterError ("--use-gt-poses", source + " has no reference poses");
   if (dataset)
     dataset->setFrameLimit (max_frames);
+  // A live camera does not wait for the network (thesis §6.1).
+  const bool asynchronous_masks = mask_source && (async_masks || !dataset);
+  if (asynchronous_masks)  // the first frames go without masks until the first finish
+    mask_source = std::make_shared<recognition::AsynchronousSegmenter> (mask_source);
 
   boost::system::error_code ec;
   fs::create_directories (out, ec);
@@ -303,7 +309,7 @@ runRun (const std::vector<std::string>& args)
       if (mask_source && pipeline_config.mode != pipeline::SegmentationMode::Geometry)
       {
         have_masks = mask_source->segment (*frame, instances);
-        if (!have_masks && result.frames_without_masks++ == 0)
+        if (!have_masks && result.frames_without_masks++ == 0 && !asynchronous_masks)
           std::cerr << "cuefusion run: no masks for frame " << frame->index << " (nor, maybe, for later frames): "
                     << "geometry only there\n";
       }

@@ -267,3 +267,12 @@ TEST_F (EvalCli, LiveViewUnderXvfbShowsColouredSegments)
   EXPECT_EQ (lineCount (err), 1) << err;
   EXPECT_NE (err.find ("DISPLAY"), std::string::npos) << err;
 }
+
+TEST_F (EvalCli, AsyncMasksRunTheSourceOnItsOwnThread)
+{
+  const auto r = run ("run " + seq () + " --use-gt-poses --masks " + seq () + "/detections --async-masks --out " + (dir / "run"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  const nlohmann::json tracking = json (dir / "run/tracking.json");
+  EXPECT_EQ (tracking["segmentation"]["mask_source"].get<std::string> ().rfind ("async:", 0), 0u) << tracking.dump ();
+  EXPECT_EQ (tracking["frames"].get<int> (), 10);
+}
