@@ -27,6 +27,7 @@
 #include <iomanip>
 #include <iostream>
 #include <mutex>
+#include <sys/resource.h>
 #include <thread>
 
 namespace fs = boost::filesystem;
@@ -51,9 +52,20 @@ struct RunOutputs
   io::Trajectory reference;             ///< the sequence's own poses, where it has them
   std::vector<reconstruction::FrameReport> reports;
   std::vector<pipeline::SegmentationTimings> segmentation;  ///< per segmented frame
+  std::vector<std::size_t> volume_bytes;  ///< after each frame: memory growth over the run
+  std::vector<double> loop_ms;            ///< per segmented frame: every stage, the mask source excluded
   std::size_t frames_without_masks = 0;
   std::size_t merges = 0;
 };
+
+/** Peak resident memory of this process so far, MiB (Linux reports ru_maxrss in KiB). */
+double
+peakMemoryMiB ()
+{
+  rusage usage{};
+  getrusage (RUSAGE_SELF, &usage);
+  return static_cast<double> (usage.ru_maxrss) / 1024.0;
+}
 
 /** segments.json: every segment of the map with voxels. */
 nlohmann::json
@@ -156,15 +168,18 @@ labelsAs16Bit (const cv::Mat& labels, const std::string& path)
 
 nlohmann::json
 timingsJson (const std::vector<reconstruction::FrameReport>& reports,
-             const std::vector<pipeline::SegmentationTimings>& segmentation)
+             const std::vector<pipeline::SegmentationTimings>& segmentation, const std::vector<std::size_t>& volume_bytes,
+             const std::vector<double>& loop_ms)
 {
   std::vector<double> pre, track, integrate, raycast, core;
   nlohmann::json frames = nlohmann::json::array ();
-  for (const auto& r : reports)
+  for (std::size_t k = 0; k < reports.size (); ++k)
   {
+    const auto& r = reports[k];
     const auto& t = r.timings;
     frames.push_back ({{"index", r.index}, {"preprocess_ms", t.preprocess_ms}, {"track_ms", t.track_ms},
-                       {"integrate_ms", t.integrate_ms}, {"raycast_ms", t.raycast_ms}});
+                       {"integrate_ms", t.integrate_ms}, {"raycast_ms", t.raycast_ms},
+                       {"volume_mib", k < volume_bytes.size () ? static_cast<double> (volume_bytes[k]) / (1024.0 * 1024.0) : 0.0}});
     if (!r.tracked)
       continue;
     pre.push_back (t.preprocess_ms);
@@ -187,7 +202,9 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
                       {"raycast", timingSummary (raycast)}, {"track+integrate+raycast", timingSummary (core)},
                       {"geometric segmentation", timingSummary (geometry)}, {"instance merge", timingSummary (instances)},
                       {"propagation", timingSummary (propagation)}, {"segment merging", timingSummary (merging)},
-                      {"label update", timingSummary (update)}, {"segmentation", timingSummary (segmentation_total)}}},
+                      {"label update", timingSummary (update)}, {"segmentation", timingSummary (segmentation_total)},
+                      {"whole loop", timingSummary (loop_ms)}}},
+          {"peak_memory_mib", peakMemoryMiB ()},
           {"frames", frames}};
 }
 }  // namespace
@@ -318,6 +335,8 @@ runRun (const std::vector<std::string>& args)
       if (full.segmented)
       {
         result.segmentation.push_back (full.segmentation);
+        const reconstruction::StageTimings& t = full.reconstruction.timings;
+        result.loop_ms.push_back (t.preprocess_ms + t.track_ms + t.integrate_ms + t.raycast_ms + full.segmentation.total ());
         result.merges += full.merges;
         std::ostringstream name;
         name << std::setw (6) << std::setfill ('0') << frame->index << ".png";
@@ -356,6 +375,7 @@ runRun (const std::vector<std::string>& args)
       if (frame->pose)
         result.reference.push_back ({frame->timestamp, *frame->pose});
       result.reports.push_back (std::move (report));
+      result.volume_bytes.push_back (fusion.reconstruction ().volume ().memoryUsage ());
       progress.update (result.reports.size ());
     }
     catch (const std::exception& e)  // a live camera's thread must not die with an exception
@@ -488,7 +508,7 @@ runRun (const std::vector<std::string>& args)
     ate_line = line.str ();
   }
   io::writeTextAtomic ((dir / "tracking.json").string (), tracking.dump (2) + "\n");
-  io::writeTextAtomic ((dir / "timings.json").string (), timingsJson (result.reports, result.segmentation).dump (2) + "\n");
+  io::writeTextAtomic ((dir / "timings.json").string (), timingsJson (result.reports, result.segmentation, result.volume_bytes, result.loop_ms).dump (2) + "\n");
 
   std::cout << "processed " << result.reports.size () << " frames of " << source << " (" << grabber->formatName ()
             << ") in " << std::fixed << std::setprecision (2) << seconds << " s; " << result.trajectory.size ()

@@ -179,6 +179,16 @@ TEST_F (Cli, RunSegmentsWithMasks)
     EXPECT_TRUE (boost::filesystem::exists (dir / png)) << png;
   const auto timings = nlohmann::json::parse (test::readFile (dir / "run/timings.json"));
   EXPECT_EQ (timings.at ("stages").at ("segmentation").at ("frames").get<int> (), 12);
+  EXPECT_EQ (timings.at ("stages").at ("whole loop").at ("frames").get<int> (), 12);
+  EXPECT_GT (timings.at ("peak_memory_mib").get<double> (), 10.0);
+  // The volume only grows while new surface comes into view (never shrinks here).
+  double previous = 0.0;
+  for (const auto& f : timings.at ("frames"))
+  {
+    EXPECT_GE (f.at ("volume_mib").get<double> (), previous);
+    previous = f.at ("volume_mib").get<double> ();
+  }
+  EXPECT_GT (previous, 1.0);
 
   // Usage errors: a mode that needs masks without any; a missing mask folder.
   r = run ("run " + seq + " --out " + (dir / "run2") + " --mode fused");
