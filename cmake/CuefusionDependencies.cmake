@@ -4,7 +4,6 @@ find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs videoio)
 find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(Boost REQUIRED COMPONENTS program_options filesystem)
 find_package(Threads REQUIRED)
-find_package(OpenMP)
 find_package(nlohmann_json 3 REQUIRED)
 
 # One imported interface target for PCL so module targets can link it like any other.

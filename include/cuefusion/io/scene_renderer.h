@@ -31,7 +31,7 @@ struct RenderedView
 };
 
 /** \brief Ray-casts a SyntheticScene through a pinhole camera, one ray per pixel centre.
-  * Rows run in parallel with OpenMP when available.
+  * Rows run in parallel on the project's thread pool (common/parallel.h).
   */
 class SceneRenderer
 {

@@ -64,7 +64,8 @@ struct RaycastResult
   * (the label layer the global segment map writes).
   *
   * integrate() and raycast() run their per-block and per-pixel loops in parallel
-  * (OpenMP); the volume is not safe to modify from several threads at once.
+  * (the project's thread pool, common/parallel.h); the volume is not safe to modify from
+  * several threads at once.
   */
 class TSDFVolume
 {

@@ -1,3 +1,4 @@
+#include <cuefusion/common/parallel.h>
 #include <cuefusion/common/pinhole_camera.h>
 #include <cuefusion/io/scene_renderer.h>
 
@@ -75,44 +76,45 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
   const Eigen::Vector3d origin = pose.translation ();
   const double deg = 3.14159265358979323846 / 180.0;
 
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int v = 0; v < camera.height; ++v)
-  {
-    // One random stream per row keeps the noise independent of the thread count.
-    std::mt19937_64 rng (mixSeed (noise_seed, static_cast<std::uint64_t> (v)));
-    std::normal_distribution<double> gauss (0.0, 1.0);
-    std::uniform_real_distribution<double> uniform (0.0, 1.0);
-    for (int u = 0; u < camera.width; ++u)
+  parallelForChunks (camera.height, 4, [&] (int, int begin, int end) {
+    for (int v = begin; v < end; ++v)
     {
-      const Eigen::Vector3d ray_cam ((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
-      const Eigen::Vector3d dir = (rotation * ray_cam).normalized ();
-      double t;
-      Eigen::Vector3d n;
-      const std::uint16_t id = castRay (origin, dir, t, n);
-      if (id == 0)
-        continue;
-      const SceneObject& object = scene_.objects[id - 1u];
-      const Eigen::Vector3d p = origin + t * dir;
-      view.instance.at<std::uint16_t> (v, u) = id;
-      view.class_ids.at<std::uint16_t> (v, u) = class_of_[id - 1u];
-      view.color.at<cv::Vec3b> (v, u) = shade (object, p, n);
-      const Eigen::Vector3d n_cam = rotation.transpose () * n;
-      view.normals.at<cv::Vec3f> (v, u) = cv::Vec3f (static_cast<float> (n_cam.x ()), static_cast<float> (n_cam.y ()),
-                                                     static_cast<float> (n_cam.z ()));
-      double z = (rotation.transpose () * (p - origin)).z ();
-      if (noise.enabled)
+      // One random stream per row keeps the noise independent of the thread count.
+      std::mt19937_64 rng (mixSeed (noise_seed, static_cast<std::uint64_t> (v)));
+      std::normal_distribution<double> gauss (0.0, 1.0);
+      std::uniform_real_distribution<double> uniform (0.0, 1.0);
+      for (int u = 0; u < camera.width; ++u)
       {
-        const double incidence = std::acos (std::min (1.0, std::abs (n.dot (dir))));
-        const double start = noise.dropout_start_deg * deg, stop = noise.max_incidence_deg * deg;
-        if (incidence >= stop || (incidence > start && uniform (rng) < (incidence - start) / (stop - start)))
+        const Eigen::Vector3d ray_cam ((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
+        const Eigen::Vector3d dir = (rotation * ray_cam).normalized ();
+        double t;
+        Eigen::Vector3d n;
+        const std::uint16_t id = castRay (origin, dir, t, n);
+        if (id == 0)
           continue;
-        z += gauss (rng) * kinectAxialNoise (z, incidence);
-        if (z < noise.min_depth || z > noise.max_depth)
-          continue;
+        const SceneObject& object = scene_.objects[id - 1u];
+        const Eigen::Vector3d p = origin + t * dir;
+        view.instance.at<std::uint16_t> (v, u) = id;
+        view.class_ids.at<std::uint16_t> (v, u) = class_of_[id - 1u];
+        view.color.at<cv::Vec3b> (v, u) = shade (object, p, n);
+        const Eigen::Vector3d n_cam = rotation.transpose () * n;
+        view.normals.at<cv::Vec3f> (v, u) = cv::Vec3f (static_cast<float> (n_cam.x ()), static_cast<float> (n_cam.y ()),
+                                                       static_cast<float> (n_cam.z ()));
+        double z = (rotation.transpose () * (p - origin)).z ();
+        if (noise.enabled)
+        {
+          const double incidence = std::acos (std::min (1.0, std::abs (n.dot (dir))));
+          const double start = noise.dropout_start_deg * deg, stop = noise.max_incidence_deg * deg;
+          if (incidence >= stop || (incidence > start && uniform (rng) < (incidence - start) / (stop - start)))
+            continue;
+          z += gauss (rng) * kinectAxialNoise (z, incidence);
+          if (z < noise.min_depth || z > noise.max_depth)
+            continue;
+        }
+        view.depth.at<float> (v, u) = static_cast<float> (z);
       }
-      view.depth.at<float> (v, u) = static_cast<float> (z);
     }
-  }
+  });
   return view;
 }
 }  // namespace io

@@ -1,4 +1,5 @@
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/parallel.h>
 #include <cuefusion/reconstruction/preprocessing.h>
 #include <cuefusion/reconstruction/vertex_maps.h>
 
@@ -58,22 +59,23 @@ void
 computeVertexMap (const cv::Mat& depth, const PinholeCamera& camera, cv::Mat& vertices)
 {
   vertices.create (depth.size (), CV_32FC3);
-#pragma omp parallel for schedule(static)
-  for (int v = 0; v < depth.rows; ++v)
-  {
-    const float* d = depth.ptr<float> (v);
-    cv::Vec3f* out = vertices.ptr<cv::Vec3f> (v);
-    for (int u = 0; u < depth.cols; ++u)
+  parallelForChunks (depth.rows, 8, [&] (int, int begin, int end) {
+    for (int v = begin; v < end; ++v)
     {
-      if (d[u] > 0.f && std::isfinite (d[u]))
+      const float* d = depth.ptr<float> (v);
+      cv::Vec3f* out = vertices.ptr<cv::Vec3f> (v);
+      for (int u = 0; u < depth.cols; ++u)
       {
-        const Eigen::Vector3f p = camera.backProject (static_cast<float> (u), static_cast<float> (v), d[u]);
-        out[u] = cv::Vec3f (p.x (), p.y (), p.z ());
+        if (d[u] > 0.f && std::isfinite (d[u]))
+        {
+          const Eigen::Vector3f p = camera.backProject (static_cast<float> (u), static_cast<float> (v), d[u]);
+          out[u] = cv::Vec3f (p.x (), p.y (), p.z ());
+        }
+        else
+          out[u] = cv::Vec3f (kNaN, kNaN, kNaN);
       }
-      else
-        out[u] = cv::Vec3f (kNaN, kNaN, kNaN);
     }
-  }
+  });
 }
 
 void
@@ -81,48 +83,50 @@ computeNormalMap (const cv::Mat& vertices, cv::Mat& normals, float max_depth_jum
 {
   normals.create (vertices.size (), CV_32FC3);
   const int w = vertices.cols, h = vertices.rows;
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y)
-  {
-    cv::Vec3f* out = normals.ptr<cv::Vec3f> (y);
-    for (int x = 0; x < w; ++x)
+  parallelForChunks (h, 8, [&] (int, int begin, int end) {
+    for (int y = begin; y < end; ++y)
     {
-      Eigen::Vector3f n;
-      if (x > 0 && y > 0 && x + 1 < w && y + 1 < h &&
-          centralDifferenceNormal (vertexAt (vertices, x, y), vertexAt (vertices, x - 1, y), vertexAt (vertices, x + 1, y),
-                                   vertexAt (vertices, x, y - 1), vertexAt (vertices, x, y + 1), max_depth_jump, n))
-        out[x] = cv::Vec3f (n.x (), n.y (), n.z ());
-      else
-        out[x] = cv::Vec3f (kNaN, kNaN, kNaN);
+      cv::Vec3f* out = normals.ptr<cv::Vec3f> (y);
+      for (int x = 0; x < w; ++x)
+      {
+        Eigen::Vector3f n;
+        if (x > 0 && y > 0 && x + 1 < w && y + 1 < h &&
+            centralDifferenceNormal (vertexAt (vertices, x, y), vertexAt (vertices, x - 1, y), vertexAt (vertices, x + 1, y),
+                                     vertexAt (vertices, x, y - 1), vertexAt (vertices, x, y + 1), max_depth_jump, n))
+          out[x] = cv::Vec3f (n.x (), n.y (), n.z ());
+        else
+          out[x] = cv::Vec3f (kNaN, kNaN, kNaN);
+      }
     }
-  }
+  });
 }
 
 void
 downsampleDepth (const cv::Mat& depth, cv::Mat& half, float max_jump)
 {
   half.create (depth.rows / 2, depth.cols / 2, CV_32F);
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < half.rows; ++y)
-  {
-    const float* r0 = depth.ptr<float> (2 * y);
-    const float* r1 = depth.ptr<float> (2 * y + 1);
-    float* out = half.ptr<float> (y);
-    for (int x = 0; x < half.cols; ++x)
+  parallelForChunks (half.rows, 8, [&] (int, int begin, int end) {
+    for (int y = begin; y < end; ++y)
     {
-      const float z[4] = {r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]};
-      const int mask = blockSelection (z, max_jump);
-      float sum = 0.f;
-      int count = 0;
-      for (int i = 0; i < 4; ++i)
-        if (mask & (1 << i))
-        {
-          sum += z[i];
-          ++count;
-        }
-      out[x] = count ? sum / static_cast<float> (count) : 0.f;
+      const float* r0 = depth.ptr<float> (2 * y);
+      const float* r1 = depth.ptr<float> (2 * y + 1);
+      float* out = half.ptr<float> (y);
+      for (int x = 0; x < half.cols; ++x)
+      {
+        const float z[4] = {r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]};
+        const int mask = blockSelection (z, max_jump);
+        float sum = 0.f;
+        int count = 0;
+        for (int i = 0; i < 4; ++i)
+          if (mask & (1 << i))
+          {
+            sum += z[i];
+            ++count;
+          }
+        out[x] = count ? sum / static_cast<float> (count) : 0.f;
+      }
     }
-  }
+  });
 }
 
 void
@@ -131,37 +135,38 @@ downsampleVertexNormalMaps (const cv::Mat& vertices, const cv::Mat& normals, cv:
 {
   half_vertices.create (vertices.rows / 2, vertices.cols / 2, CV_32FC3);
   half_normals.create (half_vertices.size (), CV_32FC3);
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < half_vertices.rows; ++y)
-    for (int x = 0; x < half_vertices.cols; ++x)
-    {
-      const Eigen::Vector3f* v[4] = {&vertexAt (vertices, 2 * x, 2 * y), &vertexAt (vertices, 2 * x + 1, 2 * y),
-                                     &vertexAt (vertices, 2 * x, 2 * y + 1), &vertexAt (vertices, 2 * x + 1, 2 * y + 1)};
-      const Eigen::Vector3f* n[4] = {&vertexAt (normals, 2 * x, 2 * y), &vertexAt (normals, 2 * x + 1, 2 * y),
-                                     &vertexAt (normals, 2 * x, 2 * y + 1), &vertexAt (normals, 2 * x + 1, 2 * y + 1)};
-      float z[4];
-      for (int i = 0; i < 4; ++i)
-        z[i] = (isValidVertex (*v[i]) && isValidVertex (*n[i])) ? v[i]->z () : 0.f;
-      const int mask = blockSelection (z, max_jump);
-      Eigen::Vector3f vs = Eigen::Vector3f::Zero (), ns = Eigen::Vector3f::Zero ();
-      for (int i = 0; i < 4; ++i)
-        if (mask & (1 << i))
-        {
-          vs += *v[i];
-          ns += *n[i];
-        }
-      const float norm = ns.norm ();
-      if (mask == 0 || !(norm > 0.f))
+  parallelForChunks (half_vertices.rows, 8, [&] (int, int begin, int end) {
+    for (int y = begin; y < end; ++y)
+      for (int x = 0; x < half_vertices.cols; ++x)
       {
-        half_vertices.at<cv::Vec3f> (y, x) = cv::Vec3f (kNaN, kNaN, kNaN);
-        half_normals.at<cv::Vec3f> (y, x) = cv::Vec3f (kNaN, kNaN, kNaN);
-        continue;
+        const Eigen::Vector3f* v[4] = {&vertexAt (vertices, 2 * x, 2 * y), &vertexAt (vertices, 2 * x + 1, 2 * y),
+                                       &vertexAt (vertices, 2 * x, 2 * y + 1), &vertexAt (vertices, 2 * x + 1, 2 * y + 1)};
+        const Eigen::Vector3f* n[4] = {&vertexAt (normals, 2 * x, 2 * y), &vertexAt (normals, 2 * x + 1, 2 * y),
+                                       &vertexAt (normals, 2 * x, 2 * y + 1), &vertexAt (normals, 2 * x + 1, 2 * y + 1)};
+        float z[4];
+        for (int i = 0; i < 4; ++i)
+          z[i] = (isValidVertex (*v[i]) && isValidVertex (*n[i])) ? v[i]->z () : 0.f;
+        const int mask = blockSelection (z, max_jump);
+        Eigen::Vector3f vs = Eigen::Vector3f::Zero (), ns = Eigen::Vector3f::Zero ();
+        for (int i = 0; i < 4; ++i)
+          if (mask & (1 << i))
+          {
+            vs += *v[i];
+            ns += *n[i];
+          }
+        const float norm = ns.norm ();
+        if (mask == 0 || !(norm > 0.f))
+        {
+          half_vertices.at<cv::Vec3f> (y, x) = cv::Vec3f (kNaN, kNaN, kNaN);
+          half_normals.at<cv::Vec3f> (y, x) = cv::Vec3f (kNaN, kNaN, kNaN);
+          continue;
+        }
+        vs /= static_cast<float> (__builtin_popcount (static_cast<unsigned> (mask)));
+        ns /= norm;
+        half_vertices.at<cv::Vec3f> (y, x) = cv::Vec3f (vs.x (), vs.y (), vs.z ());
+        half_normals.at<cv::Vec3f> (y, x) = cv::Vec3f (ns.x (), ns.y (), ns.z ());
       }
-      vs /= static_cast<float> (__builtin_popcount (static_cast<unsigned> (mask)));
-      ns /= norm;
-      half_vertices.at<cv::Vec3f> (y, x) = cv::Vec3f (vs.x (), vs.y (), vs.z ());
-      half_normals.at<cv::Vec3f> (y, x) = cv::Vec3f (ns.x (), ns.y (), ns.z ());
-    }
+  });
 }
 
 void

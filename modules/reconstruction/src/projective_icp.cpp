@@ -1,4 +1,5 @@
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/parallel.h>
 #include <cuefusion/reconstruction/projective_icp.h>
 #include <cuefusion/reconstruction/vertex_maps.h>
 
@@ -7,9 +8,6 @@
 #include <array>
 #include <cmath>
 
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 namespace cuefusion
 {
@@ -72,12 +70,12 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
   const Eigen::Matrix3f R = T.linear ();
   const Eigen::Vector3f t = T.translation ();
   const float max_distance_sq = max_distance * max_distance;
-  Accumulator total{};
-#pragma omp parallel
-  {
-    Accumulator local{};
-#pragma omp for schedule(static) nowait
-    for (int y = 0; y < source.vertices.rows; ++y)
+  // Partial sums per fixed chunk of rows, added in chunk order: the same total on every run.
+  constexpr int kRowsPerChunk = 8;
+  std::vector<Accumulator> partial (static_cast<std::size_t> (chunkCount (source.vertices.rows, kRowsPerChunk)), Accumulator{});
+  parallelForChunks (source.vertices.rows, kRowsPerChunk, [&] (int k, int begin, int end) {
+    Accumulator& local = partial[static_cast<std::size_t> (k)];
+    for (int y = begin; y < end; ++y)
     {
       RowAccumulator row{};
       for (int x = 0; x < source.vertices.cols; ++x)
@@ -95,10 +93,11 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
       for (std::size_t i = 0; i < local.size (); ++i)
         local[i] += static_cast<double> (row[i]);
     }
-#pragma omp critical
+  });
+  Accumulator total{};
+  for (const Accumulator& local : partial)
     for (std::size_t i = 0; i < total.size (); ++i)
       total[i] += local[i];
-  }
   return total;
 }
 

@@ -1,6 +1,7 @@
 // Surface extraction from the TSDF volume: zero-crossing point clouds and marching cubes.
 #include "voxel_access.h"
 
+#include <cuefusion/common/parallel.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <pcl/common/io.h>
@@ -9,9 +10,6 @@
 
 #include <unordered_map>
 
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 namespace cuefusion
 {
@@ -94,11 +92,9 @@ TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::P
   const int n = static_cast<int> (blocks_.size ());
   std::vector<pcl::PointCloud<pcl::PointXYZRGBL>> parts (static_cast<std::size_t> (n));
   std::vector<pcl::PointCloud<pcl::Normal>> normal_parts (normals ? static_cast<std::size_t> (n) : 0);
-#pragma omp parallel
-  {
+  parallelForChunks (n, 8, [&] (int, int begin, int end) {
     detail::VoxelAccessor access (*this);
-#pragma omp for schedule(dynamic, 8)
-    for (int i = 0; i < n; ++i)
+    for (int i = begin; i < end; ++i)
     {
       const VoxelBlock& block = *blocks_[static_cast<std::size_t> (i)];
       for (int z = 0; z < kBlockSide; ++z)
@@ -142,7 +138,7 @@ TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::P
             }
           }
     }
-  }
+  });
   cloud.clear ();
   for (const auto& part : parts)
     cloud += part;
@@ -166,11 +162,9 @@ TSDFVolume::extractMesh () const
   };
   const int n = static_cast<int> (blocks_.size ());
   std::vector<BlockTriangles> parts (static_cast<std::size_t> (n));
-#pragma omp parallel
-  {
+  parallelForChunks (n, 8, [&] (int, int begin, int end) {
     detail::VoxelAccessor access (*this);
-#pragma omp for schedule(dynamic, 8)
-    for (int i = 0; i < n; ++i)
+    for (int i = begin; i < end; ++i)
     {
       const VoxelBlock& block = *blocks_[static_cast<std::size_t> (i)];
       BlockTriangles& out = parts[static_cast<std::size_t> (i)];
@@ -212,7 +206,7 @@ TSDFVolume::extractMesh () const
                 out.corners.push_back (keys[static_cast<std::size_t> (pcl::triTable[cube][t + k])]);
           }
     }
-  }
+  });
 
   pcl::PointCloud<pcl::PointXYZRGBL> points;
   std::unordered_map<std::uint64_t, pcl::index_t> vertex_of;

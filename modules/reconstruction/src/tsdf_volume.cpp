@@ -1,16 +1,15 @@
 #include "voxel_access.h"
 
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/parallel.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <mutex>
 
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 namespace cuefusion
 {
@@ -18,26 +17,6 @@ namespace reconstruction
 {
 namespace
 {
-int
-threadCount ()
-{
-#ifdef _OPENMP
-  return omp_get_max_threads ();
-#else
-  return 1;
-#endif
-}
-
-int
-threadId ()
-{
-#ifdef _OPENMP
-  return omp_get_thread_num ();
-#else
-  return 0;
-#endif
-}
-
 /** \brief Per-thread filter of recently seen block keys (direct-mapped): neighbouring
   * pixels touch the same few blocks, so this drops most repeats before the serial merge.
   */
@@ -326,6 +305,42 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
   }
   return 0.f;
 }
+
+/** \brief With a depth hint (the frame just fused at this pose), the surface lies within a
+  * voxel or two of the hint along the ray: Newton steps on the trilinear field from there
+  * (each step one cell read, whose gradient also gives the slope and the normal) replace
+  * the march's 3–4 samples and bracket search. Returns 0 — the caller then marches —
+  * when a cell is unobserved, the field is truncated or back-facing there (slope ≥ 0),
+  * the steps leave the band, or they do not settle within three steps.
+  */
+inline float
+refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float z_hint,
+                float truncation_voxels, const TsdfVoxel** hit, Eigen::Vector3f* gradient)
+{
+  const float voxels_per_z = dir.norm ();
+  float z = z_hint;
+  for (int step = 0; step < 3; ++step)
+  {
+    float f;
+    if (!access.interpolate (origin + dir * z, f, *gradient))
+      return 0.f;
+    if (!(std::abs (f) < 0.9f))
+      return 0.f;  // truncated: no surface close by
+    const float slope = gradient->dot (dir);  // truncation units per unit of z
+    if (!(slope < 0.f))
+      return 0.f;  // the field does not fall along the ray: a back face or a corner
+    const float dz = -f / slope;
+    z += dz;
+    if (std::abs (z - z_hint) * voxels_per_z > truncation_voxels)
+      return 0.f;  // wandered off to another surface
+    if (std::abs (dz) * voxels_per_z < 0.02f)
+    {
+      *hit = access.get (nearestVoxel (origin + dir * z));
+      return *hit != nullptr ? z : 0.f;
+    }
+  }
+  return 0.f;
+}
 }  // namespace
 
 void
@@ -440,14 +455,17 @@ TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, c
   const float step = 2.f * truncation / static_cast<float> (samples - 1);
   constexpr int kPixelStride = 2;
 
-  std::vector<std::vector<std::uint64_t>> candidates (static_cast<std::size_t> (threadCount ()));
-#pragma omp parallel
-  {
-    std::vector<std::uint64_t>& mine = candidates[static_cast<std::size_t> (threadId ())];
+  // Rows in fixed chunks; each chunk's candidates are kept apart and read back in chunk
+  // order, so blocks are allocated in the same order on every run.
+  const int rows = (depth.rows + kPixelStride - 1) / kPixelStride;
+  constexpr int kRowsPerChunk = 8;
+  std::vector<std::vector<std::uint64_t>> candidates (static_cast<std::size_t> (chunkCount (rows, kRowsPerChunk)));
+  parallelForChunks (rows, kRowsPerChunk, [&] (int k, int begin, int end) {
+    std::vector<std::uint64_t>& mine = candidates[static_cast<std::size_t> (k)];
     RecentKeys recent;
-#pragma omp for schedule(static)
-    for (int v = 0; v < depth.rows; v += kPixelStride)
+    for (int r = begin; r < end; ++r)
     {
+      const int v = r * kPixelStride;
       const float* row = depth.ptr<float> (v);
       for (int u = 0; u < depth.cols; u += kPixelStride)
       {
@@ -470,7 +488,7 @@ TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, c
         }
       }
     }
-  }
+  });
 
   ++stamp_;
   integrated_blocks_.clear ();
@@ -520,10 +538,11 @@ TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const Pinhole
   const float truncation = static_cast<float> (config_.truncation ());
   const float min_depth = static_cast<float> (config_.min_depth), max_depth = static_cast<float> (config_.max_depth);
   const int n = static_cast<int> (integrated_blocks_.size ());
-#pragma omp parallel for schedule(dynamic, 16)
-  for (int i = 0; i < n; ++i)
-    integrateBlock (*blocks_[static_cast<std::size_t> (integrated_blocks_[static_cast<std::size_t> (i)])], depth, color,
-                    camera, R_cw, t_cw, voxel_size, truncation, min_depth, max_depth, config_.max_weight);
+  parallelForChunks (n, 16, [&] (int, int begin, int end) {
+    for (int i = begin; i < end; ++i)
+      integrateBlock (*blocks_[static_cast<std::size_t> (integrated_blocks_[static_cast<std::size_t> (i)])], depth, color,
+                      camera, R_cw, t_cw, voxel_size, truncation, min_depth, max_depth, config_.max_weight);
+  });
 }
 
 RaycastResult
@@ -570,12 +589,11 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   RangeTiles tiles;
   tiles.reset (camera.width, camera.height);
   const int block_count = static_cast<int> (blocks_.size ());
-#pragma omp parallel
-  {
+  std::mutex tiles_mutex;
+  parallelForChunks (block_count, 1024, [&] (int, int begin, int end) {
     RangeTiles mine;
     mine.reset (camera.width, camera.height);
-#pragma omp for schedule(static) nowait
-    for (int i = 0; i < block_count; ++i)
+    for (int i = begin; i < end; ++i)
     {
       const Eigen::Vector3f corner0 = world_to_camera * (block_indices_[static_cast<std::size_t> (i)].cast<float> () * block_size);
       int c0, r0, c1, r1;
@@ -583,9 +601,9 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
       if (blockFootprint (corner0, R_cw_block, camera, near, c0, r0, c1, r1, lo, hi))
         mine.add (c0, r0, c1, r1, lo, hi);
     }
-#pragma omp critical
+    const std::lock_guard<std::mutex> lock (tiles_mutex);  // min/max: the merge order does not matter
     tiles.merge (mine);
-  }
+  });
 
   const Eigen::Matrix3f R = pose.linear ().cast<float> ();
   const Eigen::Matrix3f R_cw = R.transpose ();
@@ -593,11 +611,9 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   const Eigen::Vector3f origin_voxels = pose.translation ().cast<float> () * inv_voxel;
   const float truncation_voxels = static_cast<float> (config_.truncation_voxels);
   const float hint_margin = static_cast<float> (2.0 * config_.voxel_size);
-#pragma omp parallel
-  {
+  parallelForChunks (camera.height, 4, [&] (int, int begin, int end) {
     detail::VoxelAccessor access (*this);
-#pragma omp for schedule(dynamic, 4)
-    for (int v = 0; v < camera.height; ++v)
+    for (int v = begin; v < end; ++v)
     {
       cv::Vec3f* vertex_row = out.vertices.ptr<cv::Vec3f> (v);
       cv::Vec3f* normal_row = out.normals.ptr<cv::Vec3f> (v);
@@ -618,6 +634,11 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         {
           const float d = depth_hint.at<float> (v, u);
           if (d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
+          {
+            z = refineNearHint (access, origin_voxels, dir, d, truncation_voxels, &hit, &grad);
+            hinted = z > 0.f;
+          }
+          if (!hinted && d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
           {
             bool behind = false;
             z = castRay (access, origin_voxels, dir, d - hint_margin, tiles.zmax[tile], truncation_voxels, &hit, &grad,
@@ -648,7 +669,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         }
       }
     }
-  }
+  });
 }
 }  // namespace reconstruction
 }  // namespace cuefusion
