@@ -18,8 +18,8 @@ struct ProjectiveICPConfig
   std::vector<int> iterations{10, 5, 4};
   double max_distance = 0.05;           ///< correspondence rejection (metres)
   double max_angle_deg = 20.0;          ///< between the two normals
-  double convergence_translation = 1e-5;  ///< stop a level when the update is smaller (m)
-  double convergence_rotation = 1e-5;     ///< ... and (rad)
+  double convergence_translation = 1e-4;  ///< stop a level when the update is smaller (m)
+  double convergence_rotation = 1e-4;     ///< ... and (rad)
 
   void validate () const;
 };
