@@ -168,3 +168,28 @@ TEST (TrajectoryError, AlignsARigidlyMovedCopyExactly)
   test::expectError ([&] { evaluation::absoluteTrajectoryError (moved, io::Trajectory ()); }, "absoluteTrajectoryError",
                      "fewer than three");
 }
+
+TEST (DenseReconstruction, MemoryDoesNotGrowWithSequenceLength)
+{
+  // The same orbit rendered as 10 and as 40 frames covers the same surface: the volume
+  // must hold about the same blocks. Played a second time, the 40 frames add none.
+  const auto blocksAfter = [] (std::size_t frames, int passes) {
+    const io::SyntheticSequence sequence = tabletopSequence (frames, true);
+    DenseReconstructionConfig config;
+    config.use_reference_poses = true;
+    DenseReconstruction fusion (config);
+    std::vector<std::size_t> counts;
+    for (int pass = 0; pass < passes; ++pass)
+    {
+      for (std::size_t i = 0; i < sequence.size (); ++i)
+        EXPECT_TRUE (fusion.process (*sequence.frame (i)).tracked);
+      counts.push_back (fusion.volume ().blockCount ());
+    }
+    return counts;
+  };
+  const std::size_t short_run = blocksAfter (10, 1).front ();
+  const std::vector<std::size_t> long_run = blocksAfter (40, 2);
+  EXPECT_LE (static_cast<double> (long_run[0]), 1.05 * static_cast<double> (short_run));
+  EXPECT_GE (static_cast<double> (long_run[0]), static_cast<double> (short_run));
+  EXPECT_EQ (long_run[1], long_run[0]);
+}
