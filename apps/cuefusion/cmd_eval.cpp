@@ -23,6 +23,7 @@
 #include <pcl/kdtree/kdtree_flann.h>
 
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -178,6 +179,35 @@ transferLabels (const pcl::PointCloud<pcl::PointXYZL>& truth, const pcl::PointCl
     if (tree.nearestKSearch (truth[i], 1, index, distance) == 1 && distance[0] <= r2)
       labels[i] = (*map)[static_cast<std::size_t> (index[0])].label;
   return labels;
+}
+
+/** An IoU-over-frames chart, one series per run: point (frame, y) wherever \a value
+  * gives y for a run's scored frame. Writes the data files and the PNG; returns its path. */
+std::string
+iouChart (const std::string& gnuplot, const fs::path& plot_dir, const std::string& stem, const std::string& title,
+          const std::string& ylabel, const std::string& style, const std::vector<RunData>& runs,
+          const std::function<bool (const RunData&, std::size_t, double&)>& value)
+{
+  PlotSpec spec;
+  spec.output_png = (plot_dir / (stem + ".png")).string ();
+  spec.title = title;
+  spec.xlabel = "frame";
+  spec.ylabel = ylabel;
+  spec.yrange = "[0:1.05]";
+  for (std::size_t k = 0; k < runs.size (); ++k)
+  {
+    std::ostringstream data;
+    data << "# frame " << ylabel << "\n";
+    double y = 0.0;
+    for (std::size_t f = 0; f < runs[k].frame_iou.size (); ++f)
+      if (value (runs[k], f, y))
+        data << runs[k].frame_index[f] << " " << y << "\n";
+    const std::string file = (plot_dir / (stem + "_run" + std::to_string (k) + ".dat")).string ();
+    io::writeTextAtomic (file, data.str ());
+    spec.series.push_back ({file, 1, 2, runs[k].name, style});
+  }
+  renderPlot (gnuplot, spec);
+  return spec.output_png;
 }
 }  // namespace
 
@@ -444,60 +474,34 @@ runEval (const std::vector<std::string>& args)
     else
     {
       const fs::path plot_dir = report_dir / "plots";
-      // Per object: IoU over frames, one line per run.
+      // Per object: IoU over frames, one line per run; then the mean over the objects
+      // visible in each frame.
       for (const std::uint32_t object : all_objects)
       {
-        PlotSpec spec;
-        spec.output_png = (plot_dir / ("iou_object_" + std::to_string (object) + ".png")).string ();
         const std::string cls = classOf (object);
-        spec.title = "object " + std::to_string (object) + (cls.empty () ? "" : " (" + cls + ")") + ": IoU per frame";
-        spec.xlabel = "frame";
-        spec.ylabel = "IoU";
-        spec.yrange = "[0:1.05]";
-        for (std::size_t k = 0; k < runs.size (); ++k)
-        {
-          std::ostringstream data;
-          data << "# frame iou\n";
-          for (std::size_t f = 0; f < runs[k].frame_iou.size (); ++f)
-            for (const evaluation::ObjectIoU& o : runs[k].frame_iou[f])
-              if (o.instance == object)
-                data << runs[k].frame_index[f] << " " << o.iou << "\n";
-          const std::string file = (plot_dir / ("iou_object_" + std::to_string (object) + "_run" + std::to_string (k) + ".dat")).string ();
-          io::writeTextAtomic (file, data.str ());
-          spec.series.push_back ({file, 1, 2, runs[k].name, "linespoints"});
-        }
-        renderPlot (gnuplot, spec);
-        plots.push_back (spec.output_png);
+        plots.push_back (iouChart (gnuplot, plot_dir, "iou_object_" + std::to_string (object),
+                                   "object " + std::to_string (object) + (cls.empty () ? "" : " (" + cls + ")") + ": IoU per frame",
+                                   "IoU", "linespoints", runs, [object] (const RunData& run, std::size_t f, double& y) {
+                                     for (const evaluation::ObjectIoU& o : run.frame_iou[f])
+                                       if (o.instance == object)
+                                       {
+                                         y = o.iou;
+                                         return true;
+                                       }
+                                     return false;
+                                   }));
       }
-      // Mean IoU over the objects visible in each frame.
       if (!all_objects.empty ())
-      {
-        PlotSpec spec;
-        spec.output_png = (plot_dir / "iou_mean.png").string ();
-        spec.title = "mean object IoU per frame";
-        spec.xlabel = "frame";
-        spec.ylabel = "mean IoU";
-        spec.yrange = "[0:1.05]";
-        for (std::size_t k = 0; k < runs.size (); ++k)
-        {
-          std::ostringstream data;
-          data << "# frame mean_iou\n";
-          for (std::size_t f = 0; f < runs[k].frame_iou.size (); ++f)
-          {
-            if (runs[k].frame_iou[f].empty ())
-              continue;
-            double sum = 0.0;
-            for (const evaluation::ObjectIoU& o : runs[k].frame_iou[f])
-              sum += o.iou;
-            data << runs[k].frame_index[f] << " " << sum / static_cast<double> (runs[k].frame_iou[f].size ()) << "\n";
-          }
-          const std::string file = (plot_dir / ("iou_mean_run" + std::to_string (k) + ".dat")).string ();
-          io::writeTextAtomic (file, data.str ());
-          spec.series.push_back ({file, 1, 2, runs[k].name, "lines"});
-        }
-        renderPlot (gnuplot, spec);
-        plots.push_back (spec.output_png);
-      }
+        plots.push_back (iouChart (gnuplot, plot_dir, "iou_mean", "mean object IoU per frame", "mean IoU", "lines", runs,
+                                   [] (const RunData& run, std::size_t f, double& y) {
+                                     if (run.frame_iou[f].empty ())
+                                       return false;
+                                     double sum = 0.0;
+                                     for (const evaluation::ObjectIoU& o : run.frame_iou[f])
+                                       sum += o.iou;
+                                     y = sum / static_cast<double> (run.frame_iou[f].size ());
+                                     return true;
+                                   }));
       // Trajectory seen from above: the plane of the reference's two main directions.
       if (reference.size () >= 3)
       {
