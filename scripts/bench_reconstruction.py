@@ -273,8 +273,8 @@ def main():
     print("## Reconstruction (%s)\n" % datetime.date.today().isoformat())
     print("- machine: %s" % machine())
     print("- command: `scripts/bench %s`" % " ".join(sys.argv[1:]))
-    print("- voxel %.3f m, truncation %.3f m, depth ≤ %.1f m, 640×480; OMP threads: %s\n"
-          % (args.voxel, trunc, args.max_depth, os.environ.get("OMP_NUM_THREADS", "all cores")))
+    print("- voxel %.3f m, truncation %.3f m, depth ≤ %.1f m, 640×480; threads: OpenCV's pool, %s\n"
+          % (args.voxel, trunc, args.max_depth, os.environ.get("OPENCV_FOR_THREADS_NUM", "all cores")))
     for root in args.datasets:
         name = os.path.basename(os.path.normpath(root))
         with tempfile.TemporaryDirectory() as tmp:
