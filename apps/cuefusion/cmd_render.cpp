@@ -5,6 +5,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/mesh_io.h>
+#include <cuefusion/io/pose_io.h>
 #include <cuefusion/visualization/mesh_rasterizer.h>
 
 #include <boost/filesystem.hpp>
@@ -62,7 +63,13 @@ runRender (const std::vector<std::string>& args)
   config.color_by_label = color == "segments";
   config.cull_back_faces = true;  // see into rooms through the walls that face away
   const visualization::MeshRasterizer rasterizer (config);
-  const auto poses = visualization::orbitViews (mesh, camera, views);
+  // Up is where the run's cameras had it (datasets differ: z-up, y-up).
+  std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> cameras;
+  const fs::path trajectory = fs::path (run_dir) / "trajectory.txt";
+  if (fs::exists (trajectory))
+    for (const io::StampedPose& p : io::readTumTrajectory (trajectory.string ()))
+      cameras.push_back (p.pose);
+  const auto poses = visualization::orbitViews (mesh, camera, views, visualization::upFromCameras (cameras));
   for (int k = 0; k < views; ++k)
   {
     std::ostringstream name;

@@ -6,6 +6,7 @@
 #include <cuefusion/io/map_io.h>
 #include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/simulated_detector.h>
+#include <cuefusion/io/synthetic_scene.h>
 #include <cuefusion/io/synthetic_sequence.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/visualization/frame_view.h>
@@ -176,4 +177,28 @@ TEST (MeshRasterizer, RenderedMapMatchesARaycastOfTheSameMap)
   ASSERT_GT (tinted, 1000);
   EXPECT_EQ (tinted_right, tinted);
   EXPECT_THROW (visualization::composeFrameView (*frame, cv::Mat::zeros (3, 3, CV_32S)), Error);
+}
+
+TEST (MeshRasterizer, UpComesFromTheCameras)
+{
+  // Cameras of a y-up world looking horizontally: image up (−y_cam) is world +y.
+  std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> cameras;
+  for (int k = 0; k < 4; ++k)
+  {
+    const double a = 0.5 * k;
+    cameras.push_back (io::lookAt (Eigen::Vector3d (std::cos (a), 0.1 * k, std::sin (a)), Eigen::Vector3d::Zero (),
+                                   Eigen::Vector3d::UnitY ()));
+  }
+  EXPECT_GT (visualization::upFromCameras (cameras).dot (Eigen::Vector3d::UnitY ()), 0.99);
+  EXPECT_TRUE (visualization::upFromCameras ({}).isApprox (Eigen::Vector3d::UnitZ ()));
+  // Orbit views then sit 30° above the x–z plane.
+  io::TriangleMesh mesh;
+  addSquare (mesh, 0.5f, 2.0f, 7);
+  const PinholeCamera camera (300.0, 300.0, 159.5, 119.5, 320, 240);
+  for (const auto& pose : visualization::orbitViews (mesh, camera, 5, Eigen::Vector3d::UnitY ()))
+  {
+    const Eigen::Vector3d from_centre = (pose.translation () - Eigen::Vector3d (0, 0, 2)).normalized ();
+    EXPECT_NEAR (std::asin (from_centre.y ()) * 180.0 / M_PI, 30.0, 1e-6);
+    EXPECT_GT ((-pose.linear ().col (1)).dot (Eigen::Vector3d::UnitY ()), 0.8);  // image up is world up
+  }
 }

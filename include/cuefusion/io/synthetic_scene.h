@@ -57,10 +57,11 @@ struct SceneObject
 };
 
 /** \brief Camera-to-world pose (x right, y down, z forward) at \a eye looking at
-  * \a target, world z up (not straight up or down).
+  * \a target, with \a up (default world z) pointing up in the image; the view must not
+  * be along \a up.
   */
 Eigen::Isometry3d
-lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target);
+lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ ());
 
 /** \brief Smooth orbit of the camera around a target, looking at it. */
 struct OrbitTrajectory

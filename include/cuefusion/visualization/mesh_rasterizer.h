@@ -51,12 +51,21 @@ private:
   MeshRasterizerConfig config_;
 };
 
-/** \brief Camera poses on a circle around \a mesh looking at its centre from 30° above its
-  * up axis (world z), for overview renders; \a views ≥ 1. The circle's radius fits the
-  * bounding sphere of the mesh's labelled vertices (all vertices when none is labelled)
-  * into \a camera's narrower field of view.
+/** \brief Camera poses on a circle around \a mesh looking at its centre from 30° above
+  * the plane orthogonal to \a up, for overview renders; \a views ≥ 1. The circle's
+  * radius fits the bounding sphere of the mesh's labelled vertices (all vertices when
+  * none is labelled) into \a camera's narrower field of view.
   */
 std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
-orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views);
+orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views,
+            const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ ());
+
+/** \brief The world's up direction as a hand-held or robot camera sees it: the mean of
+  * the cameras' image-up axes (−y of each camera-to-world pose), normalised; world z
+  * when \a poses is empty or the mean vanishes. Datasets differ (ICL-NUIM and ScanNet
+  * are y-up or z-up), the cameras' orientation does not.
+  */
+Eigen::Vector3d
+upFromCameras (const std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>& poses);
 }  // namespace visualization
 }  // namespace cuefusion

@@ -230,10 +230,10 @@ OrbitTrajectory::poseAt (double s) const
 }
 
 Eigen::Isometry3d
-lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target)
+lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up)
 {
   const Eigen::Vector3d forward = (target - eye).normalized ();
-  const Eigen::Vector3d right = forward.cross (Eigen::Vector3d::UnitZ ()).normalized ();
+  const Eigen::Vector3d right = forward.cross (up).normalized ();
   const Eigen::Vector3d down = forward.cross (right);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
   pose.linear ().col (0) = right;

@@ -115,7 +115,7 @@ MeshRasterizer::render (const io::TriangleMesh& mesh, const PinholeCamera& camer
 }
 
 std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
-orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views)
+orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views, const Eigen::Vector3d& up_direction)
 {
   if (views < 1)
     throw ParameterError ("views", "must be at least 1");
@@ -133,16 +133,27 @@ orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views
   const double half_fov = std::min (std::atan (0.5 * camera.width / camera.fx), std::atan (0.5 * camera.height / camera.fy));
   const double distance = radius / std::sin (half_fov) * 1.05;
   const double elevation = 30.0 * M_PI / 180.0;
+  const Eigen::Vector3d up = up_direction.normalized ();
+  // Two directions spanning the plane orthogonal to up.
+  const Eigen::Vector3d a = up.unitOrthogonal ();
+  const Eigen::Vector3d b = up.cross (a);
   std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> poses;
   for (int k = 0; k < views; ++k)
   {
     const double azimuth = 2.0 * M_PI * k / views - M_PI / 2.0;
-    const Eigen::Vector3d eye = centre + distance * Eigen::Vector3d (std::cos (elevation) * std::cos (azimuth),
-                                                                     std::cos (elevation) * std::sin (azimuth), std::sin (elevation));
-    const Eigen::Isometry3d pose = io::lookAt (eye, centre);
-    poses.push_back (pose);
+    const Eigen::Vector3d eye =
+      centre + distance * (std::cos (elevation) * (std::cos (azimuth) * a + std::sin (azimuth) * b) + std::sin (elevation) * up);
+    poses.push_back (io::lookAt (eye, centre, up));
   }
   return poses;
+}
+Eigen::Vector3d
+upFromCameras (const std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>& poses)
+{
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero ();
+  for (const Eigen::Isometry3d& pose : poses)
+    sum -= pose.linear ().col (1);
+  return sum.norm () > 1e-6 ? Eigen::Vector3d (sum.normalized ()) : Eigen::Vector3d::UnitZ ();
 }
 }  // namespace visualization
 }  // namespace cuefusion
