@@ -159,54 +159,62 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
   const std::vector<std::int32_t>& ids = volume.lastIntegratedBlocks ();
   std::atomic<std::size_t> writes (0);
   const auto max_confidence = static_cast<std::uint8_t> (config.max_confidence);
-  parallelFor (ids.size (), [&] (std::size_t k) {
-    const std::size_t id = static_cast<std::size_t> (ids[k]);
-    auto& voxels = volume.voxels (id);
-    const Eigen::Vector3i base = volume.blocks ()[id]->index * reconstruction::kBlockSide;
+  // Positions are stepped through each block in the camera frame, as integration does.
+  const float voxel_size = static_cast<float> (volume.config ().voxel_size);
+  const Eigen::Matrix3f R = world_to_camera.linear ();
+  const Eigen::Vector3f dx = R.col (0) * voxel_size, dy = R.col (1) * voxel_size, dz = R.col (2) * voxel_size;
+  const float fx = static_cast<float> (camera.fx), fy = static_cast<float> (camera.fy);
+  const float cx = static_cast<float> (camera.cx), cy = static_cast<float> (camera.cy);
+  const float max_gap = config.band * truncation;
+  parallelForChunks (static_cast<int> (ids.size ()), 16, [&] (int, int begin, int end) {
     std::size_t local_writes = 0;
-    for (int z = 0; z < reconstruction::kBlockSide; ++z)
-      for (int y = 0; y < reconstruction::kBlockSide; ++y)
-        for (int x = 0; x < reconstruction::kBlockSide; ++x)
+    for (int k = begin; k < end; ++k)
+    {
+      const std::size_t id = static_cast<std::size_t> (ids[static_cast<std::size_t> (k)]);
+      auto& voxels = volume.voxels (id);
+      const Eigen::Vector3f origin = world_to_camera * volume.voxelPosition (volume.blocks ()[id]->index * reconstruction::kBlockSide);
+      for (int z = 0; z < reconstruction::kBlockSide; ++z)
+        for (int y = 0; y < reconstruction::kBlockSide; ++y)
         {
-          reconstruction::TsdfVoxel& voxel = voxels[static_cast<std::size_t> (reconstruction::localVoxelIndex (x, y, z))];
-          if (voxel.weight <= 0.f || !(std::abs (voxel.sdf) < config.band))
-            continue;
-          const Eigen::Vector3f p = world_to_camera * volume.voxelPosition (base + Eigen::Vector3i (x, y, z));
-          if (p.z () <= 0.f)
-            continue;
-          const float u = static_cast<float> (camera.fx * p.x () / p.z () + camera.cx);
-          const float v = static_cast<float> (camera.fy * p.y () / p.z () + camera.cy);
-          const int px = static_cast<int> (std::floor (u + 0.5f)), py = static_cast<int> (std::floor (v + 0.5f));
-          if (px < 0 || py < 0 || px >= labels.cols || py >= labels.rows)
-            continue;
-          const std::int32_t observed = labels.at<std::int32_t> (py, px);
-          const float measured = depth.at<float> (py, px);
-          if (observed <= 0 || !(std::abs (p.z () - measured) < config.band * truncation))
-            continue;  // unlabelled, or the pixel sees another surface (occlusion)
-          const std::uint32_t label = static_cast<std::uint32_t> (observed);
-          if (voxel.label == 0)
+          Eigen::Vector3f p = origin + dy * static_cast<float> (y) + dz * static_cast<float> (z);
+          reconstruction::TsdfVoxel* voxel = &voxels[static_cast<std::size_t> (reconstruction::localVoxelIndex (0, y, z))];
+          for (int x = 0; x < reconstruction::kBlockSide; ++x, p += dx, ++voxel)
           {
-            voxel.label = label;
-            voxel.label_confidence = 0;
-            ++local_writes;
-          }
-          else if (map.resolve (voxel.label) == map.resolve (label))
-          {
-            if (voxel.label_confidence < max_confidence)
+            if (voxel->weight <= 0.f || !(std::abs (voxel->sdf) < config.band) || p.z () <= 0.f)
+              continue;
+            const float inv_z = 1.f / p.z ();
+            const int px = fastFloor (fx * p.x () * inv_z + cx + 0.5f), py = fastFloor (fy * p.y () * inv_z + cy + 0.5f);
+            if (px < 0 || py < 0 || px >= labels.cols || py >= labels.rows)
+              continue;
+            const std::int32_t observed = labels.at<std::int32_t> (py, px);
+            if (observed <= 0 || !(std::abs (p.z () - depth.at<float> (py, px)) < max_gap))
+              continue;  // unlabelled, or the pixel sees another surface (occlusion)
+            const std::uint32_t label = static_cast<std::uint32_t> (observed);
+            if (voxel->label == 0)
             {
-              ++voxel.label_confidence;
+              voxel->label = label;
+              voxel->label_confidence = 0;
+              ++local_writes;
+            }
+            else if (map.resolve (voxel->label) == map.resolve (label))
+            {
+              if (voxel->label_confidence < max_confidence)
+              {
+                ++voxel->label_confidence;
+                ++local_writes;
+              }
+            }
+            else
+            {
+              if (voxel->label_confidence > 0)
+                --voxel->label_confidence;
+              if (voxel->label_confidence == 0)
+                voxel->label = label;
               ++local_writes;
             }
           }
-          else
-          {
-            if (voxel.label_confidence > 0)
-              --voxel.label_confidence;
-            if (voxel.label_confidence == 0)
-              voxel.label = label;
-            ++local_writes;
-          }
         }
+    }
     writes += local_writes;
   });
   return writes.load ();
