@@ -25,9 +25,10 @@ AsynchronousSegmenter::~AsynchronousSegmenter ()
 bool
 AsynchronousSegmenter::segment (const RGBDFrame& frame, std::vector<Instance>& instances)
 {
-  // Copy outside the lock: the frame's images are shared with the caller's frame, the
-  // worker only reads them.
-  auto copy = std::make_shared<const RGBDFrame> (frame);
+  // A copy with its own colour image (what networks read): a live grabber may reuse its
+  // buffers once the frame is handed on. Made outside the lock.
+  auto copy = std::make_shared<RGBDFrame> (frame);
+  copy->color = frame.color.clone ();
   std::unique_lock<std::mutex> lock (mutex_);
   if (error_)
   {
