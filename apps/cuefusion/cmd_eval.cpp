@@ -93,7 +93,7 @@ loadRun (const std::string& spec, bool need_mesh)
   const fs::path segments = dir / "segments.json";
   try
   {
-    run.segments = nlohmann::json::parse (io::readTextFile (segments.string ())).at ("segments");
+    run.segments = io::readJsonFile (segments.string ()).at ("segments");
   }
   catch (const nlohmann::json::exception& e)
   {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 
 #include <functional>
@@ -51,6 +52,11 @@ writeTextAtomic (const std::string& path, const std::string& text);
 /** \brief Whole file as a string; throws cuefusion::Error naming it when it cannot be read. */
 std::string
 readTextFile (const std::string& path);
+
+/** \brief A JSON file, parsed; throws cuefusion::Error naming it ("not valid JSON (…)")
+  * when it cannot be read or parsed. */
+nlohmann::json
+readJsonFile (const std::string& path);
 
 /** \brief Whitespace-separated numbers of a text file; throws on any non-numeric token. */
 std::vector<double>

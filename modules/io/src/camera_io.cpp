@@ -18,15 +18,7 @@ namespace
 PinholeCamera
 readIntrinsicsJson (const std::string& path)
 {
-  nlohmann::json j;
-  try
-  {
-    j = nlohmann::json::parse (readTextFile (path));
-  }
-  catch (const nlohmann::json::exception& e)
-  {
-    throw Error (path, std::string ("not valid JSON (") + e.what () + ")");
-  }
+  nlohmann::json j = readJsonFile (path);
   if (!j.is_object () || !j.contains ("intrinsic_matrix") || !j["intrinsic_matrix"].is_array () ||
       j["intrinsic_matrix"].size () != 9)
     throw Error (path, "expected an object with \"intrinsic_matrix\" of 9 numbers (Open3D layout)");

@@ -1,6 +1,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include <boost/filesystem.hpp>
@@ -187,6 +188,20 @@ readTextFile (const std::string& path)
 {
   const std::vector<uchar> bytes = readBytes (path);
   return std::string (bytes.begin (), bytes.end ());
+}
+
+nlohmann::json
+readJsonFile (const std::string& path)
+{
+  const std::string text = readTextFile (path);
+  try
+  {
+    return nlohmann::json::parse (text);
+  }
+  catch (const nlohmann::json::exception& e)
+  {
+    throw Error (path, std::string ("not valid JSON (") + e.what () + ")");
+  }
 }
 
 std::vector<double>

@@ -16,19 +16,6 @@ namespace io
 {
 namespace
 {
-nlohmann::json
-readJson (const std::string& path)
-{
-  try
-  {
-    return nlohmann::json::parse (readTextFile (path));
-  }
-  catch (const nlohmann::json::exception& e)
-  {
-    throw Error (path, std::string ("not valid JSON: ") + e.what ());
-  }
-}
-
 bool
 endsWith (const std::string& s, const std::string& suffix)
 {
@@ -49,7 +36,7 @@ readScanNetGroundTruth (const ScanNetGroundTruthFiles& files, const std::set<std
   std::vector<long long> seg_indices;
   try
   {
-    const nlohmann::json segs = readJson (files.segments);
+    const nlohmann::json segs = readJsonFile (files.segments);
     seg_indices = segs.at ("segIndices").get<std::vector<long long>> ();
   }
   catch (const nlohmann::json::exception& e)
@@ -65,7 +52,7 @@ readScanNetGroundTruth (const ScanNetGroundTruthFiles& files, const std::set<std
   std::map<long long, std::uint32_t> segment_instance;
   try
   {
-    const nlohmann::json aggregation = readJson (files.aggregation);
+    const nlohmann::json aggregation = readJsonFile (files.aggregation);
     for (const nlohmann::json& group : aggregation.at ("segGroups"))
     {
       const long long object = group.contains ("objectId") ? group.at ("objectId").get<long long> () : group.at ("id").get<long long> ();
@@ -126,7 +113,7 @@ syntheticStuffInstances (const std::string& folder)
     return stuff;
   try
   {
-    const nlohmann::json j = readJson (scene.string ());
+    const nlohmann::json j = readJsonFile (scene.string ());
     for (const nlohmann::json& instance : j.at ("instances"))
       if (!instance.value ("detectable", true))
         stuff.insert (instance.at ("id").get<std::uint32_t> ());
@@ -152,15 +139,19 @@ readSyntheticGroundTruth (const std::string& folder)
   {
     try
     {
-      const nlohmann::json j = readJson (scene.string ());
+      const nlohmann::json j = readJsonFile (scene.string ());
       for (const nlohmann::json& instance : j.at ("instances"))
-        gt.class_names[instance.at ("id").get<std::uint32_t> ()] = instance.value ("class_name", std::string ());
+      {
+        const auto id = instance.at ("id").get<std::uint32_t> ();
+        gt.class_names[id] = instance.value ("class_name", std::string ());
+        if (!instance.value ("detectable", true))  // as syntheticStuffInstances, without reading the file again
+          gt.ignored.insert (id);
+      }
     }
     catch (const nlohmann::json::exception& e)
     {
       throw Error (scene.string (), std::string ("malformed scene.json: ") + e.what ());
     }
-    gt.ignored = syntheticStuffInstances (folder);
   }
   return gt;
 }
