@@ -1,3 +1,4 @@
+#include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/parallel.h>
 #include <cuefusion/reconstruction/projective_icp.h>
@@ -7,6 +8,12 @@
 
 #include <array>
 #include <cmath>
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define CUEFUSION_HAVE_AVX2_KERNELS 1
+#define CUEFUSION_AVX2 __attribute__ ((target ("avx2,fma")))
+#endif
 
 
 namespace cuefusion
@@ -62,6 +69,138 @@ accumulate (RowAccumulator& acc, const Eigen::Matrix<float, 6, 1>& J, float r)
   acc[28] += 1.f;
 }
 
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+/** \brief AoS xyz of eight consecutive pixels starting at \a p (24 floats). */
+CUEFUSION_AVX2 inline void
+loadXyz8 (const float* p, __m256& x, __m256& y, __m256& z)
+{
+  const __m256i stride3 = _mm256_setr_epi32 (0, 3, 6, 9, 12, 15, 18, 21);
+  x = _mm256_i32gather_ps (p, stride3, 4);
+  y = _mm256_i32gather_ps (p + 1, stride3, 4);
+  z = _mm256_i32gather_ps (p + 2, stride3, 4);
+}
+
+/** \brief pointToPlaneTerm + accumulate for the pixels [0, 8·⌊cols/8⌋) of row \a y, eight
+  * at a time with AVX2; returns the first pixel left for the scalar loop. Per lane the
+  * same tests and the same terms as the scalar code (projection in float instead of
+  * PinholeCamera's double, so a point on a pixel border may associate with the
+  * neighbour); rejected lanes add exact zeros. Measured on icl-livingroom1: tracking
+  * 9 → 5.5 ms per frame (2 cores).
+  */
+CUEFUSION_AVX2 int
+accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y, const Eigen::Matrix3f& R,
+                   const Eigen::Vector3f& t, float max_distance_sq, float min_cos, RowAccumulator& row)
+{
+  const int cols = source.vertices.cols;
+  const int end = cols - cols % 8;
+  if (end == 0)
+    return 0;
+  const float* src_v = source.vertices.ptr<float> (y);
+  const float* src_n = source.normals.ptr<float> (y);
+  const float* tgt_v = target.vertices.ptr<float> ();
+  const float* tgt_n = target.normals.ptr<float> ();
+  const __m256i target_step = _mm256_set1_epi32 (static_cast<int> (target.vertices.step1 ()));
+  const __m256i normal_step = _mm256_set1_epi32 (static_cast<int> (target.normals.step1 ()));
+  const __m256i three = _mm256_set1_epi32 (3);
+  __m256 r00 = _mm256_set1_ps (R (0, 0)), r01 = _mm256_set1_ps (R (0, 1)), r02 = _mm256_set1_ps (R (0, 2));
+  __m256 r10 = _mm256_set1_ps (R (1, 0)), r11 = _mm256_set1_ps (R (1, 1)), r12 = _mm256_set1_ps (R (1, 2));
+  __m256 r20 = _mm256_set1_ps (R (2, 0)), r21 = _mm256_set1_ps (R (2, 1)), r22 = _mm256_set1_ps (R (2, 2));
+  const __m256 tx = _mm256_set1_ps (t.x ()), ty = _mm256_set1_ps (t.y ()), tz = _mm256_set1_ps (t.z ());
+  const __m256 fx = _mm256_set1_ps (static_cast<float> (target.camera.fx));
+  const __m256 fy = _mm256_set1_ps (static_cast<float> (target.camera.fy));
+  const __m256 cx = _mm256_set1_ps (static_cast<float> (target.camera.cx));
+  const __m256 cy = _mm256_set1_ps (static_cast<float> (target.camera.cy));
+  const __m256 width = _mm256_set1_ps (static_cast<float> (target.camera.width));
+  const __m256 height = _mm256_set1_ps (static_cast<float> (target.camera.height));
+  const __m256 minus_one = _mm256_set1_ps (-1.f), zero = _mm256_setzero_ps (), half = _mm256_set1_ps (0.5f);
+  const __m256 max_sq = _mm256_set1_ps (max_distance_sq), cos_limit = _mm256_set1_ps (min_cos);
+  const __m256i width_i = _mm256_set1_epi32 (target.camera.width), height_i = _mm256_set1_epi32 (target.camera.height);
+  const __m256i minus_one_i = _mm256_set1_epi32 (-1);
+
+  __m256 acc[28];
+  for (__m256& a : acc)
+    a = zero;
+  int source_points = 0;
+  for (int x = 0; x < end; x += 8)
+  {
+    __m256 px, py, pz, nx, ny, nz;
+    loadXyz8 (src_v + 3 * x, px, py, pz);
+    loadXyz8 (src_n + 3 * x, nx, ny, nz);
+    const __m256 valid_source = _mm256_and_ps (_mm256_cmp_ps (px, px, _CMP_ORD_Q), _mm256_cmp_ps (nx, nx, _CMP_ORD_Q));
+    const int source_mask = _mm256_movemask_ps (valid_source);
+    if (source_mask == 0)
+      continue;
+    source_points += __builtin_popcount (static_cast<unsigned> (source_mask));
+    // p' = R p + t, R n
+    const __m256 qx = _mm256_fmadd_ps (r00, px, _mm256_fmadd_ps (r01, py, _mm256_fmadd_ps (r02, pz, tx)));
+    const __m256 qy = _mm256_fmadd_ps (r10, px, _mm256_fmadd_ps (r11, py, _mm256_fmadd_ps (r12, pz, ty)));
+    const __m256 qz = _mm256_fmadd_ps (r20, px, _mm256_fmadd_ps (r21, py, _mm256_fmadd_ps (r22, pz, tz)));
+    const __m256 mx = _mm256_fmadd_ps (r00, nx, _mm256_fmadd_ps (r01, ny, _mm256_mul_ps (r02, nz)));
+    const __m256 my = _mm256_fmadd_ps (r10, nx, _mm256_fmadd_ps (r11, ny, _mm256_mul_ps (r12, nz)));
+    const __m256 mz = _mm256_fmadd_ps (r20, nx, _mm256_fmadd_ps (r21, ny, _mm256_mul_ps (r22, nz)));
+    // Projective association: nearest pixel of p' in the target.
+    const __m256 uf = _mm256_add_ps (_mm256_div_ps (_mm256_mul_ps (fx, qx), qz), cx);
+    const __m256 vf = _mm256_add_ps (_mm256_div_ps (_mm256_mul_ps (fy, qy), qz), cy);
+    __m256 ok = _mm256_and_ps (valid_source, _mm256_cmp_ps (qz, zero, _CMP_GT_OQ));
+    ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_cmp_ps (uf, minus_one, _CMP_GT_OQ), _mm256_cmp_ps (vf, minus_one, _CMP_GT_OQ)));
+    ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_cmp_ps (uf, width, _CMP_LT_OQ), _mm256_cmp_ps (vf, height, _CMP_LT_OQ)));
+    // Lanes already rejected convert garbage; they are masked out of the gathers below.
+    const __m256i u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (_mm256_and_ps (uf, ok), half)));
+    const __m256i v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (_mm256_and_ps (vf, ok), half)));
+    const __m256i inside = _mm256_and_si256 (
+        _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one_i), _mm256_cmpgt_epi32 (width_i, u)),
+        _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one_i), _mm256_cmpgt_epi32 (height_i, v)));
+    ok = _mm256_and_ps (ok, _mm256_castsi256_ps (inside));
+    if (_mm256_movemask_ps (ok) == 0)
+      continue;
+    const __m256i u3 = _mm256_mullo_epi32 (u, three);
+    const __m256i vi = _mm256_add_epi32 (_mm256_mullo_epi32 (v, target_step), u3);
+    const __m256i ni = _mm256_add_epi32 (_mm256_mullo_epi32 (v, normal_step), u3);
+    const __m256 gx = _mm256_mask_i32gather_ps (zero, tgt_v, vi, ok, 4);
+    const __m256 gy = _mm256_mask_i32gather_ps (zero, tgt_v + 1, vi, ok, 4);
+    const __m256 gz = _mm256_mask_i32gather_ps (zero, tgt_v + 2, vi, ok, 4);
+    const __m256 hx = _mm256_mask_i32gather_ps (zero, tgt_n, ni, ok, 4);
+    const __m256 hy = _mm256_mask_i32gather_ps (zero, tgt_n + 1, ni, ok, 4);
+    const __m256 hz = _mm256_mask_i32gather_ps (zero, tgt_n + 2, ni, ok, 4);
+    ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_cmp_ps (gx, gx, _CMP_ORD_Q), _mm256_cmp_ps (hx, hx, _CMP_ORD_Q)));
+    const __m256 dx = _mm256_sub_ps (qx, gx), dy = _mm256_sub_ps (qy, gy), dz = _mm256_sub_ps (qz, gz);
+    const __m256 dist_sq = _mm256_fmadd_ps (dx, dx, _mm256_fmadd_ps (dy, dy, _mm256_mul_ps (dz, dz)));
+    const __m256 cos_angle = _mm256_fmadd_ps (mx, hx, _mm256_fmadd_ps (my, hy, _mm256_mul_ps (mz, hz)));
+    ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_cmp_ps (dist_sq, max_sq, _CMP_LE_OQ),
+                                           _mm256_cmp_ps (cos_angle, cos_limit, _CMP_GE_OQ)));
+    if (_mm256_movemask_ps (ok) == 0)
+      continue;
+    // Rejected lanes are set to exact zeros (masking, not multiplying: they may hold NaN),
+    // so they add nothing.
+    const __m256 n0 = _mm256_and_ps (hx, ok), n1 = _mm256_and_ps (hy, ok), n2 = _mm256_and_ps (hz, ok);
+    const __m256 res = _mm256_and_ps (_mm256_fmadd_ps (n0, dx, _mm256_fmadd_ps (n1, dy, _mm256_mul_ps (n2, dz))), ok);
+    __m256 J[6];
+    J[0] = _mm256_and_ps (_mm256_fmsub_ps (qy, n2, _mm256_mul_ps (qz, n1)), ok);
+    J[1] = _mm256_and_ps (_mm256_fmsub_ps (qz, n0, _mm256_mul_ps (qx, n2)), ok);
+    J[2] = _mm256_and_ps (_mm256_fmsub_ps (qx, n1, _mm256_mul_ps (qy, n0)), ok);
+    J[3] = n0;
+    J[4] = n1;
+    J[5] = n2;
+    int k = 0;
+    for (int i = 0; i < 6; ++i)
+      for (int j = i; j < 6; ++j, ++k)
+        acc[k] = _mm256_fmadd_ps (J[i], J[j], acc[k]);
+    for (int i = 0; i < 6; ++i)
+      acc[21 + i] = _mm256_fmadd_ps (J[i], res, acc[21 + i]);
+    acc[27] = _mm256_fmadd_ps (res, res, acc[27]);
+    row[28] += static_cast<float> (__builtin_popcount (static_cast<unsigned> (_mm256_movemask_ps (ok))));
+  }
+  alignas (32) float lanes[8];
+  for (int k = 0; k < 28; ++k)
+  {
+    _mm256_store_ps (lanes, acc[k]);
+    row[static_cast<std::size_t> (k)] += ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]));
+  }
+  row[29] += static_cast<float> (source_points);
+  return end;
+}
+#endif
+
 /** \brief One association + accumulation pass over a level. */
 Accumulator
 buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen::Isometry3f& T, float max_distance,
@@ -70,6 +209,7 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
   const Eigen::Matrix3f R = T.linear ();
   const Eigen::Vector3f t = T.translation ();
   const float max_distance_sq = max_distance * max_distance;
+  const bool use_avx2 = vectorKernelsEnabled ();
   // Partial sums per fixed chunk of rows, added in chunk order: the same total on every run.
   constexpr int kRowsPerChunk = 8;
   std::vector<Accumulator> partial (static_cast<std::size_t> (chunkCount (source.vertices.rows, kRowsPerChunk)), Accumulator{});
@@ -78,7 +218,12 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
     for (int y = begin; y < end; ++y)
     {
       RowAccumulator row{};
-      for (int x = 0; x < source.vertices.cols; ++x)
+      int x = 0;
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+      if (use_avx2)
+        x = accumulateRowAvx2 (source, target, y, R, t, max_distance_sq, min_cos, row);
+#endif
+      for (; x < source.vertices.cols; ++x)
       {
         const Eigen::Vector3f& p = vertexAt (source.vertices, x, y);
         const Eigen::Vector3f& n = vertexAt (source.normals, x, y);

@@ -1,5 +1,7 @@
+#include "integration.h"
 #include "voxel_access.h"
 
+#include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/parallel.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
@@ -44,67 +46,6 @@ inline float
 usableDepth (float z, float min_depth, float max_depth)
 {
   return (z >= min_depth && z <= max_depth) ? z : 0.f;  // NaN fails both comparisons
-}
-
-/** \brief Depth seen along the voxel's own ray: bilinear between the four pixels around
-  * (uf, vf) when all are valid and on one surface (within 2 % of each other), else the
-  * nearest pixel (u, v). Looking up only the nearest pixel leaves a staircase of up to
-  * half a pixel's depth slope in the distances, which on slanted surfaces far away is
-  * several millimetres.
-  */
-inline float
-interpolatedDepth (const cv::Mat& depth, float uf, float vf, int u, int v, float min_depth, float max_depth)
-{
-  const float nearest = usableDepth (depth.at<float> (v, u), min_depth, max_depth);
-  const int u0 = fastFloor (uf), v0 = fastFloor (vf);
-  if (nearest == 0.f || u0 < 0 || v0 < 0 || u0 + 1 >= depth.cols || v0 + 1 >= depth.rows)
-    return nearest;
-  const float* r0 = depth.ptr<float> (v0);
-  const float* r1 = depth.ptr<float> (v0 + 1);
-  const float d00 = r0[u0], d01 = r0[u0 + 1], d10 = r1[u0], d11 = r1[u0 + 1];
-  const float lo = std::min (std::min (d00, d01), std::min (d10, d11));
-  const float hi = std::max (std::max (d00, d01), std::max (d10, d11));
-  if (!(lo >= min_depth && hi <= max_depth && hi - lo <= 0.02f * lo))  // NaN fails too
-    return nearest;
-  const float a = uf - static_cast<float> (u0), b = vf - static_cast<float> (v0);
-  return (d00 * (1.f - a) + d01 * a) * (1.f - b) + (d10 * (1.f - a) + d11 * a) * b;
-}
-
-/** \brief Integrates one block: every voxel projected into the depth map (§4.1.4). */
-inline void
-integrateBlock (VoxelBlock& block, const cv::Mat& depth, const cv::Mat& color, const PinholeCamera& camera,
-                const Eigen::Matrix3f& R_cw, const Eigen::Vector3f& t_cw, float voxel_size, float truncation,
-                float min_depth, float max_depth, float max_weight)
-{
-  const Eigen::Vector3f origin = R_cw * (block.index.cast<float> () * (kBlockSide * voxel_size)) + t_cw;
-  const Eigen::Vector3f dx = R_cw.col (0) * voxel_size;
-  const Eigen::Vector3f dy = R_cw.col (1) * voxel_size;
-  const Eigen::Vector3f dz = R_cw.col (2) * voxel_size;
-  const float fx = static_cast<float> (camera.fx), fy = static_cast<float> (camera.fy);
-  const float cx = static_cast<float> (camera.cx), cy = static_cast<float> (camera.cy);
-  const bool has_color = !color.empty ();
-  for (int z = 0; z < kBlockSide; ++z)
-    for (int y = 0; y < kBlockSide; ++y)
-    {
-      Eigen::Vector3f p = origin + dy * static_cast<float> (y) + dz * static_cast<float> (z);
-      TsdfVoxel* voxel = &block.voxels[static_cast<std::size_t> (localVoxelIndex (0, y, z))];
-      for (int x = 0; x < kBlockSide; ++x, p += dx, ++voxel)
-      {
-        if (p.z () <= 0.f)
-          continue;
-        const float inv_z = 1.f / p.z ();
-        const float uf = fx * p.x () * inv_z + cx, vf = fy * p.y () * inv_z + cy;
-        const int u = fastFloor (uf + 0.5f), v = fastFloor (vf + 0.5f);
-        if (u < 0 || v < 0 || u >= camera.width || v >= camera.height)
-          continue;
-        const float d = interpolatedDepth (depth, uf, vf, u, v, min_depth, max_depth);
-        float tsdf;
-        if (d == 0.f || !projectiveTsdf (d, p.z (), truncation, tsdf))
-          continue;
-        updateVoxel (*voxel, tsdf, has_color ? color.ptr<std::uint8_t> (v) + 3 * u : nullptr, max_weight);
-        block.distances[static_cast<std::size_t> (voxel - block.voxels.data ())] = encodeDistance (*voxel);
-      }
-    }
 }
 
 /** \brief Conservative depth range of a block seen from a camera, per 8×8 pixel tile. */
@@ -535,16 +476,32 @@ TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const Pinhole
   allocateBlocks (depth, camera, pose);
 
   const Eigen::Isometry3f world_to_camera = pose.inverse ().cast<float> ();
-  const Eigen::Matrix3f R_cw = world_to_camera.linear ();
-  const Eigen::Vector3f t_cw = world_to_camera.translation ();
-  const float voxel_size = static_cast<float> (config_.voxel_size);
-  const float truncation = static_cast<float> (config_.truncation ());
-  const float min_depth = static_cast<float> (config_.min_depth), max_depth = static_cast<float> (config_.max_depth);
+  detail::IntegrationFrame frame;
+  frame.depth = depth.ptr<float> ();
+  frame.depth_step = depth.step1 ();
+  if (!color.empty ())
+  {
+    frame.color = color.ptr<std::uint8_t> ();
+    frame.color_step = color.step[0];
+  }
+  frame.width = camera.width;
+  frame.height = camera.height;
+  frame.fx = static_cast<float> (camera.fx);
+  frame.fy = static_cast<float> (camera.fy);
+  frame.cx = static_cast<float> (camera.cx);
+  frame.cy = static_cast<float> (camera.cy);
+  frame.R_cw = world_to_camera.linear ();
+  frame.t_cw = world_to_camera.translation ();
+  frame.voxel_size = static_cast<float> (config_.voxel_size);
+  frame.truncation = static_cast<float> (config_.truncation ());
+  frame.min_depth = static_cast<float> (config_.min_depth);
+  frame.max_depth = static_cast<float> (config_.max_depth);
+  frame.max_weight = config_.max_weight;
+  const auto kernel = vectorKernelsEnabled () ? &detail::integrateBlockAvx2 : &detail::integrateBlockScalar;
   const int n = static_cast<int> (integrated_blocks_.size ());
   parallelForChunks (n, 16, [&] (int, int begin, int end) {
     for (int i = begin; i < end; ++i)
-      integrateBlock (*blocks_[static_cast<std::size_t> (integrated_blocks_[static_cast<std::size_t> (i)])], depth, color,
-                      camera, R_cw, t_cw, voxel_size, truncation, min_depth, max_depth, config_.max_weight);
+      kernel (*blocks_[static_cast<std::size_t> (integrated_blocks_[static_cast<std::size_t> (i)])], frame);
   });
 }
 

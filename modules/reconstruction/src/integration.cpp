@@ -1,0 +1,278 @@
+#include "integration.h"
+
+#include <algorithm>
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define CUEFUSION_HAVE_AVX2_KERNELS 1
+#endif
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+namespace detail
+{
+namespace
+{
+inline bool
+usable (float z, float min_depth, float max_depth)
+{
+  return z >= min_depth && z <= max_depth;  // NaN fails both comparisons
+}
+
+/** \brief Depth seen along the voxel's own ray: bilinear between the four pixels around
+  * (uf, vf) when all are valid and on one surface (within 2 % of each other), else the
+  * nearest pixel (u, v); 0 when the nearest pixel has no usable depth. Looking up only
+  * the nearest pixel leaves a staircase of up to half a pixel's depth slope in the
+  * distances, which on slanted surfaces far away is several millimetres.
+  */
+inline float
+interpolatedDepth (const IntegrationFrame& f, float uf, float vf, int u, int v)
+{
+  const float nearest = f.depth[static_cast<std::size_t> (v) * f.depth_step + static_cast<std::size_t> (u)];
+  if (!usable (nearest, f.min_depth, f.max_depth))
+    return 0.f;
+  const int u0 = fastFloor (uf), v0 = fastFloor (vf);
+  if (u0 < 0 || v0 < 0 || u0 + 1 >= f.width || v0 + 1 >= f.height)
+    return nearest;
+  const float* r0 = f.depth + static_cast<std::size_t> (v0) * f.depth_step + u0;
+  const float* r1 = r0 + f.depth_step;
+  const float d00 = r0[0], d01 = r0[1], d10 = r1[0], d11 = r1[1];
+  if (!(usable (d00, f.min_depth, f.max_depth) && usable (d01, f.min_depth, f.max_depth) &&
+        usable (d10, f.min_depth, f.max_depth) && usable (d11, f.min_depth, f.max_depth)))
+    return nearest;
+  const float lo = std::min (std::min (d00, d01), std::min (d10, d11));
+  const float hi = std::max (std::max (d00, d01), std::max (d10, d11));
+  if (!(hi - lo <= 0.02f * lo))
+    return nearest;
+  const float a = uf - static_cast<float> (u0), b = vf - static_cast<float> (v0);
+  return (d00 * (1.f - a) + d01 * a) * (1.f - b) + (d10 * (1.f - a) + d11 * a) * b;
+}
+}  // namespace
+
+void
+integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f)
+{
+  const Eigen::Vector3f origin = f.R_cw * (block.index.cast<float> () * (kBlockSide * f.voxel_size)) + f.t_cw;
+  const Eigen::Vector3f dx = f.R_cw.col (0) * f.voxel_size;
+  const Eigen::Vector3f dy = f.R_cw.col (1) * f.voxel_size;
+  const Eigen::Vector3f dz = f.R_cw.col (2) * f.voxel_size;
+  for (int z = 0; z < kBlockSide; ++z)
+    for (int y = 0; y < kBlockSide; ++y)
+    {
+      const Eigen::Vector3f row = origin + dy * static_cast<float> (y) + dz * static_cast<float> (z);
+      const int first = localVoxelIndex (0, y, z);
+      for (int x = 0; x < kBlockSide; ++x)
+      {
+        const Eigen::Vector3f p = row + dx * static_cast<float> (x);
+        if (p.z () <= 0.f)
+          continue;
+        const float inv_z = 1.f / p.z ();
+        const float uf = f.fx * p.x () * inv_z + f.cx, vf = f.fy * p.y () * inv_z + f.cy;
+        const int u = fastFloor (uf + 0.5f), v = fastFloor (vf + 0.5f);
+        if (u < 0 || v < 0 || u >= f.width || v >= f.height)
+          continue;
+        const float d = interpolatedDepth (f, uf, vf, u, v);
+        float tsdf;
+        if (d == 0.f || !projectiveTsdf (d, p.z (), f.truncation, tsdf))
+          continue;
+        const std::size_t i = static_cast<std::size_t> (first + x);
+        updateVoxel (block.voxels[i], tsdf,
+                     f.color != nullptr ? f.color + static_cast<std::size_t> (v) * f.color_step + 3 * u : nullptr,
+                     f.max_weight);
+        block.distances[i] = encodeDistance (block.voxels[i]);
+      }
+    }
+}
+
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+#define CUEFUSION_AVX2 __attribute__ ((target ("avx2,fma")))
+namespace
+{
+CUEFUSION_AVX2 inline __m256
+inRange (__m256 d, __m256 min_depth, __m256 max_depth)
+{
+  return _mm256_and_ps (_mm256_cmp_ps (d, min_depth, _CMP_GE_OQ), _mm256_cmp_ps (d, max_depth, _CMP_LE_OQ));
+}
+
+/** \brief updateVoxel's colour average of one channel (0–255 in 32-bit lanes). */
+CUEFUSION_AVX2 inline __m256i
+averageChannel (__m256i old_channel, const std::int32_t* observed, __m256 w, __m256 w_new)
+{
+  const __m256 old_f = _mm256_cvtepi32_ps (old_channel);
+  const __m256 obs_f = _mm256_cvtepi32_ps (_mm256_load_si256 (reinterpret_cast<const __m256i*> (observed)));
+  const __m256 mean = _mm256_add_ps (_mm256_div_ps (_mm256_add_ps (_mm256_mul_ps (w, old_f), obs_f), w_new),
+                                     _mm256_set1_ps (0.5f));
+  return _mm256_and_si256 (_mm256_cvttps_epi32 (mean), _mm256_set1_epi32 (0xff));
+}
+}  // namespace
+
+// The arithmetic below is the scalar version's, lane by lane: the same divisions (not
+// reciprocals) and the same order of operations, so both paths agree to the last bit for
+// a voxel that lands on the same pixel. Only the voxel positions differ in rounding (row
+// origin + x · dx in one FMA instead of stepping).
+CUEFUSION_AVX2 void
+integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
+{
+  const Eigen::Vector3f origin = f.R_cw * (block.index.cast<float> () * (kBlockSide * f.voxel_size)) + f.t_cw;
+  const Eigen::Vector3f dx = f.R_cw.col (0) * f.voxel_size;
+  const Eigen::Vector3f dy = f.R_cw.col (1) * f.voxel_size;
+  const Eigen::Vector3f dz = f.R_cw.col (2) * f.voxel_size;
+
+  const __m256 lane = _mm256_setr_ps (0.f, 1.f, 2.f, 3.f, 4.f, 5.f, 6.f, 7.f);
+  const __m256 zero = _mm256_setzero_ps (), one = _mm256_set1_ps (1.f), half = _mm256_set1_ps (0.5f);
+  const __m256 fx = _mm256_set1_ps (f.fx), fy = _mm256_set1_ps (f.fy);
+  const __m256 cx = _mm256_set1_ps (f.cx), cy = _mm256_set1_ps (f.cy);
+  const __m256 min_depth = _mm256_set1_ps (f.min_depth), max_depth = _mm256_set1_ps (f.max_depth);
+  const __m256 truncation = _mm256_set1_ps (f.truncation), neg_truncation = _mm256_set1_ps (-f.truncation);
+  const __m256 max_weight = _mm256_set1_ps (f.max_weight);
+  const __m256 same_surface = _mm256_set1_ps (0.02f);
+  const __m256i width = _mm256_set1_epi32 (f.width), height = _mm256_set1_epi32 (f.height);
+  const __m256i width_m1 = _mm256_set1_epi32 (f.width - 1), height_m1 = _mm256_set1_epi32 (f.height - 1);
+  const __m256i minus_one = _mm256_set1_epi32 (-1);
+  const __m256i depth_step = _mm256_set1_epi32 (static_cast<int> (f.depth_step));
+  const __m256i voxel_floats = _mm256_setr_epi32 (0, 4, 8, 12, 16, 20, 24, 28);  // 16-byte voxels
+  static_assert (sizeof (TsdfVoxel) == 16 && offsetof (TsdfVoxel, weight) == 4 && offsetof (TsdfVoxel, r) == 8,
+                 "the gathers below assume TsdfVoxel's layout");
+  const __m256 lx = _mm256_mul_ps (lane, _mm256_set1_ps (dx.x ()));
+  const __m256 ly = _mm256_mul_ps (lane, _mm256_set1_ps (dx.y ()));
+  const __m256 lz = _mm256_mul_ps (lane, _mm256_set1_ps (dx.z ()));
+
+  alignas (32) float new_sdf[8], new_weight[8];
+  alignas (32) std::int32_t new_rgb[8], new_distance[8], pixel_u[8], pixel_v[8];
+  alignas (32) std::int32_t obs_r[8], obs_g[8], obs_b[8];
+
+  for (int z = 0; z < kBlockSide; ++z)
+    for (int y = 0; y < kBlockSide; ++y)
+    {
+      const Eigen::Vector3f row = origin + dy * static_cast<float> (y) + dz * static_cast<float> (z);
+      const __m256 px = _mm256_add_ps (_mm256_set1_ps (row.x ()), lx);
+      const __m256 py = _mm256_add_ps (_mm256_set1_ps (row.y ()), ly);
+      const __m256 pz = _mm256_add_ps (_mm256_set1_ps (row.z ()), lz);
+      const __m256 in_front = _mm256_cmp_ps (pz, zero, _CMP_GT_OQ);
+      if (_mm256_movemask_ps (in_front) == 0)
+        continue;
+      const __m256 inv_z = _mm256_div_ps (one, pz);
+      const __m256 uf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (fx, px), inv_z), cx);
+      const __m256 vf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (fy, py), inv_z), cy);
+      // Out-of-range floats convert to INT_MIN and fail the bounds test.
+      const __m256i u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (uf, half)));
+      const __m256i v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (vf, half)));
+      const __m256i inside = _mm256_and_si256 (
+          _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one), _mm256_cmpgt_epi32 (width, u)),
+          _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one), _mm256_cmpgt_epi32 (height, v)));
+      const __m256 seen = _mm256_and_ps (in_front, _mm256_castsi256_ps (inside));
+      if (_mm256_movemask_ps (seen) == 0)
+        continue;
+      const __m256i index = _mm256_add_epi32 (_mm256_mullo_epi32 (v, depth_step), u);
+      const __m256 nearest = _mm256_mask_i32gather_ps (zero, f.depth, index, seen, 4);
+      const __m256 nearest_ok = _mm256_and_ps (
+          seen, _mm256_and_ps (_mm256_cmp_ps (nearest, min_depth, _CMP_GE_OQ), _mm256_cmp_ps (nearest, max_depth, _CMP_LE_OQ)));
+      if (_mm256_movemask_ps (nearest_ok) == 0)
+        continue;
+
+      // Bilinear depth where the four pixels around the projection are usable and close.
+      const __m256 uf0 = _mm256_floor_ps (uf), vf0 = _mm256_floor_ps (vf);
+      const __m256i u0 = _mm256_cvttps_epi32 (uf0), v0 = _mm256_cvttps_epi32 (vf0);
+      const __m256i corners_inside = _mm256_and_si256 (
+          _mm256_and_si256 (_mm256_cmpgt_epi32 (u0, minus_one), _mm256_cmpgt_epi32 (width_m1, u0)),
+          _mm256_and_si256 (_mm256_cmpgt_epi32 (v0, minus_one), _mm256_cmpgt_epi32 (height_m1, v0)));
+      __m256 bilinear_ok = _mm256_and_ps (nearest_ok, _mm256_castsi256_ps (corners_inside));
+      __m256 depth = nearest;
+      if (_mm256_movemask_ps (bilinear_ok) != 0)
+      {
+        const __m256i i00 = _mm256_add_epi32 (_mm256_mullo_epi32 (v0, depth_step), u0);
+        const __m256i i10 = _mm256_add_epi32 (i00, depth_step);
+        const __m256i one_i = _mm256_set1_epi32 (1);
+        const __m256 d00 = _mm256_mask_i32gather_ps (zero, f.depth, i00, bilinear_ok, 4);
+        const __m256 d01 = _mm256_mask_i32gather_ps (zero, f.depth, _mm256_add_epi32 (i00, one_i), bilinear_ok, 4);
+        const __m256 d10 = _mm256_mask_i32gather_ps (zero, f.depth, i10, bilinear_ok, 4);
+        const __m256 d11 = _mm256_mask_i32gather_ps (zero, f.depth, _mm256_add_epi32 (i10, one_i), bilinear_ok, 4);
+        const __m256 lo = _mm256_min_ps (_mm256_min_ps (d00, d01), _mm256_min_ps (d10, d11));
+        const __m256 hi = _mm256_max_ps (_mm256_max_ps (d00, d01), _mm256_max_ps (d10, d11));
+        bilinear_ok = _mm256_and_ps (
+            _mm256_and_ps (bilinear_ok, _mm256_and_ps (_mm256_and_ps (inRange (d00, min_depth, max_depth), inRange (d01, min_depth, max_depth)),
+                                                       _mm256_and_ps (inRange (d10, min_depth, max_depth), inRange (d11, min_depth, max_depth)))),
+            _mm256_cmp_ps (_mm256_sub_ps (hi, lo), _mm256_mul_ps (same_surface, lo), _CMP_LE_OQ));
+        const __m256 a = _mm256_sub_ps (uf, uf0), b = _mm256_sub_ps (vf, vf0);
+        const __m256 na = _mm256_sub_ps (one, a), nb = _mm256_sub_ps (one, b);
+        const __m256 top = _mm256_add_ps (_mm256_mul_ps (d00, na), _mm256_mul_ps (d01, a));
+        const __m256 bottom = _mm256_add_ps (_mm256_mul_ps (d10, na), _mm256_mul_ps (d11, a));
+        const __m256 blended = _mm256_add_ps (_mm256_mul_ps (top, nb), _mm256_mul_ps (bottom, b));
+        depth = _mm256_blendv_ps (nearest, blended, bilinear_ok);
+      }
+
+      const __m256 sdf = _mm256_sub_ps (depth, pz);
+      const __m256 update = _mm256_and_ps (nearest_ok, _mm256_cmp_ps (sdf, neg_truncation, _CMP_GE_OQ));
+      int mask = _mm256_movemask_ps (update);
+      if (mask == 0)
+        continue;
+      const __m256 tsdf = _mm256_min_ps (_mm256_div_ps (sdf, truncation), one);  // min(1, x) as std::min
+
+      TsdfVoxel* voxels = &block.voxels[static_cast<std::size_t> (localVoxelIndex (0, y, z))];
+      const float* voxel_floats_base = reinterpret_cast<const float*> (voxels);
+      const __m256 w = _mm256_mask_i32gather_ps (zero, voxel_floats_base + 1, voxel_floats, update, 4);
+      const __m256 old_sdf = _mm256_mask_i32gather_ps (zero, voxel_floats_base, voxel_floats, update, 4);
+      const __m256 w_new = _mm256_add_ps (w, one);
+      const __m256 sdf_out = _mm256_div_ps (_mm256_add_ps (_mm256_mul_ps (w, old_sdf), tsdf), w_new);
+      _mm256_store_ps (new_sdf, sdf_out);
+      _mm256_store_ps (new_weight, _mm256_min_ps (w_new, max_weight));
+
+      // Distance layer: weight > 0 now, so clamp, scale and round half away from zero.
+      const __m256 s = _mm256_mul_ps (_mm256_max_ps (_mm256_min_ps (sdf_out, one), _mm256_set1_ps (-1.f)),
+                                      _mm256_set1_ps (kDistanceScale));
+      const __m256 rounded = _mm256_blendv_ps (_mm256_sub_ps (s, half), _mm256_add_ps (s, half),
+                                               _mm256_cmp_ps (s, zero, _CMP_GE_OQ));
+      _mm256_store_si256 (reinterpret_cast<__m256i*> (new_distance), _mm256_cvttps_epi32 (rounded));
+
+      const bool has_color = f.color != nullptr;
+      if (has_color)
+      {
+        _mm256_store_si256 (reinterpret_cast<__m256i*> (pixel_u), u);
+        _mm256_store_si256 (reinterpret_cast<__m256i*> (pixel_v), v);
+        for (int m = mask; m != 0; m &= m - 1)
+        {
+          const int i = __builtin_ctz (static_cast<unsigned> (m));
+          const std::uint8_t* bgr = f.color + static_cast<std::size_t> (pixel_v[i]) * f.color_step + 3 * pixel_u[i];
+          obs_b[i] = bgr[0];
+          obs_g[i] = bgr[1];
+          obs_r[i] = bgr[2];
+        }
+        const __m256i word = _mm256_mask_i32gather_epi32 (_mm256_setzero_si256 (), reinterpret_cast<const int*> (voxels) + 2,
+                                                          voxel_floats, _mm256_castps_si256 (update), 4);
+        const __m256i byte = _mm256_set1_epi32 (0xff);
+        const __m256i r = averageChannel (_mm256_and_si256 (word, byte), obs_r, w, w_new);
+        const __m256i g = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 8), byte), obs_g, w, w_new);
+        const __m256i b = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 16), byte), obs_b, w, w_new);
+        _mm256_store_si256 (reinterpret_cast<__m256i*> (new_rgb),
+                            _mm256_or_si256 (_mm256_or_si256 (r, _mm256_slli_epi32 (g, 8)), _mm256_slli_epi32 (b, 16)));
+      }
+
+      std::int16_t* distances = &block.distances[static_cast<std::size_t> (localVoxelIndex (0, y, z))];
+      for (; mask != 0; mask &= mask - 1)
+      {
+        const int i = __builtin_ctz (static_cast<unsigned> (mask));
+        TsdfVoxel& voxel = voxels[i];
+        voxel.sdf = new_sdf[i];
+        voxel.weight = new_weight[i];
+        if (has_color)
+        {
+          voxel.r = static_cast<std::uint8_t> (new_rgb[i]);
+          voxel.g = static_cast<std::uint8_t> (new_rgb[i] >> 8);
+          voxel.b = static_cast<std::uint8_t> (new_rgb[i] >> 16);
+        }
+        distances[i] = static_cast<std::int16_t> (new_distance[i]);
+      }
+    }
+}
+#else
+void
+integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& frame)
+{
+  integrateBlockScalar (block, frame);
+}
+#endif
+}  // namespace detail
+}  // namespace reconstruction
+}  // namespace cuefusion

@@ -1,0 +1,46 @@
+#pragma once
+
+#include <cuefusion/reconstruction/voxel.h>
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <cstdint>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+namespace detail
+{
+/** \brief What integrating one frame into a block needs: the depth (and colour) image as
+  * raw rows, the intrinsics and the world-to-camera motion, and the volume's constants.
+  */
+struct IntegrationFrame
+{
+  const float* depth = nullptr;
+  std::size_t depth_step = 0;  ///< floats per depth row
+  const std::uint8_t* color = nullptr;  ///< BGR rows, or nullptr
+  std::size_t color_step = 0;           ///< bytes per colour row
+  int width = 0, height = 0;
+  float fx = 0.f, fy = 0.f, cx = 0.f, cy = 0.f;
+  Eigen::Matrix3f R_cw = Eigen::Matrix3f::Identity ();
+  Eigen::Vector3f t_cw = Eigen::Vector3f::Zero ();
+  float voxel_size = 0.f, truncation = 0.f, min_depth = 0.f, max_depth = 0.f, max_weight = 1.f;
+};
+
+/** \brief §4.1.4 for every voxel of \a block: projected into the depth map, its truncated
+  * distance (and colour) averaged in. Plain C++.
+  */
+void
+integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& frame);
+
+/** \brief The same, eight voxels (one x-row of the block) at a time with AVX2 + FMA.
+  * Only call when cpuHasAvx2Fma(). Agrees with the scalar version up to rounding of the
+  * voxel positions (a voxel on a pixel border may fall to the other pixel).
+  */
+void
+integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& frame);
+}  // namespace detail
+}  // namespace reconstruction
+}  // namespace cuefusion
