@@ -98,7 +98,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
   report.timings.integrate_ms = clock.lap ();
 
   // The frame just fused tells where the surface is along each ray (see raycast()).
-  volume_.raycast (frame.camera, report.pose, frame.depth, model_);
+  volume_.raycast (frame.camera, report.pose, frame_pyramid_[0].depth, model_);
   buildModelPyramid (model_.vertices, model_.normals, model_.camera, config_.preprocessing.pyramid_levels,
                      static_cast<float> (config_.preprocessing.max_depth_jump), model_pyramid_);
   report.timings.raycast_ms = clock.lap ();
