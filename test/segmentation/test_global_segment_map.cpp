@@ -8,12 +8,14 @@
 #include <cuefusion/segmentation/global_segment_map.h>
 #include <cuefusion/segmentation/segment_propagation.h>
 
+#include <cuefusion/common/cpu_features.h>
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <iostream>
 #include <map>
 #include <set>
+#include <tuple>
 
 using namespace cuefusion;
 using namespace cuefusion::segmentation;
@@ -227,4 +229,40 @@ TEST_F (PropagationFixture, OneNoisyFrameDoesNotFlipVoxelLabelsAndMergesWriteNoV
   volume->raycast (sequence->camera (), pose, model);
   const cv::Mat after = resolveLabels (model.labels, map);
   EXPECT_EQ (majority (after, 5), majority (after, 6));
+}
+
+TEST_F (PropagationFixture, VectorKernelsLabelTheMapAsTheScalarOnes)
+{
+  if (!cpuHasAvx2Fma ())
+    GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
+  // The same ten frames fused twice, once with each kernel set (integration and the label
+  // update); every voxel's resolved label and Ψ are compared.
+  const bool before = vectorKernelsEnabled ();
+  std::map<std::tuple<int, int, int, int>, std::pair<std::uint32_t, int>> labelled[2];
+  for (const bool vector : {false, true})
+  {
+    setVectorKernelsEnabled (vector);
+    SetUp ();
+    map = GlobalSegmentMap ();
+    for (std::size_t i = 0; i < 10; ++i)
+      step (i);
+    for (const auto& block : volume->blocks ())
+      for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
+      {
+        const reconstruction::TsdfVoxel& v = block->voxels[static_cast<std::size_t> (i)];
+        if (v.label != 0)
+          labelled[vector][{block->index.x (), block->index.y (), block->index.z (), i}] = {map.resolve (v.label), v.label_confidence};
+      }
+  }
+  setVectorKernelsEnabled (before);
+  ASSERT_GT (labelled[0].size (), 20000u);
+  std::size_t same = 0;
+  for (const auto& [key, value] : labelled[0])
+  {
+    const auto it = labelled[1].find (key);
+    same += it != labelled[1].end () && it->second == value;
+  }
+  EXPECT_GT (static_cast<double> (same), 0.995 * static_cast<double> (labelled[0].size ()));
+  EXPECT_NEAR (static_cast<double> (labelled[1].size ()), static_cast<double> (labelled[0].size ()),
+               0.005 * static_cast<double> (labelled[0].size ()));
 }

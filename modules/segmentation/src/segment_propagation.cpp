@@ -1,3 +1,4 @@
+#include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 #include <cuefusion/segmentation/edge_operators.h>
@@ -8,10 +9,31 @@
 #include <atomic>
 #include <cmath>
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#endif
+
 namespace cuefusion
 {
 namespace segmentation
 {
+namespace
+{
+/** \brief Adds \a count pixels of overlap with global label \a global to a frame label's
+  * list (a handful of entries: linear search).
+  */
+inline void
+addOverlap (std::vector<std::pair<std::uint32_t, int>>& list, std::uint32_t global, int count)
+{
+  auto it = std::find_if (list.begin (), list.end (),
+                          [global] (const std::pair<std::uint32_t, int>& e) { return e.first == global; });
+  if (it == list.end ())
+    list.emplace_back (global, count);
+  else
+    it->second += count;
+}
+}  // namespace
+
 void
 SegmentPropagationConfig::validate () const
 {
@@ -54,44 +76,56 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
   double max_frame_label = 0.0;
   cv::minMaxLoc (frame_labels, nullptr, &max_frame_label);
   const std::size_t labels = static_cast<std::size_t> (std::max (0.0, max_frame_label)) + 1;
-  std::vector<int> frame_count (labels, 0);
-  std::vector<std::vector<std::pair<std::uint32_t, int>>> by_frame_label (labels);
-  for (int y = 0; y < size.height; ++y)
-  {
-    const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
-    const std::int32_t* li = model_labels.ptr<std::int32_t> (y);
-    const cv::Vec3f* v_row = vertices.ptr<cv::Vec3f> (y);
-    const cv::Vec3f* n_row = normals.ptr<cv::Vec3f> (y);
-    const cv::Vec3f* vm_row = model_vertices.ptr<cv::Vec3f> (y);
-    const cv::Vec3f* nm_row = model_normals.ptr<cv::Vec3f> (y);
-    for (int x = 0; x < size.width; ++x)
+  // Rows in fixed chunks on the pool, each with its own counts, added up in chunk order
+  // (the lists keep first-seen order, so the result does not depend on the thread count).
+  using Overlaps = std::vector<std::vector<std::pair<std::uint32_t, int>>>;
+  constexpr int kRowsPerChunk = 16;
+  const int chunks = chunkCount (size.height, kRowsPerChunk);
+  std::vector<std::vector<int>> chunk_counts (static_cast<std::size_t> (chunks));
+  std::vector<Overlaps> chunk_overlaps (static_cast<std::size_t> (chunks));
+  parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
+    std::vector<int>& counts = chunk_counts[static_cast<std::size_t> (k)];
+    Overlaps& overlaps = chunk_overlaps[static_cast<std::size_t> (k)];
+    counts.assign (labels, 0);
+    overlaps.resize (labels);
+    for (int y = begin; y < end; ++y)
     {
-      if (lj[x] <= 0)
-        continue;
-      ++frame_count[static_cast<std::size_t> (lj[x])];
-      if (li[x] <= 0)
-        continue;
-      const Eigen::Vector3f V (v_row[x][0], v_row[x][1], v_row[x][2]), N (n_row[x][0], n_row[x][1], n_row[x][2]);
-      const Eigen::Vector3f Vm (vm_row[x][0], vm_row[x][1], vm_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
-      if (!isFiniteVector (V) || !isFiniteVector (N) || !isFiniteVector (Vm) || !isFiniteVector (Nm))
-        continue;
-      if (!(N.dot (Nm) > config_.normal_agreement))
-        continue;
-      const float along_ray = std::abs ((V - Vm).dot (V)) / V.norm ();
-      if (!(along_ray < config_.noise_factor * axialNoiseLowerBound (V.z ())) &&
-          !(along_ray < config_.noise_factor * axialNoiseAt (V, N)))
-        continue;
-      const std::uint32_t global = map.resolve (static_cast<std::uint32_t> (li[x]));
-      auto& list = by_frame_label[static_cast<std::size_t> (lj[x])];
-      auto it = std::find_if (list.begin (), list.end (), [global] (const std::pair<std::uint32_t, int>& e) {
-        return e.first == global;
-      });
-      if (it == list.end ())
-        list.emplace_back (global, 1);
-      else
-        ++it->second;
+      const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
+      const std::int32_t* li = model_labels.ptr<std::int32_t> (y);
+      const cv::Vec3f* v_row = vertices.ptr<cv::Vec3f> (y);
+      const cv::Vec3f* n_row = normals.ptr<cv::Vec3f> (y);
+      const cv::Vec3f* vm_row = model_vertices.ptr<cv::Vec3f> (y);
+      const cv::Vec3f* nm_row = model_normals.ptr<cv::Vec3f> (y);
+      for (int x = 0; x < size.width; ++x)
+      {
+        if (lj[x] <= 0)
+          continue;
+        ++counts[static_cast<std::size_t> (lj[x])];
+        if (li[x] <= 0)
+          continue;
+        const Eigen::Vector3f V (v_row[x][0], v_row[x][1], v_row[x][2]), N (n_row[x][0], n_row[x][1], n_row[x][2]);
+        const Eigen::Vector3f Vm (vm_row[x][0], vm_row[x][1], vm_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
+        if (!isFiniteVector (V) || !isFiniteVector (N) || !isFiniteVector (Vm) || !isFiniteVector (Nm))
+          continue;
+        if (!(N.dot (Nm) > config_.normal_agreement))
+          continue;
+        const float along_ray = std::abs ((V - Vm).dot (V)) / V.norm ();
+        if (!(along_ray < config_.noise_factor * axialNoiseLowerBound (V.z ())) &&
+            !(along_ray < config_.noise_factor * axialNoiseAt (V, N)))
+          continue;
+        addOverlap (overlaps[static_cast<std::size_t> (lj[x])], map.resolve (static_cast<std::uint32_t> (li[x])), 1);
+      }
     }
-  }
+  });
+  std::vector<int> frame_count (labels, 0);
+  Overlaps by_frame_label (labels);
+  for (int k = 0; k < chunks; ++k)
+    for (std::size_t j = 0; j < labels; ++j)
+    {
+      frame_count[j] += chunk_counts[static_cast<std::size_t> (k)][j];
+      for (const auto& [global, count] : chunk_overlaps[static_cast<std::size_t> (k)][j])
+        addOverlap (by_frame_label[j], global, count);
+    }
 
   // §4.2.2.4: inherit, fresh label, or drop; candidates of §4.2.3.
   result = PropagationResult ();
@@ -145,6 +179,124 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
   }
 }
 
+namespace
+{
+/** \brief What updateVoxelLabels needs of the frame, as raw rows. */
+struct LabelFrame
+{
+  const std::int32_t* labels = nullptr;
+  std::size_t labels_step = 0;  ///< int32 per row
+  const float* depth = nullptr;
+  std::size_t depth_step = 0;  ///< floats per row
+  int width = 0, height = 0;
+  float fx = 0.f, fy = 0.f, cx = 0.f, cy = 0.f;
+  float max_gap = 0.f;  ///< |z_voxel − D(u)| below this: the pixel sees this voxel's surface
+  int band_limit = 0;   ///< |distance| above this (distance-layer units): outside the band
+};
+
+/** \brief §4.2.4 for one voxel and the label its pixel observed; true when it wrote. */
+inline bool
+updateVoxelLabel (reconstruction::TsdfVoxel& voxel, std::uint32_t label, const GlobalSegmentMap& map,
+                  std::uint8_t max_confidence)
+{
+  if (voxel.label == 0)
+  {
+    voxel.label = label;
+    voxel.label_confidence = 0;
+    return true;
+  }
+  if (map.resolve (voxel.label) == map.resolve (label))
+  {
+    if (voxel.label_confidence >= max_confidence)
+      return false;
+    ++voxel.label_confidence;
+    return true;
+  }
+  if (voxel.label_confidence > 0)
+    --voxel.label_confidence;
+  if (voxel.label_confidence == 0)
+    voxel.label = label;
+  return true;
+}
+
+/** \brief The label the pixel a voxel projects to observed on the voxel's own surface,
+  * or 0 (outside the image, unlabelled, or the pixel sees another surface).
+  */
+inline std::uint32_t
+observedLabel (const LabelFrame& f, const Eigen::Vector3f& p)
+{
+  if (p.z () <= 0.f)
+    return 0;
+  const float inv_z = 1.f / p.z ();
+  const int px = fastFloor (f.fx * p.x () * inv_z + f.cx + 0.5f), py = fastFloor (f.fy * p.y () * inv_z + f.cy + 0.5f);
+  if (px < 0 || py < 0 || px >= f.width || py >= f.height)
+    return 0;
+  const std::int32_t observed = f.labels[static_cast<std::size_t> (py) * f.labels_step + static_cast<std::size_t> (px)];
+  const float d = f.depth[static_cast<std::size_t> (py) * f.depth_step + static_cast<std::size_t> (px)];
+  if (observed <= 0 || !(std::abs (p.z () - d) < f.max_gap))
+    return 0;
+  return static_cast<std::uint32_t> (observed);
+}
+
+/** \brief Labels each of the eight voxels of one block row would take, 0 for none
+  * (scalar). \a row is the camera-frame position of voxel x = 0, \a dx the step.
+  */
+inline void
+rowLabels (const LabelFrame& f, const std::int16_t* distance, const Eigen::Vector3f& row, const Eigen::Vector3f& dx,
+           std::uint32_t* out)
+{
+  for (int x = 0; x < reconstruction::kBlockSide; ++x)
+    out[x] = std::abs (static_cast<int> (distance[x])) > f.band_limit ? 0u
+                                                                         : observedLabel (f, row + dx * static_cast<float> (x));
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/** \brief rowLabels with AVX2: the eight projections, bounds, and the label and depth
+  * lookups at once (gathers). Same arithmetic per lane as observedLabel.
+  */
+__attribute__ ((target ("avx2,fma"))) void
+rowLabelsAvx2 (const LabelFrame& f, const std::int16_t* distance, const Eigen::Vector3f& row, const Eigen::Vector3f& dx,
+               std::uint32_t* out)
+{
+  const __m256i d = _mm256_cvtepi16_epi32 (_mm_loadu_si128 (reinterpret_cast<const __m128i*> (distance)));
+  const __m256i in_band = _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.band_limit + 1), _mm256_abs_epi32 (d));
+  if (_mm256_movemask_epi8 (in_band) == 0)
+  {
+    _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_setzero_si256 ());
+    return;
+  }
+  const __m256 lane = _mm256_setr_ps (0.f, 1.f, 2.f, 3.f, 4.f, 5.f, 6.f, 7.f);
+  const __m256 px = _mm256_add_ps (_mm256_set1_ps (row.x ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.x ())));
+  const __m256 py = _mm256_add_ps (_mm256_set1_ps (row.y ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.y ())));
+  const __m256 pz = _mm256_add_ps (_mm256_set1_ps (row.z ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.z ())));
+  const __m256 zero = _mm256_setzero_ps (), half = _mm256_set1_ps (0.5f);
+  const __m256 inv_z = _mm256_div_ps (_mm256_set1_ps (1.f), pz);
+  const __m256 uf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (f.fx), px), inv_z), _mm256_set1_ps (f.cx));
+  const __m256 vf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (f.fy), py), inv_z), _mm256_set1_ps (f.cy));
+  const __m256i u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (uf, half)));
+  const __m256i v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (vf, half)));
+  const __m256i minus_one = _mm256_set1_epi32 (-1);
+  __m256i ok = _mm256_and_si256 (in_band, _mm256_castps_si256 (_mm256_cmp_ps (pz, zero, _CMP_GT_OQ)));
+  ok = _mm256_and_si256 (ok, _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.width), u)));
+  ok = _mm256_and_si256 (ok, _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.height), v)));
+  if (_mm256_movemask_epi8 (ok) == 0)
+  {
+    _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_setzero_si256 ());
+    return;
+  }
+  const __m256i label_index = _mm256_add_epi32 (_mm256_mullo_epi32 (v, _mm256_set1_epi32 (static_cast<int> (f.labels_step))), u);
+  const __m256i depth_index = _mm256_add_epi32 (_mm256_mullo_epi32 (v, _mm256_set1_epi32 (static_cast<int> (f.depth_step))), u);
+  const __m256i observed = _mm256_mask_i32gather_epi32 (_mm256_setzero_si256 (), f.labels, label_index, ok, 4);
+  const __m256 depth = _mm256_mask_i32gather_ps (zero, f.depth, depth_index, _mm256_castsi256_ps (ok), 4);
+  const __m256 gap = _mm256_andnot_ps (_mm256_set1_ps (-0.f), _mm256_sub_ps (pz, depth));  // |z − D(u)|
+  ok = _mm256_and_si256 (ok, _mm256_cmpgt_epi32 (observed, _mm256_setzero_si256 ()));
+  ok = _mm256_and_si256 (ok, _mm256_castps_si256 (_mm256_cmp_ps (gap, _mm256_set1_ps (f.max_gap), _CMP_LT_OQ)));
+  _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_and_si256 (observed, ok));
+}
+#define CUEFUSION_HAVE_AVX2_KERNELS 1
+#endif
+}  // namespace
+
 std::size_t
 updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const cv::Mat& depth, const PinholeCamera& camera,
                    const Eigen::Isometry3d& pose, const GlobalSegmentMap& map, const SegmentUpdateConfig& config)
@@ -159,59 +311,52 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
   const std::vector<std::int32_t>& ids = volume.lastIntegratedBlocks ();
   std::atomic<std::size_t> writes (0);
   const auto max_confidence = static_cast<std::uint8_t> (config.max_confidence);
+  LabelFrame frame;
+  frame.labels = labels.ptr<std::int32_t> ();
+  frame.labels_step = labels.step1 ();
+  frame.depth = depth.ptr<float> ();
+  frame.depth_step = depth.step1 ();
+  frame.width = camera.width;
+  frame.height = camera.height;
+  frame.fx = static_cast<float> (camera.fx);
+  frame.fy = static_cast<float> (camera.fy);
+  frame.cx = static_cast<float> (camera.cx);
+  frame.cy = static_cast<float> (camera.cy);
+  frame.max_gap = config.band * truncation;
+  // Most voxels of the blocks just integrated are truncated or unobserved: the 2-byte
+  // distance layer rules them out before the 16-byte voxel is read. |sdf| < band in its
+  // units, rounded up (the exact test on the voxel follows); unobserved (-32768) lies
+  // beyond it.
+  frame.band_limit = std::min (32767, static_cast<int> (std::ceil (config.band * reconstruction::kDistanceScale)) + 1);
+  auto row_labels = &rowLabels;
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+  if (vectorKernelsEnabled ())
+    row_labels = &rowLabelsAvx2;
+#endif
   // Positions are stepped through each block in the camera frame, as integration does.
   const float voxel_size = static_cast<float> (volume.config ().voxel_size);
   const Eigen::Matrix3f R = world_to_camera.linear ();
   const Eigen::Vector3f dx = R.col (0) * voxel_size, dy = R.col (1) * voxel_size, dz = R.col (2) * voxel_size;
-  const float fx = static_cast<float> (camera.fx), fy = static_cast<float> (camera.fy);
-  const float cx = static_cast<float> (camera.cx), cy = static_cast<float> (camera.cy);
-  const float max_gap = config.band * truncation;
   parallelForChunks (static_cast<int> (ids.size ()), 16, [&] (int, int begin, int end) {
     std::size_t local_writes = 0;
+    alignas (32) std::uint32_t observed[reconstruction::kBlockSide];
     for (int k = begin; k < end; ++k)
     {
       const std::size_t id = static_cast<std::size_t> (ids[static_cast<std::size_t> (k)]);
       auto& voxels = volume.voxels (id);
+      const auto& distances = volume.blocks ()[id]->distances;
       const Eigen::Vector3f origin = world_to_camera * volume.voxelPosition (volume.blocks ()[id]->index * reconstruction::kBlockSide);
       for (int z = 0; z < reconstruction::kBlockSide; ++z)
         for (int y = 0; y < reconstruction::kBlockSide; ++y)
         {
-          Eigen::Vector3f p = origin + dy * static_cast<float> (y) + dz * static_cast<float> (z);
-          reconstruction::TsdfVoxel* voxel = &voxels[static_cast<std::size_t> (reconstruction::localVoxelIndex (0, y, z))];
-          for (int x = 0; x < reconstruction::kBlockSide; ++x, p += dx, ++voxel)
+          const std::size_t first = static_cast<std::size_t> (reconstruction::localVoxelIndex (0, y, z));
+          row_labels (frame, &distances[first], origin + dy * static_cast<float> (y) + dz * static_cast<float> (z), dx,
+                      observed);
+          for (int x = 0; x < reconstruction::kBlockSide; ++x)
           {
-            if (voxel->weight <= 0.f || !(std::abs (voxel->sdf) < config.band) || p.z () <= 0.f)
-              continue;
-            const float inv_z = 1.f / p.z ();
-            const int px = fastFloor (fx * p.x () * inv_z + cx + 0.5f), py = fastFloor (fy * p.y () * inv_z + cy + 0.5f);
-            if (px < 0 || py < 0 || px >= labels.cols || py >= labels.rows)
-              continue;
-            const std::int32_t observed = labels.at<std::int32_t> (py, px);
-            if (observed <= 0 || !(std::abs (p.z () - depth.at<float> (py, px)) < max_gap))
-              continue;  // unlabelled, or the pixel sees another surface (occlusion)
-            const std::uint32_t label = static_cast<std::uint32_t> (observed);
-            if (voxel->label == 0)
-            {
-              voxel->label = label;
-              voxel->label_confidence = 0;
-              ++local_writes;
-            }
-            else if (map.resolve (voxel->label) == map.resolve (label))
-            {
-              if (voxel->label_confidence < max_confidence)
-              {
-                ++voxel->label_confidence;
-                ++local_writes;
-              }
-            }
-            else
-            {
-              if (voxel->label_confidence > 0)
-                --voxel->label_confidence;
-              if (voxel->label_confidence == 0)
-                voxel->label = label;
-              ++local_writes;
-            }
+            reconstruction::TsdfVoxel& voxel = voxels[first + static_cast<std::size_t> (x)];
+            if (observed[x] != 0 && voxel.weight > 0.f && std::abs (voxel.sdf) < config.band)
+              local_writes += updateVoxelLabel (voxel, observed[x], map, max_confidence);
           }
         }
     }
