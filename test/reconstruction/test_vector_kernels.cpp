@@ -4,6 +4,7 @@
 
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/reconstruction/projective_icp.h>
+#include <cuefusion/reconstruction/vertex_maps.h>
 
 #include <gtest/gtest.h>
 
@@ -135,4 +136,38 @@ TEST (VectorKernels, ICPFindsTheScalarMotion)
                  1e-3 * static_cast<double> (result[0].inliers));
     EXPECT_NEAR (result[0].rmse, result[1].rmse, 1e-3 * result[0].rmse + 1e-7);
   }
+}
+
+TEST (VectorKernels, NormalMapIsTheScalarOne)
+{
+  if (!cpuHasAvx2Fma ())
+    GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
+  // 317 px: rows end in a scalar tail; holes and the objects' outlines give invalid
+  // neighbours and depth jumps.
+  const io::SyntheticScene scene = test::sphereAndBoxScene (317, 240);
+  const io::RenderedView view = viewsWithHoles (scene, 1).front ();
+  cv::Mat vertices, normals[2];
+  computeVertexMap (view.depth, scene.camera, vertices);
+  for (const bool vector : {false, true})
+  {
+    const KernelChoice choice (vector);
+    computeNormalMap (vertices, normals[vector]);
+  }
+  int valid = 0, mismatched = 0;
+  float worst = 0.f;
+  for (int y = 0; y < vertices.rows; ++y)
+    for (int x = 0; x < vertices.cols; ++x)
+    {
+      const cv::Vec3f a = normals[0].at<cv::Vec3f> (y, x), b = normals[1].at<cv::Vec3f> (y, x);
+      if (std::isnan (a[0]) != std::isnan (b[0]))
+        ++mismatched;
+      else if (!std::isnan (a[0]))
+      {
+        ++valid;
+        worst = std::max (worst, static_cast<float> (cv::norm (a - b)));
+      }
+    }
+  EXPECT_GT (valid, 5000);
+  EXPECT_EQ (mismatched, 0);
+  EXPECT_LT (worst, 1e-5f);
 }

@@ -1,11 +1,9 @@
 #include "integration.h"
 
-#include <algorithm>
+#include <cuefusion/common/avx2.h>
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#include <immintrin.h>
-#define CUEFUSION_HAVE_AVX2_KERNELS 1
-#endif
+#include <algorithm>
+#include <cstddef>
 
 namespace cuefusion
 {
@@ -87,7 +85,6 @@ integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f)
 }
 
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
-#define CUEFUSION_AVX2 __attribute__ ((target ("avx2,fma")))
 namespace
 {
 CUEFUSION_AVX2 inline __m256

@@ -1,3 +1,4 @@
+#include <cuefusion/common/avx2.h>
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/parallel.h>
@@ -9,11 +10,6 @@
 #include <array>
 #include <cmath>
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#include <immintrin.h>
-#define CUEFUSION_HAVE_AVX2_KERNELS 1
-#define CUEFUSION_AVX2 __attribute__ ((target ("avx2,fma")))
-#endif
 
 
 namespace cuefusion
@@ -70,16 +66,6 @@ accumulate (RowAccumulator& acc, const Eigen::Matrix<float, 6, 1>& J, float r)
 }
 
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
-/** \brief AoS xyz of eight consecutive pixels starting at \a p (24 floats). */
-CUEFUSION_AVX2 inline void
-loadXyz8 (const float* p, __m256& x, __m256& y, __m256& z)
-{
-  const __m256i stride3 = _mm256_setr_epi32 (0, 3, 6, 9, 12, 15, 18, 21);
-  x = _mm256_i32gather_ps (p, stride3, 4);
-  y = _mm256_i32gather_ps (p + 1, stride3, 4);
-  z = _mm256_i32gather_ps (p + 2, stride3, 4);
-}
-
 /** \brief pointToPlaneTerm + accumulate for the pixels [0, 8·⌊cols/8⌋) of row \a y, eight
   * at a time with AVX2; returns the first pixel left for the scalar loop. Per lane the
   * same tests and the same terms as the scalar code (projection in float instead of
@@ -124,8 +110,8 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
   for (int x = 0; x < end; x += 8)
   {
     __m256 px, py, pz, nx, ny, nz;
-    loadXyz8 (src_v + 3 * x, px, py, pz);
-    loadXyz8 (src_n + 3 * x, nx, ny, nz);
+    avx2::loadXyz8 (src_v + 3 * x, px, py, pz);
+    avx2::loadXyz8 (src_n + 3 * x, nx, ny, nz);
     const __m256 valid_source = _mm256_and_ps (_mm256_cmp_ps (px, px, _CMP_ORD_Q), _mm256_cmp_ps (nx, nx, _CMP_ORD_Q));
     const int source_mask = _mm256_movemask_ps (valid_source);
     if (source_mask == 0)

@@ -1,3 +1,4 @@
+#include <cuefusion/common/avx2.h>
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
@@ -9,9 +10,6 @@
 #include <atomic>
 #include <cmath>
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#include <immintrin.h>
-#endif
 
 namespace cuefusion
 {
@@ -250,11 +248,11 @@ rowLabels (const LabelFrame& f, const std::int16_t* distance, const Eigen::Vecto
                                                                          : observedLabel (f, row + dx * static_cast<float> (x));
 }
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
 /** \brief rowLabels with AVX2: the eight projections, bounds, and the label and depth
   * lookups at once (gathers). Same arithmetic per lane as observedLabel.
   */
-__attribute__ ((target ("avx2,fma"))) void
+CUEFUSION_AVX2 void
 rowLabelsAvx2 (const LabelFrame& f, const std::int16_t* distance, const Eigen::Vector3f& row, const Eigen::Vector3f& dx,
                std::uint32_t* out)
 {
@@ -293,7 +291,6 @@ rowLabelsAvx2 (const LabelFrame& f, const std::int16_t* distance, const Eigen::V
   ok = _mm256_and_si256 (ok, _mm256_castps_si256 (_mm256_cmp_ps (gap, _mm256_set1_ps (f.max_gap), _CMP_LT_OQ)));
   _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_and_si256 (observed, ok));
 }
-#define CUEFUSION_HAVE_AVX2_KERNELS 1
 #endif
 }  // namespace
 
