@@ -45,6 +45,14 @@ struct FusionPipelineConfig
   segmentation::SegmentMergingConfig merging;
   segmentation::SegmentUpdateConfig update;
   SegmentationMode mode = SegmentationMode::Fused;
+  /** One depth smoothing for tracking and segmentation (as in the reference, where the
+    * segmentation reads the maps KinectFusion's preprocessing made): tracking uses the
+    * segmentation's noise-adaptive bilateral filter (preprocessing's diameter, range and
+    * spatial σ) and the segmentation starts from tracking's filtered depth, skipping its
+    * own filter. Off: each smooths the raw depth its own way (tracking with
+    * reconstruction.preprocessing's fixed range σ), one more filter per frame.
+    */
+  bool share_smoothing = true;
   void validate () const;
 };
 

@@ -16,6 +16,9 @@ struct DepthPreprocessingConfig
   bool bilateral_filter = true;
   int bilateral_diameter = 5;        ///< pixels
   double sigma_depth = 0.03;         ///< range σ of the bilateral filter (metres)
+  /// > 0: the range σ follows the sensor noise instead, this many σ_z(z) (noiseAdaptiveBilateral,
+  /// the geometric segmentation's smoothing); FusionPipeline sets it so one filter serves both
+  double noise_range_sigma = 0.0;
   double sigma_space = 4.5;          ///< spatial σ (pixels), KinectFusion's values
   int pyramid_levels = 3;
   double min_depth = 0.1;            ///< measurements outside [min, max] are dropped
@@ -56,6 +59,15 @@ public:
 private:
   DepthPreprocessingConfig config_;
 };
+
+/** \brief Bilateral filter of a depth map (CV_32F metres, ≤ 0 invalid) whose range σ is
+  * \a range_sigma times the axial noise σ_z(z) of kinectAxialNoise at θ = 0: depth is
+  * mapped to noise units u(z) = ∫ dz/σ_z, filtered with OpenCV's bilateral filter
+  * (\a diameter, range σ \a range_sigma, spatial σ \a sigma_space pixels) and mapped
+  * back. Invalid pixels stay 0 and take part in no average.
+  */
+void
+noiseAdaptiveBilateral (const cv::Mat& depth, int diameter, float range_sigma, float sigma_space, cv::Mat& filtered);
 
 /** \brief Depth at half resolution: each output pixel averages the valid samples of its
   * 2×2 block lying within \a max_jump × z of the block's nearest sample.

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cuefusion/reconstruction/preprocessing.h>
 #include <cuefusion/segmentation/surface_planes.h>
 
 #include <opencv2/core.hpp>
@@ -102,14 +103,10 @@ void
 preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& config, double* smoothing_ms = nullptr,
                   double* normal_ms = nullptr);
 
-/** \brief Bilateral filter of a depth map (CV_32F metres, ≤ 0 invalid) whose range σ is
-  * \a range_sigma times the axial noise σ_z(z) of kinectAxialNoise at θ = 0: depth is
-  * mapped to noise units u(z) = ∫ dz/σ_z, filtered with OpenCV's bilateral filter
-  * (\a diameter, range σ \a range_sigma, spatial σ \a sigma_space pixels) and mapped
-  * back. Invalid pixels stay 0 and take part in no average.
+/** \brief The noise-adaptive bilateral filter (declared in reconstruction/preprocessing.h:
+  * tracking's preprocessing can use it too, and the pipeline smooths once for both).
   */
-void
-noiseAdaptiveBilateral (const cv::Mat& depth, int diameter, float range_sigma, float sigma_space, cv::Mat& filtered);
+using reconstruction::noiseAdaptiveBilateral;
 
 /** \brief Central-difference normals of an organized cloud (see SurfacePreprocessing). */
 template <typename PointT>

@@ -50,9 +50,29 @@ FusionPipelineConfig::validate () const
   update.validate ();
 }
 
+namespace
+{
+/** \brief The reconstruction's configuration, with the segmentation's smoothing when it
+  * is shared (FusionPipelineConfig::share_smoothing).
+  */
+reconstruction::DenseReconstructionConfig
+reconstructionConfig (const FusionPipelineConfig& config)
+{
+  reconstruction::DenseReconstructionConfig out = config.reconstruction;
+  if (config.share_smoothing && config.preprocessing.bilateral_filter)
+  {
+    out.preprocessing.bilateral_filter = true;
+    out.preprocessing.noise_range_sigma = config.preprocessing.range_sigma;
+    out.preprocessing.bilateral_diameter = config.preprocessing.bilateral_diameter;
+    out.preprocessing.sigma_space = config.preprocessing.sigma_space;
+  }
+  return out;
+}
+}  // namespace
+
 FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
   : config_ (config)
-  , reconstruction_ (config.reconstruction)
+  , reconstruction_ (reconstructionConfig (config))
   , geometry_ (config.geometry)
   , instance_merge_ (config.instance_merge)
   , propagation_ (config.propagation)
@@ -73,8 +93,19 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
 
   // L^G from the frame's depth (§4.2.1.1).
   const PinholeCamera& camera = frame.camera;
-  planes_.assignDepth (frame.depth, camera.fx, camera.fy, camera.cx, camera.cy);
-  segmentation::preprocessPlanes (planes_, config_.preprocessing);
+  if (config_.share_smoothing && config_.preprocessing.bilateral_filter)
+  {
+    // Tracking's level 0 is this frame's depth through the same filter (0 = invalid).
+    planes_.assignDepth (reconstruction_.framePyramid ().front ().depth, camera.fx, camera.fy, camera.cx, camera.cy);
+    segmentation::SurfacePreprocessingConfig normals_only = config_.preprocessing;
+    normals_only.bilateral_filter = false;
+    segmentation::preprocessPlanes (planes_, normals_only);
+  }
+  else
+  {
+    planes_.assignDepth (frame.depth, camera.fx, camera.fy, camera.cx, camera.cy);
+    segmentation::preprocessPlanes (planes_, config_.preprocessing);
+  }
   geometry_.segment (planes_);
   report.segmentation.geometry_ms = watch.getTime ();
 

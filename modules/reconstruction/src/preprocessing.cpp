@@ -261,6 +261,8 @@ DepthPreprocessingConfig::validate () const
     throw ParameterError ("bilateral_diameter", "must lie in [1, 31] pixels");
   if (bilateral_filter && !(sigma_depth > 0.0 && sigma_space > 0.0))
     throw ParameterError ("sigma_depth", "bilateral sigmas must be positive");
+  if (!(noise_range_sigma >= 0.0 && noise_range_sigma <= 100.0))
+    throw ParameterError ("noise_range_sigma", "must lie in [0, 100] noise units (0 = fixed range sigma)");
   if (!(pyramid_levels >= 1 && pyramid_levels <= 6))
     throw ParameterError ("pyramid_levels", "must lie in [1, 6]");
   if (!(min_depth >= 0.0 && max_depth > min_depth))
@@ -296,7 +298,10 @@ DepthPreprocessor::compute (const cv::Mat& depth, const PinholeCamera& camera, F
   }
   PyramidLevel& base = pyramid[0];
   base.camera = camera;
-  if (config_.bilateral_filter)
+  if (config_.bilateral_filter && config_.noise_range_sigma > 0.0)
+    noiseAdaptiveBilateral (clean, config_.bilateral_diameter, static_cast<float> (config_.noise_range_sigma),
+                            static_cast<float> (config_.sigma_space), base.depth);  // holes stay 0
+  else if (config_.bilateral_filter)
   {
     cv::bilateralFilter (clean, base.depth, config_.bilateral_diameter, config_.sigma_depth, config_.sigma_space);
     base.depth.setTo (0.f, clean == 0.f);

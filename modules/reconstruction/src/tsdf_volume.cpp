@@ -532,10 +532,6 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   out.normals.create (size, CV_32FC3);
   out.colors.create (size, CV_8UC3);
   out.labels.create (size, CV_32S);
-  out.vertices.setTo (cv::Scalar::all (std::numeric_limits<float>::quiet_NaN ()));
-  out.normals.setTo (cv::Scalar::all (std::numeric_limits<float>::quiet_NaN ()));
-  out.colors.setTo (cv::Scalar::all (0));
-  out.labels.setTo (cv::Scalar::all (0));
 
   const float voxel_size = static_cast<float> (config_.voxel_size);
   const float block_size = static_cast<float> (config_.blockSize ());
@@ -584,6 +580,11 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
     for (int v = begin; v < end; ++v)
     {
       std::fill (hits.begin (), hits.end (), nullptr);
+      // Rows are cleared here, on the pool, rather than four whole-image fills up front.
+      out.vertices.row (v).setTo (cv::Scalar::all (std::numeric_limits<float>::quiet_NaN ()));
+      out.normals.row (v).setTo (cv::Scalar::all (std::numeric_limits<float>::quiet_NaN ()));
+      out.colors.row (v).setTo (cv::Scalar::all (0));
+      out.labels.row (v).setTo (cv::Scalar::all (0));
       cv::Vec3f* vertex_row = out.vertices.ptr<cv::Vec3f> (v);
       cv::Vec3f* normal_row = out.normals.ptr<cv::Vec3f> (v);
       cv::Vec3b* color_row = out.colors.ptr<cv::Vec3b> (v);

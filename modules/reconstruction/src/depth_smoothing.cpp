@@ -1,6 +1,6 @@
 // Bilateral filtering of depth with a range kernel that follows the sensor noise.
-#include <cuefusion/segmentation/parallel.h>
-#include <cuefusion/segmentation/surface_preprocessing.h>
+#include <cuefusion/common/parallel.h>
+#include <cuefusion/reconstruction/preprocessing.h>
 
 #include <opencv2/imgproc.hpp>
 
@@ -10,7 +10,7 @@
 
 namespace cuefusion
 {
-namespace segmentation
+namespace reconstruction
 {
 namespace
 {
@@ -98,5 +98,5 @@ noiseAdaptiveBilateral (const cv::Mat& depth, int diameter, float range_sigma, f
       out[x] = z[x] > 0.f ? units.toDepth (in[x]) : 0.f;
   });
 }
-}  // namespace segmentation
+}  // namespace reconstruction
 }  // namespace cuefusion
