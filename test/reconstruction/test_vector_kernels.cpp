@@ -171,3 +171,44 @@ TEST (VectorKernels, NormalMapIsTheScalarOne)
   EXPECT_EQ (mismatched, 0);
   EXPECT_LT (worst, 1e-5f);
 }
+
+TEST (VectorKernels, HintedRaycastIsTheScalarOne)
+{
+  if (!cpuHasAvx2Fma ())
+    GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
+  // 317 px wide: each row ends in pixels the eight-ray kernel leaves to the scalar path.
+  const io::SyntheticScene scene = test::sphereAndBoxScene (317, 240);
+  const std::vector<io::RenderedView> views = viewsWithHoles (scene, 6);
+  const TSDFVolume volume = integrateWith (false, scene, views);
+  const Eigen::Isometry3d pose = scene.trajectory.poseAt (1.0 / 6.0);
+  RaycastResult result[2];
+  for (const bool vector : {false, true})
+  {
+    const KernelChoice choice (vector);
+    volume.raycast (scene.camera, pose, views[1].depth, result[vector]);
+  }
+  int hits = 0, only_one = 0, far = 0, colors_differ = 0;
+  float worst_normal = 0.f;
+  for (int y = 0; y < scene.camera.height; ++y)
+    for (int x = 0; x < scene.camera.width; ++x)
+    {
+      const cv::Vec3f a = result[0].vertices.at<cv::Vec3f> (y, x), b = result[1].vertices.at<cv::Vec3f> (y, x);
+      if (std::isnan (a[0]) != std::isnan (b[0]))
+      {
+        ++only_one;
+        continue;
+      }
+      if (std::isnan (a[0]))
+        continue;
+      ++hits;
+      far += cv::norm (a - b) > 1e-4;  // 0.1 mm
+      worst_normal = std::max (worst_normal, static_cast<float> (cv::norm (result[0].normals.at<cv::Vec3f> (y, x) -
+                                                                           result[1].normals.at<cv::Vec3f> (y, x))));
+      colors_differ += result[0].colors.at<cv::Vec3b> (y, x) != result[1].colors.at<cv::Vec3b> (y, x);
+    }
+  ASSERT_GT (hits, 5000);
+  EXPECT_LT (only_one, hits / 1000 + 1);
+  EXPECT_LT (far, hits / 1000 + 1);
+  EXPECT_LT (worst_normal, 1e-3f);
+  EXPECT_LT (colors_differ, hits / 1000 + 1);
+}

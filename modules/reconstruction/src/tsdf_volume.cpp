@@ -1,6 +1,7 @@
 #include "integration.h"
 #include "voxel_access.h"
 
+#include <cuefusion/common/avx2.h>
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/parallel.h>
@@ -284,6 +285,97 @@ refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, co
   }
   return 0.f;
 }
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+CUEFUSION_AVX2 inline __m256
+lerp8 (__m256 a, __m256 b, __m256 t)
+{
+  return _mm256_add_ps (a, _mm256_mul_ps (_mm256_sub_ps (b, a), t));
+}
+
+/** \brief refineNearHint for eight rays at once (lanes whose bit is set in \a lanes):
+  * the cells are read per lane (VoxelAccessor::cell), the trilinear value, gradient and
+  * Newton step are computed for all eight in AVX2. On return z[i] > 0 and grad[3][i]
+  * for the rays that settled, z[i] = 0 for the rest (the caller falls back to the scalar
+  * path and the march for those). The nearest voxel is looked up by the caller.
+  * Measured on icl-livingroom1: raycast 15.3–17.2 → 13.7–14.3 ms a frame (A/B, three
+  * rounds). The per-lane cell reads are now most of its time (waiting on the distance
+  * layer); prefetching every fourth pixel's cell a pass ahead was slower.
+  */
+CUEFUSION_AVX2 void
+refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const float* dir_x, const float* dir_y,
+                 const float* dir_z, const float* hint, int lanes, float truncation_voxels, float* z_out, float* grad_out)
+{
+  const __m256 dx = _mm256_loadu_ps (dir_x), dy = _mm256_loadu_ps (dir_y), dz = _mm256_loadu_ps (dir_z);
+  const __m256 ox = _mm256_set1_ps (origin.x ()), oy = _mm256_set1_ps (origin.y ()), oz = _mm256_set1_ps (origin.z ());
+  const __m256 z_hint = _mm256_loadu_ps (hint);
+  const __m256 voxels_per_z = _mm256_sqrt_ps (_mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (dx, dx), _mm256_mul_ps (dy, dy)),
+                                                             _mm256_mul_ps (dz, dz)));
+  const __m256 zero = _mm256_setzero_ps (), scale = _mm256_set1_ps (1.f / kDistanceScale);
+  __m256 z = z_hint, z_result = zero, gx_result = zero, gy_result = zero, gz_result = zero;
+  alignas (32) std::int32_t lx[8], ly[8], lz[8];
+  alignas (32) float corners[8][8];
+  int active = lanes;
+  for (int step = 0; step < 4 && active != 0; ++step)
+  {
+    const __m256 gx = _mm256_add_ps (ox, _mm256_mul_ps (dx, z));
+    const __m256 gy = _mm256_add_ps (oy, _mm256_mul_ps (dy, z));
+    const __m256 gz = _mm256_add_ps (oz, _mm256_mul_ps (dz, z));
+    const __m256 flx = _mm256_floor_ps (gx), fly = _mm256_floor_ps (gy), flz = _mm256_floor_ps (gz);
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (lx), _mm256_cvttps_epi32 (flx));
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (ly), _mm256_cvttps_epi32 (fly));
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (lz), _mm256_cvttps_epi32 (flz));
+    int read = active;
+    for (int m = active; m != 0; m &= m - 1)
+    {
+      const int i = __builtin_ctz (static_cast<unsigned> (m));
+      std::array<float, 8> values;
+      if (!access.cell (Eigen::Vector3i (lx[i], ly[i], lz[i]), values))
+      {
+        read &= ~(1 << i);
+        continue;
+      }
+      for (int k = 0; k < 8; ++k)
+        corners[k][i] = values[static_cast<std::size_t> (k)];
+    }
+    __m256 v[8];
+    for (int k = 0; k < 8; ++k)
+      v[k] = _mm256_load_ps (corners[k]);
+    const __m256 fx = _mm256_sub_ps (gx, flx), fy = _mm256_sub_ps (gy, fly), fz = _mm256_sub_ps (gz, flz);
+    // trilinear () and VoxelAccessor::interpolate's gradient, lane by lane.
+    const __m256 x0 = lerp8 (v[0], v[1], fx), x1 = lerp8 (v[2], v[3], fx), x2 = lerp8 (v[4], v[5], fx), x3 = lerp8 (v[6], v[7], fx);
+    const __m256 f = _mm256_mul_ps (lerp8 (lerp8 (x0, x1, fy), lerp8 (x2, x3, fy), fz), scale);
+    const __m256 grad_x = _mm256_mul_ps (lerp8 (lerp8 (_mm256_sub_ps (v[1], v[0]), _mm256_sub_ps (v[3], v[2]), fy),
+                                                lerp8 (_mm256_sub_ps (v[5], v[4]), _mm256_sub_ps (v[7], v[6]), fy), fz), scale);
+    const __m256 grad_y = _mm256_mul_ps (lerp8 (lerp8 (_mm256_sub_ps (v[2], v[0]), _mm256_sub_ps (v[3], v[1]), fx),
+                                                lerp8 (_mm256_sub_ps (v[6], v[4]), _mm256_sub_ps (v[7], v[5]), fx), fz), scale);
+    const __m256 grad_z = _mm256_mul_ps (lerp8 (lerp8 (_mm256_sub_ps (v[4], v[0]), _mm256_sub_ps (v[5], v[1]), fx),
+                                                lerp8 (_mm256_sub_ps (v[6], v[2]), _mm256_sub_ps (v[7], v[3]), fx), fy), scale);
+    const __m256i bits = _mm256_setr_epi32 (1, 2, 4, 8, 16, 32, 64, 128);
+    __m256 ok = _mm256_castsi256_ps (
+        _mm256_cmpeq_epi32 (_mm256_and_si256 (_mm256_set1_epi32 (read), bits), bits));
+    ok = _mm256_and_ps (ok, _mm256_cmp_ps (avx2::abs (f), _mm256_set1_ps (0.9f), _CMP_LT_OQ));  // else truncated
+    const __m256 slope = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (grad_x, dx), _mm256_mul_ps (grad_y, dy)),
+                                        _mm256_mul_ps (grad_z, dz));
+    ok = _mm256_and_ps (ok, _mm256_cmp_ps (slope, zero, _CMP_LT_OQ));  // else back face or corner
+    const __m256 step_z = _mm256_div_ps (_mm256_sub_ps (zero, f), slope);
+    const __m256 z_next = _mm256_add_ps (z, step_z);
+    ok = _mm256_and_ps (ok, _mm256_cmp_ps (_mm256_mul_ps (avx2::abs (_mm256_sub_ps (z_next, z_hint)), voxels_per_z),
+                                           _mm256_set1_ps (truncation_voxels), _CMP_LE_OQ));  // else wandered off
+    const __m256 settled = _mm256_and_ps (
+        ok, _mm256_cmp_ps (_mm256_mul_ps (avx2::abs (step_z), voxels_per_z), _mm256_set1_ps (0.25f), _CMP_LT_OQ));
+    z_result = _mm256_blendv_ps (z_result, z_next, settled);
+    gx_result = _mm256_blendv_ps (gx_result, grad_x, settled);
+    gy_result = _mm256_blendv_ps (gy_result, grad_y, settled);
+    gz_result = _mm256_blendv_ps (gz_result, grad_z, settled);
+    active = _mm256_movemask_ps (_mm256_andnot_ps (settled, ok));
+    z = z_next;
+  }
+  _mm256_storeu_ps (z_out, z_result);
+  _mm256_storeu_ps (grad_out, gx_result);
+  _mm256_storeu_ps (grad_out + 8, gy_result);
+  _mm256_storeu_ps (grad_out + 16, gz_result);
+}
+#endif
 }  // namespace
 
 void
@@ -570,6 +662,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   // Ray directions in float: PinholeCamera::backProject works in double.
   const float inv_fx = static_cast<float> (1.0 / camera.fx), inv_fy = static_cast<float> (1.0 / camera.fy);
   const float cx = static_cast<float> (camera.cx), cy = static_cast<float> (camera.cy);
+  [[maybe_unused]] const bool use_avx2 = vectorKernelsEnabled ();
   parallelForChunks (camera.height, 4, [&] (int, int begin, int end) {
     detail::VoxelAccessor access (*this);
     // The voxels hit on a row, read for colour and label after the row: the 16-byte voxels
@@ -577,6 +670,8 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
     // each right after its ray was a fifth of the row loop's time waiting for memory.
     // Prefetched when found, they arrive while the next rays are cast.
     std::vector<const TsdfVoxel*> hits (static_cast<std::size_t> (camera.width));
+    std::vector<float> hint_z (static_cast<std::size_t> (camera.width));  // refineNearHint8's results: > 0 settled,
+    std::vector<Eigen::Vector3f> hint_grad (static_cast<std::size_t> (camera.width));  // 0 failed, < 0 not tried
     for (int v = begin; v < end; ++v)
     {
       std::fill (hits.begin (), hits.end (), nullptr);
@@ -590,6 +685,46 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
       cv::Vec3b* color_row = out.colors.ptr<cv::Vec3b> (v);
       std::int32_t* label_row = out.labels.ptr<std::int32_t> (v);
       float row_z = 0.f;  // depth of the last surface found on this row
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+      // Rays with a usable hint, eight at a time; what does not settle goes the scalar way.
+      const bool vector_hints = use_avx2 && !depth_hint.empty ();
+      if (vector_hints)
+      {
+        const float* hint_row = depth_hint.ptr<float> (v);
+        for (int u0 = 0; u0 + 8 <= camera.width; u0 += 8)
+        {
+          const std::size_t tile = static_cast<std::size_t> ((v / RangeTiles::kTile) * tiles.cols + u0 / RangeTiles::kTile);
+          static_assert (RangeTiles::kTile == 8, "eight rays share a tile");
+          int lanes = 0;
+          alignas (32) float dir_x[8], dir_y[8], dir_z[8];
+          if (tiles.zmax[tile] > tiles.zmin[tile])
+            for (int i = 0; i < 8; ++i)
+            {
+              const float d = hint_row[u0 + i];
+              const Eigen::Vector3f dir =
+                  R * Eigen::Vector3f ((static_cast<float> (u0 + i) - cx) * inv_fx, (static_cast<float> (v) - cy) * inv_fy, 1.f) *
+                  inv_voxel;
+              dir_x[i] = dir.x ();
+              dir_y[i] = dir.y ();
+              dir_z[i] = dir.z ();
+              if (d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
+                lanes |= 1 << i;
+            }
+          if (lanes == 0)
+          {
+            std::fill (hint_z.begin () + u0, hint_z.begin () + u0 + 8, 0.f);
+            continue;
+          }
+          alignas (32) float grads[24];
+          refineNearHint8 (access, origin_voxels, dir_x, dir_y, dir_z, hint_row + u0, lanes, truncation_voxels,
+                           &hint_z[static_cast<std::size_t> (u0)], grads);
+          for (int i = 0; i < 8; ++i)
+            hint_grad[static_cast<std::size_t> (u0 + i)] = Eigen::Vector3f (grads[i], grads[8 + i], grads[16 + i]);
+        }
+        for (int u = camera.width - camera.width % 8; u < camera.width; ++u)
+          hint_z[static_cast<std::size_t> (u)] = -1.f;  // the row's tail: scalar
+      }
+#endif
       for (int u = 0; u < camera.width; ++u)
       {
         const std::size_t tile = static_cast<std::size_t> ((v / RangeTiles::kTile) * tiles.cols + u / RangeTiles::kTile);
@@ -606,7 +741,21 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
           const float d = depth_hint.at<float> (v, u);
           if (d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
           {
-            z = refineNearHint (access, origin_voxels, dir, d, truncation_voxels, &hit, &grad);
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+            if (vector_hints && hint_z[static_cast<std::size_t> (u)] >= 0.f)
+            {
+              z = hint_z[static_cast<std::size_t> (u)];
+              if (z > 0.f)
+              {
+                grad = hint_grad[static_cast<std::size_t> (u)];
+                hit = access.get (nearestVoxel (origin_voxels + dir * z));
+                if (hit == nullptr)
+                  z = 0.f;
+              }
+            }
+            else
+#endif
+              z = refineNearHint (access, origin_voxels, dir, d, truncation_voxels, &hit, &grad);
             hinted = z > 0.f;
           }
           if (!hinted && d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
