@@ -54,7 +54,6 @@ normalRowAvx2 (const cv::Mat& vertices, int y, float max_jump, cv::Vec3f* out)
   const float* down = vertices.ptr<float> (y + 1);
   const __m256 jump = _mm256_set1_ps (max_jump), zero = _mm256_setzero_ps (), sign = _mm256_set1_ps (-0.f);
   const __m256 nan = _mm256_set1_ps (std::numeric_limits<float>::quiet_NaN ());
-  alignas (32) float nx[8], ny[8], nz[8];
   int x = 1;
   for (; x + 8 <= w - 1; x += 8)
   {
@@ -86,11 +85,8 @@ normalRowAvx2 (const cv::Mat& vertices, int y, float max_jump, cv::Vec3f* out)
     // Towards the camera: flip where n·c > 0.
     const __m256 facing = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (n0, cx), _mm256_mul_ps (n1, cy)), _mm256_mul_ps (n2, cz));
     const __m256 flip = _mm256_and_ps (_mm256_cmp_ps (facing, zero, _CMP_GT_OQ), sign);
-    _mm256_store_ps (nx, _mm256_blendv_ps (nan, _mm256_xor_ps (n0, flip), ok));
-    _mm256_store_ps (ny, _mm256_blendv_ps (nan, _mm256_xor_ps (n1, flip), ok));
-    _mm256_store_ps (nz, _mm256_blendv_ps (nan, _mm256_xor_ps (n2, flip), ok));
-    for (int i = 0; i < 8; ++i)
-      out[x + i] = cv::Vec3f (nx[i], ny[i], nz[i]);
+    avx2::storeXyz8 (out[x].val, _mm256_blendv_ps (nan, _mm256_xor_ps (n0, flip), ok),
+                     _mm256_blendv_ps (nan, _mm256_xor_ps (n1, flip), ok), _mm256_blendv_ps (nan, _mm256_xor_ps (n2, flip), ok));
   }
   return x;
 }
