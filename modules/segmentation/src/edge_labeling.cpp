@@ -25,39 +25,54 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
   const float* z = depth.ptr<float> ();
   const std::uint8_t* ok = valid.ptr<std::uint8_t> ();
   // Open pixels: valid depth, no segment (the edge band); a small share of the image.
-  std::vector<int> open;
-  for (int i = 0; i < w * h; ++i)
-    if (ok[i] && label[i] == 0)
-      open.push_back (i);
+  // Collected per fixed chunk of rows on the pool and kept in chunk (raster) order.
+  constexpr int kRowsPerChunk = 16;
+  const int chunks = chunkCount (h, kRowsPerChunk);
+  std::vector<std::vector<int>> open (static_cast<std::size_t> (chunks));
+  parallelForChunks (h, kRowsPerChunk, [&] (int k, int begin, int end) {
+    for (int i = begin * w; i < end * w; ++i)
+      if (ok[i] && label[i] == 0)
+        open[static_cast<std::size_t> (k)].push_back (i);
+  });
   // One ring per round: an open pixel takes the label of its first 4-neighbour (right,
   // left, down, up) that was labelled before this round and continues it in depth. All
-  // of a round's assignments apply together, so the result does not depend on scan order.
-  std::vector<std::pair<int, std::int32_t>> taken;
-  for (int round = 0; round < radius && !open.empty (); ++round)
+  // of a round's assignments apply together, so the result depends neither on scan order
+  // nor on how the chunks are spread over threads.
+  std::vector<std::vector<std::pair<int, std::int32_t>>> taken (static_cast<std::size_t> (chunks));
+  for (int round = 0; round < radius; ++round)
   {
-    taken.clear ();
-    std::size_t kept = 0;
-    for (const int i : open)
+    parallelFor (chunks, [&] (int k) {
+      std::vector<int>& mine = open[static_cast<std::size_t> (k)];
+      std::vector<std::pair<int, std::int32_t>>& assigned = taken[static_cast<std::size_t> (k)];
+      assigned.clear ();
+      std::size_t kept = 0;
+      for (const int i : mine)
+      {
+        const int x = i % w, y = i / w;
+        const int neighbours[4] = {x + 1 < w ? i + 1 : -1, x > 0 ? i - 1 : -1, y + 1 < h ? i + w : -1, y > 0 ? i - w : -1};
+        std::int32_t found = 0;
+        for (const int j : neighbours)
+          if (j >= 0 && label[j] > 0 && std::abs (z[j] - z[i]) < max_jump * z[j])
+          {
+            found = label[j];
+            break;
+          }
+        if (found)
+          assigned.emplace_back (i, found);
+        else
+          mine[kept++] = i;
+      }
+      mine.resize (kept);
+    });
+    bool any = false;
+    for (const auto& assigned : taken)
     {
-      const int x = i % w, y = i / w;
-      const int neighbours[4] = {x + 1 < w ? i + 1 : -1, x > 0 ? i - 1 : -1, y + 1 < h ? i + w : -1, y > 0 ? i - w : -1};
-      std::int32_t found = 0;
-      for (const int j : neighbours)
-        if (j >= 0 && label[j] > 0 && std::abs (z[j] - z[i]) < max_jump * z[j])
-        {
-          found = label[j];
-          break;
-        }
-      if (found)
-        taken.emplace_back (i, found);
-      else
-        open[kept++] = i;
+      any = any || !assigned.empty ();
+      for (const auto& [i, l] : assigned)
+        label[i] = l;
     }
-    open.resize (kept);
-    if (taken.empty ())
+    if (!any)
       break;
-    for (const auto& [i, l] : taken)
-      label[i] = l;
   }
 }
 }  // namespace
@@ -87,13 +102,22 @@ labelEdgeMap (const cv::Mat& edges, const cv::Mat& depth, const EdgeLabelingConf
   // computes boxes and centroids and took twice as long (1.3 vs 0.6 ms at 640×480).
   cv::Mat components;
   const int n = cv::connectedComponents (interior, components, 4, CV_32S);
+  constexpr int kRowsPerChunk = 32;
+  std::vector<std::vector<int>> partial (static_cast<std::size_t> (chunkCount (components.rows, kRowsPerChunk)));
+  parallelForChunks (components.rows, kRowsPerChunk, [&] (int k, int begin, int end) {
+    std::vector<int>& mine = partial[static_cast<std::size_t> (k)];
+    mine.assign (static_cast<std::size_t> (n), 0);
+    for (int y = begin; y < end; ++y)
+    {
+      const std::int32_t* in = components.ptr<std::int32_t> (y);
+      for (int x = 0; x < components.cols; ++x)
+        ++mine[static_cast<std::size_t> (in[x])];
+    }
+  });
   std::vector<int> area (static_cast<std::size_t> (n), 0);
-  for (int y = 0; y < components.rows; ++y)
-  {
-    const std::int32_t* in = components.ptr<std::int32_t> (y);
-    for (int x = 0; x < components.cols; ++x)
-      ++area[static_cast<std::size_t> (in[x])];
-  }
+  for (const std::vector<int>& mine : partial)
+    for (std::size_t c = 0; c < area.size (); ++c)
+      area[c] += mine[c];
   // OpenCV numbers components in raster order of their first pixel; keep that order
   // and renumber the survivors 1..N.
   std::vector<std::int32_t> remap (static_cast<std::size_t> (n), 0);
