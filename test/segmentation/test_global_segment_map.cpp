@@ -5,6 +5,7 @@
 #include <cuefusion/io/synthetic_sequence.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 #include <cuefusion/reconstruction/vertex_maps.h>
+#include <cuefusion/segmentation/edge_operators.h>
 #include <cuefusion/segmentation/global_segment_map.h>
 #include <cuefusion/segmentation/segment_propagation.h>
 
@@ -14,6 +15,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <map>
+#include <random>
 #include <set>
 #include <tuple>
 
@@ -235,17 +237,19 @@ TEST_F (PropagationFixture, VectorKernelsLabelTheMapAsTheScalarOnes)
 {
   if (!cpuHasAvx2Fma ())
     GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
-  // The same ten frames fused twice, once with each kernel set (integration and the label
-  // update); every voxel's resolved label and Ψ are compared.
+  // The same ten frames fused twice, once with each kernel set (integration, propagation
+  // and the label update); every frame's L^p and every voxel's resolved label and Ψ are
+  // compared.
   const bool before = vectorKernelsEnabled ();
   std::map<std::tuple<int, int, int, int>, std::pair<std::uint32_t, int>> labelled[2];
+  std::vector<cv::Mat> propagated[2];
   for (const bool vector : {false, true})
   {
     setVectorKernelsEnabled (vector);
     SetUp ();
     map = GlobalSegmentMap ();
     for (std::size_t i = 0; i < 10; ++i)
-      step (i);
+      propagated[vector].push_back (step (i).clone ());
     for (const auto& block : volume->blocks ())
       for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
       {
@@ -255,6 +259,12 @@ TEST_F (PropagationFixture, VectorKernelsLabelTheMapAsTheScalarOnes)
       }
   }
   setVectorKernelsEnabled (before);
+  for (std::size_t i = 0; i < 10; ++i)
+  {
+    const int labelled_pixels = cv::countNonZero (propagated[0][i]);
+    ASSERT_GT (labelled_pixels, 5000);
+    EXPECT_LT (cv::countNonZero (propagated[0][i] != propagated[1][i]), labelled_pixels / 200) << "frame " << i;
+  }
   ASSERT_GT (labelled[0].size (), 20000u);
   std::size_t same = 0;
   for (const auto& [key, value] : labelled[0])
@@ -265,4 +275,57 @@ TEST_F (PropagationFixture, VectorKernelsLabelTheMapAsTheScalarOnes)
   EXPECT_GT (static_cast<double> (same), 0.995 * static_cast<double> (labelled[0].size ()));
   EXPECT_NEAR (static_cast<double> (labelled[1].size ()), static_cast<double> (labelled[0].size ()),
                0.005 * static_cast<double> (labelled[0].size ()));
+}
+
+TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)
+{
+  if (!cpuHasAvx2Fma ())
+    GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
+  // Hand-made maps where each test of §4.2.2.3 decides: model vertices moved along the ray
+  // by 0–3 times the noise bound (some pass only with the viewing angle's σ_d), model
+  // normals turned by up to 90°, some NaN; 61 px wide so rows end in a scalar tail.
+  const int w = 61, h = 48;
+  cv::Mat V (h, w, CV_32FC3), N (h, w, CV_32FC3), Vm (h, w, CV_32FC3), Nm (h, w, CV_32FC3);
+  cv::Mat lj (h, w, CV_32S), li (h, w, CV_32S);
+  std::mt19937 rng (5);
+  std::uniform_real_distribution<float> unit (0.f, 1.f);
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+    {
+      const float z = 0.5f + 3.5f * unit (rng);
+      const Eigen::Vector3f v ((x - 30) * z / 50.f, (y - 24) * z / 50.f, z);
+      const Eigen::Vector3f n = Eigen::Vector3f (4.f * unit (rng) - 2.f, 4.f * unit (rng) - 2.f, -1.f).normalized ();  // up to 70° off the ray
+      const float spread = (x / 6 + y / 6) % 3 == 0 ? 1.f : 3.f;  // segments that mostly agree, and others
+      const float offset = spread * unit (rng) * segmentation::axialNoiseLowerBound (z);
+      const Eigen::Vector3f vm = v + v.normalized () * offset;
+      const float turn = (spread == 1.f ? 0.5f : 1.57f) * unit (rng);
+      const Eigen::Vector3f nm = Eigen::AngleAxisf (turn, Eigen::Vector3f::UnitX ()) * n;
+      V.at<cv::Vec3f> (y, x) = cv::Vec3f (v.x (), v.y (), v.z ());
+      N.at<cv::Vec3f> (y, x) = unit (rng) < 0.05f ? cv::Vec3f (nan, nan, nan) : cv::Vec3f (n.x (), n.y (), n.z ());
+      Vm.at<cv::Vec3f> (y, x) = unit (rng) < 0.05f ? cv::Vec3f (nan, nan, nan) : cv::Vec3f (vm.x (), vm.y (), vm.z ());
+      Nm.at<cv::Vec3f> (y, x) = cv::Vec3f (nm.x (), nm.y (), nm.z ());
+      lj.at<std::int32_t> (y, x) = unit (rng) < 0.1f ? 0 : 1 + (x / 6) + 11 * (y / 6);
+      li.at<std::int32_t> (y, x) = unit (rng) < 0.1f ? 0 : 100 + (x / 9) + 7 * (y / 9);  // straddles frame segments
+    }
+  SegmentPropagationConfig config;
+  config.min_segment_size = 5;
+  config.inherit_overlap = 0.3f;
+  const SegmentPropagation propagation (config);
+  PropagationResult result[2];
+  for (const bool vector : {false, true})
+  {
+    const bool before = vectorKernelsEnabled ();
+    setVectorKernelsEnabled (vector);
+    GlobalSegmentMap map;
+    propagation.propagate (V, N, lj, Vm, Nm, li, map, 0, result[vector]);
+    setVectorKernelsEnabled (before);
+  }
+  // The data is not one-sided: both inheriting and fresh segments occur.
+  EXPECT_GT (result[0].inherited, 5);
+  EXPECT_GT (result[0].fresh, 5);
+  EXPECT_EQ (cv::countNonZero (result[0].labels != result[1].labels), 0);
+  EXPECT_EQ (result[0].candidates, result[1].candidates);
+  EXPECT_EQ (result[0].inherited, result[1].inherited);
+  EXPECT_EQ (result[0].fresh, result[1].fresh);
 }

@@ -57,6 +57,16 @@ inRange (__m256i i, int lo, int hi)
   return _mm256_and_si256 (_mm256_cmpgt_epi32 (i, _mm256_set1_epi32 (lo - 1)), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (hi), i));
 }
 
+/** \brief Lanes where x, y and z are all finite (x − x is 0 for finite x, NaN for NaN
+  * and ±inf).
+  */
+CUEFUSION_AVX2 inline __m256
+finite (__m256 x, __m256 y, __m256 z)
+{
+  const __m256 sum = _mm256_add_ps (_mm256_add_ps (_mm256_sub_ps (x, x), _mm256_sub_ps (y, y)), _mm256_sub_ps (z, z));
+  return _mm256_cmp_ps (sum, _mm256_setzero_ps (), _CMP_EQ_OQ);
+}
+
 /** \brief |x| per lane. */
 CUEFUSION_AVX2 inline __m256
 abs (__m256 x)

@@ -30,6 +30,61 @@ addOverlap (std::vector<std::pair<std::uint32_t, int>>& list, std::uint32_t glob
   else
     it->second += count;
 }
+/** \brief §4.2.2.3's distance test at one pixel whose normals already agree: the frame's
+  * and the model's vertex lie within k·σ_d(u) of each other along the viewing ray (σ_d
+  * at θ = 0 first, a lower bound; the angle's exact σ_d only where that fails, or at
+  * once with \a exact_only). False where a vertex is not finite.
+  */
+inline bool
+agreesOnSurface (const cv::Vec3f& v, const cv::Vec3f& n, const cv::Vec3f& vm, float noise_factor, bool exact_only)
+{
+  const Eigen::Vector3f V (v[0], v[1], v[2]), N (n[0], n[1], n[2]), Vm (vm[0], vm[1], vm[2]);
+  if (!isFiniteVector (V) || !isFiniteVector (Vm))
+    return false;
+  const float along_ray = std::abs ((V - Vm).dot (V)) / V.norm ();
+  return (!exact_only && along_ray < noise_factor * axialNoiseLowerBound (V.z ())) ||
+         along_ray < noise_factor * axialNoiseAt (V, N);
+}
+
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+/** \brief The per-pixel tests of §4.2.2.3 for eight pixels (CV_32FC3 rows at the
+  * pointers, labels L_t \a lj and L^m \a li): returns the lanes with a frame label;
+  * \a accepted gets the lanes that pass everything with σ_d's bound at θ = 0, \a exact
+  * those that pass all but that bound (the caller tries the exact σ_d there).
+  */
+CUEFUSION_AVX2 int
+agreeingPixels8 (const float* v, const float* n, const float* vm, const float* nm, const std::int32_t* lj,
+                 const std::int32_t* li, float normal_agreement, float noise_factor, int& accepted, int& exact)
+{
+  const __m256i zero_i = _mm256_setzero_si256 ();
+  const __m256i frame_label = _mm256_cmpgt_epi32 (_mm256_loadu_si256 (reinterpret_cast<const __m256i*> (lj)), zero_i);
+  const int labelled = _mm256_movemask_ps (_mm256_castsi256_ps (frame_label));
+  accepted = exact = 0;
+  const __m256i both = _mm256_and_si256 (frame_label, _mm256_cmpgt_epi32 (_mm256_loadu_si256 (reinterpret_cast<const __m256i*> (li)), zero_i));
+  if (_mm256_movemask_ps (_mm256_castsi256_ps (both)) == 0)
+    return labelled;
+  __m256 vx, vy, vz, nx, ny, nz, mx, my, mz, qx, qy, qz;
+  avx2::loadXyz8 (v, vx, vy, vz);
+  avx2::loadXyz8 (n, nx, ny, nz);
+  avx2::loadXyz8 (vm, mx, my, mz);
+  avx2::loadXyz8 (nm, qx, qy, qz);
+  __m256 ok = _mm256_and_ps (_mm256_castsi256_ps (both), _mm256_and_ps (avx2::finite (vx, vy, vz), avx2::finite (nx, ny, nz)));
+  ok = _mm256_and_ps (ok, _mm256_and_ps (avx2::finite (mx, my, mz), avx2::finite (qx, qy, qz)));
+  const __m256 agreement = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (nx, qx), _mm256_mul_ps (ny, qy)), _mm256_mul_ps (nz, qz));
+  ok = _mm256_and_ps (ok, _mm256_cmp_ps (agreement, _mm256_set1_ps (normal_agreement), _CMP_GT_OQ));
+  const __m256 dot = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (_mm256_sub_ps (vx, mx), vx), _mm256_mul_ps (_mm256_sub_ps (vy, my), vy)),
+                                    _mm256_mul_ps (_mm256_sub_ps (vz, mz), vz));
+  const __m256 length = _mm256_sqrt_ps (_mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (vx, vx), _mm256_mul_ps (vy, vy)), _mm256_mul_ps (vz, vz)));
+  const __m256 along_ray = _mm256_div_ps (avx2::abs (dot), length);
+  const __m256 dz = _mm256_sub_ps (vz, _mm256_set1_ps (0.4f));  // axialNoiseLowerBound
+  const __m256 bound = _mm256_add_ps (_mm256_set1_ps (0.0012f), _mm256_mul_ps (_mm256_set1_ps (0.0019f), _mm256_mul_ps (dz, dz)));
+  const __m256 near = _mm256_cmp_ps (along_ray, _mm256_mul_ps (_mm256_set1_ps (noise_factor), bound), _CMP_LT_OQ);
+  accepted = _mm256_movemask_ps (_mm256_and_ps (ok, near));
+  exact = _mm256_movemask_ps (_mm256_andnot_ps (near, ok));
+  return labelled;
+}
+#endif
+
 }  // namespace
 
 void
@@ -79,6 +134,7 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
   using Overlaps = std::vector<std::vector<std::pair<std::uint32_t, int>>>;
   constexpr int kRowsPerChunk = 16;
   const int chunks = chunkCount (size.height, kRowsPerChunk);
+  [[maybe_unused]] const bool use_avx2 = vectorKernelsEnabled ();
   std::vector<std::vector<int>> chunk_counts (static_cast<std::size_t> (chunks));
   std::vector<Overlaps> chunk_overlaps (static_cast<std::size_t> (chunks));
   parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
@@ -94,24 +150,50 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
       const cv::Vec3f* n_row = normals.ptr<cv::Vec3f> (y);
       const cv::Vec3f* vm_row = model_vertices.ptr<cv::Vec3f> (y);
       const cv::Vec3f* nm_row = model_normals.ptr<cv::Vec3f> (y);
-      for (int x = 0; x < size.width; ++x)
+      // The last model label resolved: runs of pixels share one.
+      std::uint32_t last_model = 0, last_global = 0;
+      const auto overlap = [&] (int x) {
+        const auto model = static_cast<std::uint32_t> (li[x]);
+        if (model != last_model)
+        {
+          last_model = model;
+          last_global = map.resolve (model);
+        }
+        addOverlap (overlaps[static_cast<std::size_t> (lj[x])], last_global, 1);
+      };
+      int x = 0;
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+      if (use_avx2)
+        for (; x + 8 <= size.width; x += 8)
+        {
+          int accepted = 0, exact = 0;
+          const int labelled = agreeingPixels8 (&v_row[x][0], &n_row[x][0], &vm_row[x][0], &nm_row[x][0], lj + x, li + x,
+                                                config_.normal_agreement, config_.noise_factor, accepted, exact);
+          for (int m = labelled; m != 0; m &= m - 1)
+            ++counts[static_cast<std::size_t> (lj[x + __builtin_ctz (static_cast<unsigned> (m))])];
+          for (int m = exact; m != 0; m &= m - 1)
+          {
+            // Failed the bound at θ = 0: the exact σ_d(u) of the viewing angle decides.
+            const int i = x + __builtin_ctz (static_cast<unsigned> (m));
+            if (agreesOnSurface (v_row[i], n_row[i], vm_row[i], config_.noise_factor, true))
+              accepted |= 1 << (i - x);
+          }
+          for (int m = accepted; m != 0; m &= m - 1)
+            overlap (x + __builtin_ctz (static_cast<unsigned> (m)));
+        }
+#endif
+      for (; x < size.width; ++x)
       {
         if (lj[x] <= 0)
           continue;
         ++counts[static_cast<std::size_t> (lj[x])];
         if (li[x] <= 0)
           continue;
-        const Eigen::Vector3f V (v_row[x][0], v_row[x][1], v_row[x][2]), N (n_row[x][0], n_row[x][1], n_row[x][2]);
-        const Eigen::Vector3f Vm (vm_row[x][0], vm_row[x][1], vm_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
-        if (!isFiniteVector (V) || !isFiniteVector (N) || !isFiniteVector (Vm) || !isFiniteVector (Nm))
+        const Eigen::Vector3f N (n_row[x][0], n_row[x][1], n_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
+        if (!isFiniteVector (N) || !isFiniteVector (Nm) || !(N.dot (Nm) > config_.normal_agreement))
           continue;
-        if (!(N.dot (Nm) > config_.normal_agreement))
-          continue;
-        const float along_ray = std::abs ((V - Vm).dot (V)) / V.norm ();
-        if (!(along_ray < config_.noise_factor * axialNoiseLowerBound (V.z ())) &&
-            !(along_ray < config_.noise_factor * axialNoiseAt (V, N)))
-          continue;
-        addOverlap (overlaps[static_cast<std::size_t> (lj[x])], map.resolve (static_cast<std::uint32_t> (li[x])), 1);
+        if (agreesOnSurface (v_row[x], n_row[x], vm_row[x], config_.noise_factor, false))
+          overlap (x);
       }
     }
   });
