@@ -77,6 +77,26 @@ struct PinholeCamera
   operator== (const PinholeCamera& other) const;
 };
 
+/** \brief A camera's image size and intrinsics in float, as the per-pixel and per-voxel
+  * kernels (integration, the label update) read them.
+  */
+struct FloatIntrinsics
+{
+  int width = 0, height = 0;
+  float fx = 0.f, fy = 0.f, cx = 0.f, cy = 0.f;
+
+  FloatIntrinsics () = default;
+  explicit FloatIntrinsics (const PinholeCamera& c)
+    : width (c.width)
+    , height (c.height)
+    , fx (static_cast<float> (c.fx))
+    , fy (static_cast<float> (c.fy))
+    , cx (static_cast<float> (c.cx))
+    , cy (static_cast<float> (c.cy))
+  {
+  }
+};
+
 /** \brief Kinect axial depth noise σ_z(z, θ) of Nguyen et al. 2012 (metres).
   * \param[in] z depth in metres
   * \param[in] theta angle between the viewing ray and the surface normal (radians)

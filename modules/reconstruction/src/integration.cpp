@@ -32,7 +32,7 @@ interpolatedDepth (const IntegrationFrame& f, float uf, float vf, int u, int v)
   if (!usable (nearest, f.min_depth, f.max_depth))
     return 0.f;
   const int u0 = fastFloor (uf), v0 = fastFloor (vf);
-  if (u0 < 0 || v0 < 0 || u0 + 1 >= f.width || v0 + 1 >= f.height)
+  if (u0 < 0 || v0 < 0 || u0 + 1 >= f.camera.width || v0 + 1 >= f.camera.height)
     return nearest;
   const float* r0 = f.depth + static_cast<std::size_t> (v0) * f.depth_step + u0;
   const float* r1 = r0 + f.depth_step;
@@ -67,9 +67,9 @@ integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f)
         if (p.z () <= 0.f)
           continue;
         const float inv_z = 1.f / p.z ();
-        const float uf = f.fx * p.x () * inv_z + f.cx, vf = f.fy * p.y () * inv_z + f.cy;
+        const float uf = f.camera.fx * p.x () * inv_z + f.camera.cx, vf = f.camera.fy * p.y () * inv_z + f.camera.cy;
         const int u = fastFloor (uf + 0.5f), v = fastFloor (vf + 0.5f);
-        if (u < 0 || v < 0 || u >= f.width || v >= f.height)
+        if (u < 0 || v < 0 || u >= f.camera.width || v >= f.camera.height)
           continue;
         const float d = interpolatedDepth (f, uf, vf, u, v);
         float tsdf;
@@ -119,14 +119,14 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
 
   const __m256 lane = _mm256_setr_ps (0.f, 1.f, 2.f, 3.f, 4.f, 5.f, 6.f, 7.f);
   const __m256 zero = _mm256_setzero_ps (), one = _mm256_set1_ps (1.f), half = _mm256_set1_ps (0.5f);
-  const __m256 fx = _mm256_set1_ps (f.fx), fy = _mm256_set1_ps (f.fy);
-  const __m256 cx = _mm256_set1_ps (f.cx), cy = _mm256_set1_ps (f.cy);
+  const __m256 fx = _mm256_set1_ps (f.camera.fx), fy = _mm256_set1_ps (f.camera.fy);
+  const __m256 cx = _mm256_set1_ps (f.camera.cx), cy = _mm256_set1_ps (f.camera.cy);
   const __m256 min_depth = _mm256_set1_ps (f.min_depth), max_depth = _mm256_set1_ps (f.max_depth);
   const __m256 truncation = _mm256_set1_ps (f.truncation), neg_truncation = _mm256_set1_ps (-f.truncation);
   const __m256 max_weight = _mm256_set1_ps (f.max_weight);
   const __m256 same_surface = _mm256_set1_ps (0.02f);
-  const __m256i width = _mm256_set1_epi32 (f.width), height = _mm256_set1_epi32 (f.height);
-  const __m256i width_m1 = _mm256_set1_epi32 (f.width - 1), height_m1 = _mm256_set1_epi32 (f.height - 1);
+  const __m256i width = _mm256_set1_epi32 (f.camera.width), height = _mm256_set1_epi32 (f.camera.height);
+  const __m256i width_m1 = _mm256_set1_epi32 (f.camera.width - 1), height_m1 = _mm256_set1_epi32 (f.camera.height - 1);
   const __m256i minus_one = _mm256_set1_epi32 (-1);
   const __m256i depth_step = _mm256_set1_epi32 (static_cast<int> (f.depth_step));
   const __m256i voxel_floats = _mm256_setr_epi32 (0, 4, 8, 12, 16, 20, 24, 28);  // 16-byte voxels

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cuefusion/common/pinhole_camera.h>
 #include <cuefusion/reconstruction/voxel.h>
 
 #include <Eigen/Core>
@@ -22,8 +23,7 @@ struct IntegrationFrame
   std::size_t depth_step = 0;  ///< floats per depth row
   const std::uint8_t* color = nullptr;  ///< BGR rows, or nullptr
   std::size_t color_step = 0;           ///< bytes per colour row
-  int width = 0, height = 0;
-  float fx = 0.f, fy = 0.f, cx = 0.f, cy = 0.f;
+  FloatIntrinsics camera;
   Eigen::Matrix3f R_cw = Eigen::Matrix3f::Identity ();
   Eigen::Vector3f t_cw = Eigen::Vector3f::Zero ();
   float voxel_size = 0.f, truncation = 0.f, min_depth = 0.f, max_depth = 0.f, max_weight = 1.f;

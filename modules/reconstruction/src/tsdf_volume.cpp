@@ -575,12 +575,7 @@ TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const Pinhole
     frame.color = color.ptr<std::uint8_t> ();
     frame.color_step = color.step[0];
   }
-  frame.width = camera.width;
-  frame.height = camera.height;
-  frame.fx = static_cast<float> (camera.fx);
-  frame.fy = static_cast<float> (camera.fy);
-  frame.cx = static_cast<float> (camera.cx);
-  frame.cy = static_cast<float> (camera.cy);
+  frame.camera = FloatIntrinsics (camera);
   frame.R_cw = world_to_camera.linear ();
   frame.t_cw = world_to_camera.translation ();
   frame.voxel_size = static_cast<float> (config_.voxel_size);

@@ -268,8 +268,7 @@ struct LabelFrame
   std::size_t labels_step = 0;  ///< int32 per row
   const float* depth = nullptr;
   std::size_t depth_step = 0;  ///< floats per row
-  int width = 0, height = 0;
-  float fx = 0.f, fy = 0.f, cx = 0.f, cy = 0.f;
+  FloatIntrinsics camera;
   float max_gap = 0.f;  ///< |z_voxel − D(u)| below this: the pixel sees this voxel's surface
   int band_limit = 0;   ///< |distance| above this (distance-layer units): outside the band
 };
@@ -308,8 +307,8 @@ observedLabel (const LabelFrame& f, const Eigen::Vector3f& p)
   if (p.z () <= 0.f)
     return 0;
   const float inv_z = 1.f / p.z ();
-  const int px = fastFloor (f.fx * p.x () * inv_z + f.cx + 0.5f), py = fastFloor (f.fy * p.y () * inv_z + f.cy + 0.5f);
-  if (px < 0 || py < 0 || px >= f.width || py >= f.height)
+  const int px = fastFloor (f.camera.fx * p.x () * inv_z + f.camera.cx + 0.5f), py = fastFloor (f.camera.fy * p.y () * inv_z + f.camera.cy + 0.5f);
+  if (px < 0 || py < 0 || px >= f.camera.width || py >= f.camera.height)
     return 0;
   const std::int32_t observed = f.labels[static_cast<std::size_t> (py) * f.labels_step + static_cast<std::size_t> (px)];
   const float d = f.depth[static_cast<std::size_t> (py) * f.depth_step + static_cast<std::size_t> (px)];
@@ -351,14 +350,14 @@ rowLabelsAvx2 (const LabelFrame& f, const std::int16_t* distance, const Eigen::V
   const __m256 pz = _mm256_add_ps (_mm256_set1_ps (row.z ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.z ())));
   const __m256 zero = _mm256_setzero_ps (), half = _mm256_set1_ps (0.5f);
   const __m256 inv_z = _mm256_div_ps (_mm256_set1_ps (1.f), pz);
-  const __m256 uf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (f.fx), px), inv_z), _mm256_set1_ps (f.cx));
-  const __m256 vf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (f.fy), py), inv_z), _mm256_set1_ps (f.cy));
+  const __m256 uf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (f.camera.fx), px), inv_z), _mm256_set1_ps (f.camera.cx));
+  const __m256 vf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (f.camera.fy), py), inv_z), _mm256_set1_ps (f.camera.cy));
   const __m256i u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (uf, half)));
   const __m256i v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (vf, half)));
   const __m256i minus_one = _mm256_set1_epi32 (-1);
   __m256i ok = _mm256_and_si256 (in_band, _mm256_castps_si256 (_mm256_cmp_ps (pz, zero, _CMP_GT_OQ)));
-  ok = _mm256_and_si256 (ok, _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.width), u)));
-  ok = _mm256_and_si256 (ok, _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.height), v)));
+  ok = _mm256_and_si256 (ok, _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.camera.width), u)));
+  ok = _mm256_and_si256 (ok, _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.camera.height), v)));
   if (_mm256_movemask_epi8 (ok) == 0)
   {
     _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_setzero_si256 ());
@@ -395,12 +394,7 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
   frame.labels_step = labels.step1 ();
   frame.depth = depth.ptr<float> ();
   frame.depth_step = depth.step1 ();
-  frame.width = camera.width;
-  frame.height = camera.height;
-  frame.fx = static_cast<float> (camera.fx);
-  frame.fy = static_cast<float> (camera.fy);
-  frame.cx = static_cast<float> (camera.cx);
-  frame.cy = static_cast<float> (camera.cy);
+  frame.camera = FloatIntrinsics (camera);
   frame.max_gap = config.band * truncation;
   // Most voxels of the blocks just integrated are truncated or unobserved: the 2-byte
   // distance layer rules them out before the 16-byte voxel is read. |sdf| < band in its
