@@ -13,12 +13,6 @@ namespace detail
 {
 namespace
 {
-inline bool
-usable (float z, float min_depth, float max_depth)
-{
-  return z >= min_depth && z <= max_depth;  // NaN fails both comparisons
-}
-
 /** \brief Depth seen along the voxel's own ray: bilinear between the four pixels around
   * (uf, vf) when all are valid and on one surface (within 2 % of each other), else the
   * nearest pixel (u, v); 0 when the nearest pixel has no usable depth. Looking up only
@@ -29,7 +23,7 @@ inline float
 interpolatedDepth (const IntegrationFrame& f, float uf, float vf, int u, int v)
 {
   const float nearest = f.depth[static_cast<std::size_t> (v) * f.depth_step + static_cast<std::size_t> (u)];
-  if (!usable (nearest, f.min_depth, f.max_depth))
+  if (!usableDepth (nearest, f.min_depth, f.max_depth))
     return 0.f;
   const int u0 = fastFloor (uf), v0 = fastFloor (vf);
   if (u0 < 0 || v0 < 0 || u0 + 1 >= f.camera.width || v0 + 1 >= f.camera.height)
@@ -37,8 +31,8 @@ interpolatedDepth (const IntegrationFrame& f, float uf, float vf, int u, int v)
   const float* r0 = f.depth + static_cast<std::size_t> (v0) * f.depth_step + u0;
   const float* r1 = r0 + f.depth_step;
   const float d00 = r0[0], d01 = r0[1], d10 = r1[0], d11 = r1[1];
-  if (!(usable (d00, f.min_depth, f.max_depth) && usable (d01, f.min_depth, f.max_depth) &&
-        usable (d10, f.min_depth, f.max_depth) && usable (d11, f.min_depth, f.max_depth)))
+  if (!(usableDepth (d00, f.min_depth, f.max_depth) && usableDepth (d01, f.min_depth, f.max_depth) &&
+        usableDepth (d10, f.min_depth, f.max_depth) && usableDepth (d11, f.min_depth, f.max_depth)))
     return nearest;
   const float lo = std::min (std::min (d00, d01), std::min (d10, d11));
   const float hi = std::max (std::max (d00, d01), std::max (d10, d11));

@@ -29,6 +29,13 @@ struct IntegrationFrame
   float voxel_size = 0.f, truncation = 0.f, min_depth = 0.f, max_depth = 0.f, max_weight = 1.f;
 };
 
+/** \brief A depth sample inside the fusion range [min, max] (NaN fails both comparisons). */
+inline bool
+usableDepth (float z, float min_depth, float max_depth)
+{
+  return z >= min_depth && z <= max_depth;
+}
+
 /** \brief §4.1.4 for every voxel of \a block: projected into the depth map, its truncated
   * distance (and colour) averaged in. Plain C++.
   */

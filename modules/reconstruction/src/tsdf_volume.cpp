@@ -42,13 +42,6 @@ private:
   std::array<std::uint64_t, 4096> slots_;
 };
 
-/** \brief Depth of a valid measurement inside the fusion range, else 0. */
-inline float
-usableDepth (float z, float min_depth, float max_depth)
-{
-  return (z >= min_depth && z <= max_depth) ? z : 0.f;  // NaN fails both comparisons
-}
-
 /** \brief Conservative depth range of a block seen from a camera, per 8×8 pixel tile. */
 struct RangeTiles
 {
@@ -504,8 +497,8 @@ TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, c
       const float* row = depth.ptr<float> (v);
       for (int u = 0; u < depth.cols; u += kPixelStride)
       {
-        const float d = usableDepth (row[u], min_depth, max_depth);
-        if (d == 0.f)
+        const float d = row[u];
+        if (!detail::usableDepth (d, min_depth, max_depth))
           continue;
         const Eigen::Vector3f ray = R * camera.backProject (static_cast<float> (u), static_cast<float> (v), 1.f);
         for (int s = 0; s < samples; ++s)
