@@ -250,13 +250,12 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
     given[j] = label;
   }
   result.labels.create (size, CV_32S);
-  for (int y = 0; y < size.height; ++y)
-  {
+  parallelFor (size.height, [&] (int y) {
     const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
     std::int32_t* out = result.labels.ptr<std::int32_t> (y);
     for (int x = 0; x < size.width; ++x)
       out[x] = lj[x] > 0 ? static_cast<std::int32_t> (given[static_cast<std::size_t> (lj[x])]) : 0;
-  }
+  });
 }
 
 namespace
