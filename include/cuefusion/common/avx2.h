@@ -7,6 +7,8 @@
   */
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <cuefusion/common/pinhole_camera.h>
+
 #include <immintrin.h>
 
 /** Defined where the AVX2 kernels can be compiled (x86-64 with GCC or Clang). */
@@ -50,11 +52,35 @@ storeXyz8 (float* p, __m256 x, __m256 y, __m256 z)
   _mm256_storeu_ps (p + 16, _mm256_blend_ps (_mm256_blend_ps (tx, ty, 0x49), tz, 0x92));
 }
 
-/** \brief Lanes where \a lo ≤ i < \a hi for 32-bit integer lanes (all ones / zeros). */
+/** \brief Lanes where 0 ≤ u < width and 0 ≤ v < height (all ones / zeros); a lane holding
+  * INT_MIN (what an out-of-range float converts to) is outside.
+  */
 CUEFUSION_AVX2 inline __m256i
-inRange (__m256i i, int lo, int hi)
+insideImage (__m256i u, __m256i v, int width, int height)
 {
-  return _mm256_and_si256 (_mm256_cmpgt_epi32 (i, _mm256_set1_epi32 (lo - 1)), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (hi), i));
+  const __m256i minus_one = _mm256_set1_epi32 (-1);
+  return _mm256_and_si256 (
+      _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (width), u)),
+      _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (height), v)));
+}
+
+/** \brief The pinhole projection of eight camera-frame points, as the voxel kernels
+  * (integration, the label update) do it per voxel: uf = fx·x·(1/z) + cx, vf likewise,
+  * and the nearest pixel (u, v) = ⌊(uf, vf) + ½⌋. Returns the lanes with z > 0 whose
+  * pixel lies in the image.
+  */
+CUEFUSION_AVX2 inline __m256
+projectToPixel8 (__m256 x, __m256 y, __m256 z, const FloatIntrinsics& camera, __m256& uf, __m256& vf, __m256i& u,
+                 __m256i& v)
+{
+  const __m256 inv_z = _mm256_div_ps (_mm256_set1_ps (1.f), z);
+  uf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (camera.fx), x), inv_z), _mm256_set1_ps (camera.cx));
+  vf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (camera.fy), y), inv_z), _mm256_set1_ps (camera.cy));
+  const __m256 half = _mm256_set1_ps (0.5f);
+  u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (uf, half)));
+  v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (vf, half)));
+  return _mm256_and_ps (_mm256_cmp_ps (z, _mm256_setzero_ps (), _CMP_GT_OQ),
+                        _mm256_castsi256_ps (insideImage (u, v, camera.width, camera.height)));
 }
 
 /** \brief Lanes where x, y and z are all finite (x − x is 0 for finite x, NaN for NaN

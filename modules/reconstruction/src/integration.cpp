@@ -81,8 +81,9 @@ integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f)
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
 namespace
 {
+/** \brief usableDepth per lane. */
 CUEFUSION_AVX2 inline __m256
-inRange (__m256 d, __m256 min_depth, __m256 max_depth)
+usableDepth8 (__m256 d, __m256 min_depth, __m256 max_depth)
 {
   return _mm256_and_ps (_mm256_cmp_ps (d, min_depth, _CMP_GE_OQ), _mm256_cmp_ps (d, max_depth, _CMP_LE_OQ));
 }
@@ -113,15 +114,10 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
 
   const __m256 lane = _mm256_setr_ps (0.f, 1.f, 2.f, 3.f, 4.f, 5.f, 6.f, 7.f);
   const __m256 zero = _mm256_setzero_ps (), one = _mm256_set1_ps (1.f), half = _mm256_set1_ps (0.5f);
-  const __m256 fx = _mm256_set1_ps (f.camera.fx), fy = _mm256_set1_ps (f.camera.fy);
-  const __m256 cx = _mm256_set1_ps (f.camera.cx), cy = _mm256_set1_ps (f.camera.cy);
   const __m256 min_depth = _mm256_set1_ps (f.min_depth), max_depth = _mm256_set1_ps (f.max_depth);
   const __m256 truncation = _mm256_set1_ps (f.truncation), neg_truncation = _mm256_set1_ps (-f.truncation);
   const __m256 max_weight = _mm256_set1_ps (f.max_weight);
   const __m256 same_surface = _mm256_set1_ps (0.02f);
-  const __m256i width = _mm256_set1_epi32 (f.camera.width), height = _mm256_set1_epi32 (f.camera.height);
-  const __m256i width_m1 = _mm256_set1_epi32 (f.camera.width - 1), height_m1 = _mm256_set1_epi32 (f.camera.height - 1);
-  const __m256i minus_one = _mm256_set1_epi32 (-1);
   const __m256i depth_step = _mm256_set1_epi32 (static_cast<int> (f.depth_step));
   const __m256i voxel_floats = _mm256_setr_epi32 (0, 4, 8, 12, 16, 20, 24, 28);  // 16-byte voxels
   static_assert (sizeof (TsdfVoxel) == 16 && offsetof (TsdfVoxel, weight) == 4 && offsetof (TsdfVoxel, r) == 8,
@@ -141,19 +137,11 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
       const __m256 px = _mm256_add_ps (_mm256_set1_ps (row.x ()), lx);
       const __m256 py = _mm256_add_ps (_mm256_set1_ps (row.y ()), ly);
       const __m256 pz = _mm256_add_ps (_mm256_set1_ps (row.z ()), lz);
-      const __m256 in_front = _mm256_cmp_ps (pz, zero, _CMP_GT_OQ);
-      if (_mm256_movemask_ps (in_front) == 0)
+      if (_mm256_movemask_ps (_mm256_cmp_ps (pz, zero, _CMP_GT_OQ)) == 0)
         continue;
-      const __m256 inv_z = _mm256_div_ps (one, pz);
-      const __m256 uf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (fx, px), inv_z), cx);
-      const __m256 vf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (fy, py), inv_z), cy);
-      // Out-of-range floats convert to INT_MIN and fail the bounds test.
-      const __m256i u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (uf, half)));
-      const __m256i v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (vf, half)));
-      const __m256i inside = _mm256_and_si256 (
-          _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one), _mm256_cmpgt_epi32 (width, u)),
-          _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one), _mm256_cmpgt_epi32 (height, v)));
-      const __m256 seen = _mm256_and_ps (in_front, _mm256_castsi256_ps (inside));
+      __m256 uf, vf;
+      __m256i u, v;
+      const __m256 seen = avx2::projectToPixel8 (px, py, pz, f.camera, uf, vf, u, v);
       if (_mm256_movemask_ps (seen) == 0)
         continue;
       const __m256i index = _mm256_add_epi32 (_mm256_mullo_epi32 (v, depth_step), u);
@@ -166,9 +154,7 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
       // Bilinear depth where the four pixels around the projection are usable and close.
       const __m256 uf0 = _mm256_floor_ps (uf), vf0 = _mm256_floor_ps (vf);
       const __m256i u0 = _mm256_cvttps_epi32 (uf0), v0 = _mm256_cvttps_epi32 (vf0);
-      const __m256i corners_inside = _mm256_and_si256 (
-          _mm256_and_si256 (_mm256_cmpgt_epi32 (u0, minus_one), _mm256_cmpgt_epi32 (width_m1, u0)),
-          _mm256_and_si256 (_mm256_cmpgt_epi32 (v0, minus_one), _mm256_cmpgt_epi32 (height_m1, v0)));
+      const __m256i corners_inside = avx2::insideImage (u0, v0, f.camera.width - 1, f.camera.height - 1);
       __m256 bilinear_ok = _mm256_and_ps (nearest_ok, _mm256_castsi256_ps (corners_inside));
       __m256 depth = nearest;
       if (_mm256_movemask_ps (bilinear_ok) != 0)
@@ -183,8 +169,8 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
         const __m256 lo = _mm256_min_ps (_mm256_min_ps (d00, d01), _mm256_min_ps (d10, d11));
         const __m256 hi = _mm256_max_ps (_mm256_max_ps (d00, d01), _mm256_max_ps (d10, d11));
         bilinear_ok = _mm256_and_ps (
-            _mm256_and_ps (bilinear_ok, _mm256_and_ps (_mm256_and_ps (inRange (d00, min_depth, max_depth), inRange (d01, min_depth, max_depth)),
-                                                       _mm256_and_ps (inRange (d10, min_depth, max_depth), inRange (d11, min_depth, max_depth)))),
+            _mm256_and_ps (bilinear_ok, _mm256_and_ps (_mm256_and_ps (usableDepth8 (d00, min_depth, max_depth), usableDepth8 (d01, min_depth, max_depth)),
+                                                       _mm256_and_ps (usableDepth8 (d10, min_depth, max_depth), usableDepth8 (d11, min_depth, max_depth)))),
             _mm256_cmp_ps (_mm256_sub_ps (hi, lo), _mm256_mul_ps (same_surface, lo), _CMP_LE_OQ));
         const __m256 a = _mm256_sub_ps (uf, uf0), b = _mm256_sub_ps (vf, vf0);
         const __m256 na = _mm256_sub_ps (one, a), nb = _mm256_sub_ps (one, b);

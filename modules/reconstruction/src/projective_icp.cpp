@@ -100,8 +100,6 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
   const __m256 height = _mm256_set1_ps (static_cast<float> (target.camera.height));
   const __m256 minus_one = _mm256_set1_ps (-1.f), zero = _mm256_setzero_ps (), half = _mm256_set1_ps (0.5f);
   const __m256 max_sq = _mm256_set1_ps (max_distance_sq), cos_limit = _mm256_set1_ps (min_cos);
-  const __m256i width_i = _mm256_set1_epi32 (target.camera.width), height_i = _mm256_set1_epi32 (target.camera.height);
-  const __m256i minus_one_i = _mm256_set1_epi32 (-1);
 
   __m256 acc[28];
   for (__m256& a : acc)
@@ -133,10 +131,7 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
     // Lanes already rejected convert garbage; they are masked out of the gathers below.
     const __m256i u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (_mm256_and_ps (uf, ok), half)));
     const __m256i v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (_mm256_and_ps (vf, ok), half)));
-    const __m256i inside = _mm256_and_si256 (
-        _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one_i), _mm256_cmpgt_epi32 (width_i, u)),
-        _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one_i), _mm256_cmpgt_epi32 (height_i, v)));
-    ok = _mm256_and_ps (ok, _mm256_castsi256_ps (inside));
+    ok = _mm256_and_ps (ok, _mm256_castsi256_ps (avx2::insideImage (u, v, target.camera.width, target.camera.height)));
     if (_mm256_movemask_ps (ok) == 0)
       continue;
     const __m256i u3 = _mm256_mullo_epi32 (u, three);

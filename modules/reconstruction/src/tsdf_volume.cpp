@@ -306,7 +306,7 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
   const __m256 zero = _mm256_setzero_ps (), scale = _mm256_set1_ps (1.f / kDistanceScale);
   __m256 z = z_hint, z_result = zero, gx_result = zero, gy_result = zero, gz_result = zero;
   alignas (32) std::int32_t lx[8], ly[8], lz[8];
-  alignas (32) float corners[8][8];
+  alignas (32) float corners[8][8] = {};  // lanes not read keep zeros (masked out below)
   int active = lanes;
   for (int step = 0; step < 4 && active != 0; ++step)
   {
@@ -660,6 +660,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
     std::vector<const TsdfVoxel*> hits (static_cast<std::size_t> (camera.width));
     std::vector<float> hint_z (static_cast<std::size_t> (camera.width));  // refineNearHint8's results: > 0 settled,
     std::vector<Eigen::Vector3f> hint_grad (static_cast<std::size_t> (camera.width));  // 0 failed, < 0 not tried
+    std::vector<Eigen::Vector3f> ray_dirs (static_cast<std::size_t> (camera.width));
     for (int v = begin; v < end; ++v)
     {
       std::fill (hits.begin (), hits.end (), nullptr);
@@ -673,6 +674,11 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
       cv::Vec3b* color_row = out.colors.ptr<cv::Vec3b> (v);
       std::int32_t* label_row = out.labels.ptr<std::int32_t> (v);
       float row_z = 0.f;  // depth of the last surface found on this row
+      // The row's rays in the world, in voxel units per metre of z-depth (read by the
+      // eight-ray kernel and the per-pixel loop).
+      for (int u = 0; u < camera.width; ++u)
+        ray_dirs[static_cast<std::size_t> (u)] =
+            R * Eigen::Vector3f ((static_cast<float> (u) - cx) * inv_fx, (static_cast<float> (v) - cy) * inv_fy, 1.f) * inv_voxel;
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
       // Rays with a usable hint, eight at a time; what does not settle goes the scalar way.
       const bool vector_hints = use_avx2 && !depth_hint.empty ();
@@ -689,9 +695,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
             for (int i = 0; i < 8; ++i)
             {
               const float d = hint_row[u0 + i];
-              const Eigen::Vector3f dir =
-                  R * Eigen::Vector3f ((static_cast<float> (u0 + i) - cx) * inv_fx, (static_cast<float> (v) - cy) * inv_fy, 1.f) *
-                  inv_voxel;
+              const Eigen::Vector3f& dir = ray_dirs[static_cast<std::size_t> (u0 + i)];
               dir_x[i] = dir.x ();
               dir_y[i] = dir.y ();
               dir_z[i] = dir.z ();
@@ -719,7 +723,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         if (!(tiles.zmax[tile] > tiles.zmin[tile]))
           continue;
         const Eigen::Vector3f ray_c ((static_cast<float> (u) - cx) * inv_fx, (static_cast<float> (v) - cy) * inv_fy, 1.f);
-        const Eigen::Vector3f dir = R * ray_c * inv_voxel;
+        const Eigen::Vector3f& dir = ray_dirs[static_cast<std::size_t> (u)];
         const TsdfVoxel* hit = nullptr;
         Eigen::Vector3f grad;
         float z = 0.f;

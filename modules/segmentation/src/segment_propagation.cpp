@@ -347,16 +347,10 @@ rowLabelsAvx2 (const LabelFrame& f, const std::int16_t* distance, const Eigen::V
   const __m256 px = _mm256_add_ps (_mm256_set1_ps (row.x ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.x ())));
   const __m256 py = _mm256_add_ps (_mm256_set1_ps (row.y ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.y ())));
   const __m256 pz = _mm256_add_ps (_mm256_set1_ps (row.z ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.z ())));
-  const __m256 zero = _mm256_setzero_ps (), half = _mm256_set1_ps (0.5f);
-  const __m256 inv_z = _mm256_div_ps (_mm256_set1_ps (1.f), pz);
-  const __m256 uf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (f.camera.fx), px), inv_z), _mm256_set1_ps (f.camera.cx));
-  const __m256 vf = _mm256_add_ps (_mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (f.camera.fy), py), inv_z), _mm256_set1_ps (f.camera.cy));
-  const __m256i u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (uf, half)));
-  const __m256i v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (vf, half)));
-  const __m256i minus_one = _mm256_set1_epi32 (-1);
-  __m256i ok = _mm256_and_si256 (in_band, _mm256_castps_si256 (_mm256_cmp_ps (pz, zero, _CMP_GT_OQ)));
-  ok = _mm256_and_si256 (ok, _mm256_and_si256 (_mm256_cmpgt_epi32 (u, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.camera.width), u)));
-  ok = _mm256_and_si256 (ok, _mm256_and_si256 (_mm256_cmpgt_epi32 (v, minus_one), _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.camera.height), v)));
+  const __m256 zero = _mm256_setzero_ps ();
+  __m256 uf, vf;
+  __m256i u, v;
+  __m256i ok = _mm256_and_si256 (in_band, _mm256_castps_si256 (avx2::projectToPixel8 (px, py, pz, f.camera, uf, vf, u, v)));
   if (_mm256_movemask_epi8 (ok) == 0)
   {
     _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_setzero_si256 ());
