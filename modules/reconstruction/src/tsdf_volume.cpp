@@ -286,13 +286,15 @@ lerp8 (__m256 a, __m256 b, __m256 t)
 }
 
 /** \brief refineNearHint for eight rays at once (lanes whose bit is set in \a lanes):
-  * the cells are read per lane (VoxelAccessor::cell), the trilinear value, gradient and
-  * Newton step are computed for all eight in AVX2. On return z[i] > 0 and grad[3][i]
-  * for the rays that settled, z[i] = 0 for the rest (the caller falls back to the scalar
-  * path and the march for those). The nearest voxel is looked up by the caller.
+  * the cells are read per lane, the trilinear value, gradient and Newton step are computed
+  * for all eight in AVX2. On return z[i] > 0 and grad[3][i] for the rays that settled,
+  * z[i] = 0 for the rest (the caller falls back to the scalar path and the march for
+  * those); writeSettledRays8 turns the settled ones into the outputs.
   * Measured on icl-livingroom1: raycast 15.3–17.2 → 13.7–14.3 ms a frame (A/B, three
-  * rounds). The per-lane cell reads are now most of its time (waiting on the distance
-  * layer); prefetching every fourth pixel's cell a pass ahead was slower.
+  * rounds). Tried and slower here (AMD Zen 4, cuefusion_bench_raycast): prefetching the
+  * cells a pass or a row ahead, and AVX2 gathers of the corners (per corner, or per
+  * x-pair of corners, and per block): the gathers cost a load per lane and more than the
+  * per-lane reads they replace.
   */
 CUEFUSION_AVX2 void
 refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const float* dir_x, const float* dir_y,
@@ -308,21 +310,49 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
   alignas (32) std::int32_t lx[8], ly[8], lz[8];
   alignas (32) float corners[8][8] = {};  // lanes not read keep zeros (masked out below)
   int active = lanes;
+  __m256i cell_x = _mm256_undefined_si256 (), cell_y = cell_x, cell_z = cell_x;
   for (int step = 0; step < 4 && active != 0; ++step)
   {
     const __m256 gx = _mm256_add_ps (ox, _mm256_mul_ps (dx, z));
     const __m256 gy = _mm256_add_ps (oy, _mm256_mul_ps (dy, z));
     const __m256 gz = _mm256_add_ps (oz, _mm256_mul_ps (dz, z));
     const __m256 flx = _mm256_floor_ps (gx), fly = _mm256_floor_ps (gy), flz = _mm256_floor_ps (gz);
-    _mm256_store_si256 (reinterpret_cast<__m256i*> (lx), _mm256_cvttps_epi32 (flx));
-    _mm256_store_si256 (reinterpret_cast<__m256i*> (ly), _mm256_cvttps_epi32 (fly));
-    _mm256_store_si256 (reinterpret_cast<__m256i*> (lz), _mm256_cvttps_epi32 (flz));
+    const __m256i next_x = _mm256_cvttps_epi32 (flx), next_y = _mm256_cvttps_epi32 (fly), next_z = _mm256_cvttps_epi32 (flz);
+    // A step that stays in the cell just read needs no read: the trilinear field there is
+    // that cell's, and the lanes still active all read theirs successfully (a quarter of
+    // the second steps on 7-Scenes).
+    int to_read = active;
+    if (step > 0)
+    {
+      const __m256i same = _mm256_and_si256 (_mm256_and_si256 (_mm256_cmpeq_epi32 (next_x, cell_x), _mm256_cmpeq_epi32 (next_y, cell_y)),
+                                             _mm256_cmpeq_epi32 (next_z, cell_z));
+      to_read &= ~_mm256_movemask_ps (_mm256_castsi256_ps (same));
+    }
+    cell_x = next_x;
+    cell_y = next_y;
+    cell_z = next_z;
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (lx), next_x);
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (ly), next_y);
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (lz), next_z);
     int read = active;
-    for (int m = active; m != 0; m &= m - 1)
+    for (int m = to_read; m != 0; m &= m - 1)
     {
       const int i = __builtin_ctz (static_cast<unsigned> (m));
+      const int x = lx[i], y = ly[i], z = lz[i];
+      constexpr int last = kBlockSide - 1;
+      if ((x & last) != last && (y & last) != last && (z & last) != last)
+      {
+        // The cell lies in one block (the common case), read straight into the lane's
+        // column: through VoxelAccessor::cell and a copy it took ~100 instructions a lane.
+        const VoxelBlock* block = access.block (blockOfVoxel (Eigen::Vector3i (x, y, z)));
+        if (block == nullptr ||
+            !detail::VoxelAccessor::cellInBlock (block->distances.data () + localVoxelIndex (x & last, y & last, z & last),
+                                                 &corners[0][i], 8))
+          read &= ~(1 << i);
+        continue;
+      }
       std::array<float, 8> values;
-      if (!access.cell (Eigen::Vector3i (lx[i], ly[i], lz[i]), values))
+      if (!access.cell (Eigen::Vector3i (x, y, z), values))
       {
         read &= ~(1 << i);
         continue;
@@ -367,6 +397,69 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
   _mm256_storeu_ps (grad_out, gx_result);
   _mm256_storeu_ps (grad_out + 8, gy_result);
   _mm256_storeu_ps (grad_out + 16, gz_result);
+}
+
+/** \brief The per-pixel outputs of eight rays that refineNearHint8 settled (z[i] > 0), as the
+  * scalar loop writes them: the vertex (camera ray · z), the normal (the gradient turned
+  * into the camera and normalised, facing the camera) and the voxel nearest the hit, whose
+  * colour and label are read after the row. A lane whose nearest voxel is unallocated gets
+  * z[i] = 0 (the scalar path then marches). Returns the lanes written.
+  *
+  * The same work per pixel in the scalar loop (three divisions for the normal, a voxel
+  * lookup) was a tenth of the whole run's time on icl-livingroom1.
+  */
+CUEFUSION_AVX2 int
+writeSettledRays8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const float* dir_x, const float* dir_y,
+                   const float* dir_z, const float* ray_x, float ray_y, const Eigen::Matrix3f& R_cw, float* z,
+                   const float* grad, float* vertices, float* normals, const TsdfVoxel** hits)
+{
+  const __m256 zero = _mm256_setzero_ps ();
+  const __m256 depth = _mm256_loadu_ps (z);
+  int settled = _mm256_movemask_ps (_mm256_cmp_ps (depth, zero, _CMP_GT_OQ));
+  if (settled == 0)
+    return 0;
+  // Nearest voxels: ⌊origin + dir · z + ½⌋, as nearestVoxel ().
+  const __m256 half = _mm256_set1_ps (0.5f);
+  alignas (32) std::int32_t nx[8], ny[8], nz[8];
+  _mm256_store_si256 (reinterpret_cast<__m256i*> (nx), _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (
+      _mm256_add_ps (_mm256_set1_ps (origin.x ()), _mm256_mul_ps (_mm256_loadu_ps (dir_x), depth)), half))));
+  _mm256_store_si256 (reinterpret_cast<__m256i*> (ny), _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (
+      _mm256_add_ps (_mm256_set1_ps (origin.y ()), _mm256_mul_ps (_mm256_loadu_ps (dir_y), depth)), half))));
+  _mm256_store_si256 (reinterpret_cast<__m256i*> (nz), _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (
+      _mm256_add_ps (_mm256_set1_ps (origin.z ()), _mm256_mul_ps (_mm256_loadu_ps (dir_z), depth)), half))));
+  for (int m = settled; m != 0; m &= m - 1)
+  {
+    const int i = __builtin_ctz (static_cast<unsigned> (m));
+    const TsdfVoxel* hit = access.get (Eigen::Vector3i (nx[i], ny[i], nz[i]));
+    if (hit == nullptr)
+    {
+      settled &= ~(1 << i);
+      z[i] = 0.f;
+      continue;
+    }
+    __builtin_prefetch (hit);
+    hits[i] = hit;
+  }
+  const __m256 keep = _mm256_castsi256_ps (_mm256_cmpeq_epi32 (
+      _mm256_and_si256 (_mm256_set1_epi32 (settled), _mm256_setr_epi32 (1, 2, 4, 8, 16, 32, 64, 128)),
+      _mm256_setr_epi32 (1, 2, 4, 8, 16, 32, 64, 128)));
+  const __m256 nan = _mm256_set1_ps (std::numeric_limits<float>::quiet_NaN ());
+  const __m256 px = _mm256_mul_ps (_mm256_loadu_ps (ray_x), depth), py = _mm256_mul_ps (_mm256_set1_ps (ray_y), depth);
+  const __m256 gx = _mm256_loadu_ps (grad), gy = _mm256_loadu_ps (grad + 8), gz = _mm256_loadu_ps (grad + 16);
+  __m256 n[3];
+  for (int r = 0; r < 3; ++r)
+    n[r] = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (_mm256_set1_ps (R_cw (r, 0)), gx), _mm256_mul_ps (_mm256_set1_ps (R_cw (r, 1)), gy)),
+                          _mm256_mul_ps (_mm256_set1_ps (R_cw (r, 2)), gz));
+  const __m256 norm = _mm256_sqrt_ps (
+      _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (n[0], n[0]), _mm256_mul_ps (n[1], n[1])), _mm256_mul_ps (n[2], n[2])));
+  // Facing the camera: n · p ≤ 0, else flipped (the sign folded into the normalisation).
+  const __m256 facing = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (n[0], px), _mm256_mul_ps (n[1], py)), _mm256_mul_ps (n[2], depth));
+  const __m256 scale = _mm256_blendv_ps (_mm256_div_ps (_mm256_set1_ps (1.f), norm), _mm256_div_ps (_mm256_set1_ps (-1.f), norm),
+                                         _mm256_cmp_ps (facing, zero, _CMP_GT_OQ));
+  avx2::storeXyz8 (vertices, _mm256_blendv_ps (nan, px, keep), _mm256_blendv_ps (nan, py, keep), _mm256_blendv_ps (nan, depth, keep));
+  avx2::storeXyz8 (normals, _mm256_blendv_ps (nan, _mm256_mul_ps (n[0], scale), keep),
+                   _mm256_blendv_ps (nan, _mm256_mul_ps (n[1], scale), keep), _mm256_blendv_ps (nan, _mm256_mul_ps (n[2], scale), keep));
+  return settled;
 }
 #endif
 }  // namespace
@@ -658,9 +751,12 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
     // each right after its ray was a fifth of the row loop's time waiting for memory.
     // Prefetched when found, they arrive while the next rays are cast.
     std::vector<const TsdfVoxel*> hits (static_cast<std::size_t> (camera.width));
-    std::vector<float> hint_z (static_cast<std::size_t> (camera.width));  // refineNearHint8's results: > 0 settled,
-    std::vector<Eigen::Vector3f> hint_grad (static_cast<std::size_t> (camera.width));  // 0 failed, < 0 not tried
-    std::vector<Eigen::Vector3f> ray_dirs (static_cast<std::size_t> (camera.width));
+    // The eight-ray kernels' results: > 0 settled and written, 0 failed, < 0 not tried.
+    std::vector<float> hint_z (static_cast<std::size_t> (camera.width));
+    std::vector<float> dirs_x (static_cast<std::size_t> (camera.width)), dirs_y (dirs_x.size ()), dirs_z (dirs_x.size ());
+    std::vector<float> ray_x (static_cast<std::size_t> (camera.width));  // camera rays' x at z = 1
+    for (int u = 0; u < camera.width; ++u)
+      ray_x[static_cast<std::size_t> (u)] = (static_cast<float> (u) - cx) * inv_fx;
     for (int v = begin; v < end; ++v)
     {
       std::fill (hits.begin (), hits.end (), nullptr);
@@ -674,11 +770,16 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
       cv::Vec3b* color_row = out.colors.ptr<cv::Vec3b> (v);
       std::int32_t* label_row = out.labels.ptr<std::int32_t> (v);
       float row_z = 0.f;  // depth of the last surface found on this row
+      const float ray_y = (static_cast<float> (v) - cy) * inv_fy;
       // The row's rays in the world, in voxel units per metre of z-depth (read by the
       // eight-ray kernel and the per-pixel loop).
       for (int u = 0; u < camera.width; ++u)
-        ray_dirs[static_cast<std::size_t> (u)] =
-            R * Eigen::Vector3f ((static_cast<float> (u) - cx) * inv_fx, (static_cast<float> (v) - cy) * inv_fy, 1.f) * inv_voxel;
+      {
+        const Eigen::Vector3f dir = R * Eigen::Vector3f (ray_x[static_cast<std::size_t> (u)], ray_y, 1.f) * inv_voxel;
+        dirs_x[static_cast<std::size_t> (u)] = dir.x ();
+        dirs_y[static_cast<std::size_t> (u)] = dir.y ();
+        dirs_z[static_cast<std::size_t> (u)] = dir.z ();
+      }
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
       // Rays with a usable hint, eight at a time; what does not settle goes the scalar way.
       const bool vector_hints = use_avx2 && !depth_hint.empty ();
@@ -690,15 +791,13 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
           const std::size_t tile = static_cast<std::size_t> ((v / RangeTiles::kTile) * tiles.cols + u0 / RangeTiles::kTile);
           static_assert (RangeTiles::kTile == 8, "eight rays share a tile");
           int lanes = 0;
-          alignas (32) float dir_x[8], dir_y[8], dir_z[8];
+          const float* dir_x = &dirs_x[static_cast<std::size_t> (u0)];
+          const float* dir_y = &dirs_y[static_cast<std::size_t> (u0)];
+          const float* dir_z = &dirs_z[static_cast<std::size_t> (u0)];
           if (tiles.zmax[tile] > tiles.zmin[tile])
             for (int i = 0; i < 8; ++i)
             {
               const float d = hint_row[u0 + i];
-              const Eigen::Vector3f& dir = ray_dirs[static_cast<std::size_t> (u0 + i)];
-              dir_x[i] = dir.x ();
-              dir_y[i] = dir.y ();
-              dir_z[i] = dir.z ();
               if (d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
                 lanes |= 1 << i;
             }
@@ -708,10 +807,10 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
             continue;
           }
           alignas (32) float grads[24];
-          refineNearHint8 (access, origin_voxels, dir_x, dir_y, dir_z, hint_row + u0, lanes, truncation_voxels,
-                           &hint_z[static_cast<std::size_t> (u0)], grads);
-          for (int i = 0; i < 8; ++i)
-            hint_grad[static_cast<std::size_t> (u0 + i)] = Eigen::Vector3f (grads[i], grads[8 + i], grads[16 + i]);
+          float* z8 = &hint_z[static_cast<std::size_t> (u0)];
+          refineNearHint8 (access, origin_voxels, dir_x, dir_y, dir_z, hint_row + u0, lanes, truncation_voxels, z8, grads);
+          writeSettledRays8 (access, origin_voxels, dir_x, dir_y, dir_z, &ray_x[static_cast<std::size_t> (u0)], ray_y, R_cw,
+                             z8, grads, &vertex_row[u0][0], &normal_row[u0][0], &hits[static_cast<std::size_t> (u0)]);
         }
         for (int u = camera.width - camera.width % 8; u < camera.width; ++u)
           hint_z[static_cast<std::size_t> (u)] = -1.f;  // the row's tail: scalar
@@ -722,8 +821,16 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         const std::size_t tile = static_cast<std::size_t> ((v / RangeTiles::kTile) * tiles.cols + u / RangeTiles::kTile);
         if (!(tiles.zmax[tile] > tiles.zmin[tile]))
           continue;
-        const Eigen::Vector3f ray_c ((static_cast<float> (u) - cx) * inv_fx, (static_cast<float> (v) - cy) * inv_fy, 1.f);
-        const Eigen::Vector3f& dir = ray_dirs[static_cast<std::size_t> (u)];
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+        if (vector_hints && hint_z[static_cast<std::size_t> (u)] > 0.f)
+        {
+          row_z = hint_z[static_cast<std::size_t> (u)];  // written by writeSettledRays8
+          continue;
+        }
+#endif
+        const Eigen::Vector3f ray_c (ray_x[static_cast<std::size_t> (u)], ray_y, 1.f);
+        const Eigen::Vector3f dir (dirs_x[static_cast<std::size_t> (u)], dirs_y[static_cast<std::size_t> (u)],
+                                   dirs_z[static_cast<std::size_t> (u)]);
         const TsdfVoxel* hit = nullptr;
         Eigen::Vector3f grad;
         float z = 0.f;
@@ -734,17 +841,8 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
           if (d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
           {
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
-            if (vector_hints && hint_z[static_cast<std::size_t> (u)] >= 0.f)
-            {
-              z = hint_z[static_cast<std::size_t> (u)];
-              if (z > 0.f)
-              {
-                grad = hint_grad[static_cast<std::size_t> (u)];
-                hit = access.get (nearestVoxel (origin_voxels + dir * z));
-                if (hit == nullptr)
-                  z = 0.f;
-              }
-            }
+            if (vector_hints && hint_z[static_cast<std::size_t> (u)] == 0.f)
+              z = 0.f;  // the eight-ray Newton failed: march
             else
 #endif
               z = refineNearHint (access, origin_voxels, dir, d, truncation_voxels, &hit, &grad);

@@ -2,6 +2,8 @@
 
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
+#include <cstring>
+
 namespace cuefusion
 {
 namespace reconstruction
@@ -72,26 +74,56 @@ public:
     {
       // The whole cell lies in one block: one lookup, then fixed strides.
       const std::int16_t* base = distance (v);
-      if (base == nullptr)
+      return base != nullptr && cellInBlock (base, values.data (), 1);
+    }
+    // The cell straddles two, four or eight blocks (a third of all cells): look each up
+    // once. Going corner by corner through block () alternated between the blocks and
+    // missed the one-block cache on every corner, eight hash lookups per cell.
+    const int crosses = (l.x () == kBlockSide - 1 ? 1 : 0) | (l.y () == kBlockSide - 1 ? 2 : 0) | (l.z () == kBlockSide - 1 ? 4 : 0);
+    const Eigen::Vector3i b0 = blockOfVoxel (v);
+    const VoxelBlock* blocks[8] = {block (b0)};
+    if (blocks[0] == nullptr)
+      return false;
+    for (int j = crosses; j != 0; j = (j - 1) & crosses)  // the nonzero subsets of the crossed axes
+    {
+      const std::int32_t id = volume_.findBlock (b0 + Eigen::Vector3i (j & 1, (j >> 1) & 1, (j >> 2) & 1));
+      if (id < 0)
         return false;
-      constexpr int dy = kBlockSide, dz = kBlockSide * kBlockSide;
-      const std::int16_t d[8] = {base[0], base[1], base[dy], base[dy + 1], base[dz], base[dz + 1], base[dz + dy], base[dz + dy + 1]};
-      bool observed = true;
-      for (int i = 0; i < 8; ++i)
-      {
-        observed &= d[i] != kUnobservedDistance;
-        values[static_cast<std::size_t> (i)] = static_cast<float> (d[i]);
-      }
-      return observed;
+      blocks[j] = volume_.blocks ()[static_cast<std::size_t> (id)].get ();
     }
     for (int i = 0; i < 8; ++i)
     {
-      const std::int16_t* d = distance (v + Eigen::Vector3i (i & 1, (i >> 1) & 1, (i >> 2) & 1));
-      if (d == nullptr || *d == kUnobservedDistance)
+      const int x = (l.x () + (i & 1)) & (kBlockSide - 1), y = (l.y () + ((i >> 1) & 1)) & (kBlockSide - 1),
+                z = (l.z () + ((i >> 2) & 1)) & (kBlockSide - 1);
+      const std::int16_t d = blocks[i & crosses]->distances[static_cast<std::size_t> (localVoxelIndex (x, y, z))];
+      if (d == kUnobservedDistance)
         return false;
-      values[static_cast<std::size_t> (i)] = static_cast<float> (*d);
+      values[static_cast<std::size_t> (i)] = static_cast<float> (d);
     }
     return true;
+  }
+
+  /** \brief cell () for a cell inside one block whose lower corner's distance is at \a base:
+    * corner i goes to values[i · stride]. The corners come in x-pairs, adjacent in the
+    * distance layer: four 32-bit loads.
+    */
+  static inline bool
+  cellInBlock (const std::int16_t* base, float* values, std::size_t stride)
+  {
+    constexpr int dy = kBlockSide, dz = kBlockSide * kBlockSide;
+    const std::int16_t* rows[4] = {base, base + dy, base + dz, base + dz + dy};
+    bool observed = true;
+    for (std::size_t p = 0; p < 4; ++p)
+    {
+      std::uint32_t pair;
+      std::memcpy (&pair, rows[p], sizeof pair);
+      const auto first = static_cast<std::int16_t> (pair & 0xffffu), second = static_cast<std::int16_t> (pair >> 16);
+      static_assert (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the pair's first distance is its low half");
+      observed &= first != kUnobservedDistance && second != kUnobservedDistance;
+      values[2 * p * stride] = static_cast<float> (first);
+      values[(2 * p + 1) * stride] = static_cast<float> (second);
+    }
+    return observed;
   }
 
   /** \brief Trilinear distance (truncation units) at continuous voxel coordinates \a g. */
@@ -125,6 +157,8 @@ public:
     sdf = trilinear (v, f) * scale;
     return true;
   }
+
+  const TSDFVolume& volume () const { return volume_; }
 
 private:
   const TSDFVolume& volume_;
