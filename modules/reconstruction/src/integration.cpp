@@ -88,6 +88,46 @@ usableDepth8 (__m256 d, __m256 min_depth, __m256 max_depth)
   return _mm256_and_ps (_mm256_cmp_ps (d, min_depth, _CMP_GE_OQ), _mm256_cmp_ps (d, max_depth, _CMP_LE_OQ));
 }
 
+/** \brief Eight consecutive 16-byte voxels at \a p (four unaligned loads) as four vectors of
+  * their 32-bit fields: sdf, weight, the colour word (r, g, b, label_confidence) and the
+  * label, lane i holding voxel i.
+  */
+CUEFUSION_AVX2 inline void
+loadVoxels8 (const float* p, __m256& sdf, __m256& weight, __m256& color, __m256& label)
+{
+  static_assert (sizeof (TsdfVoxel) == 16 && offsetof (TsdfVoxel, weight) == 4 && offsetof (TsdfVoxel, r) == 8 &&
+                     offsetof (TsdfVoxel, label) == 12,
+                 "loadVoxels8 assumes TsdfVoxel's layout");
+  const __m256 a0 = _mm256_loadu_ps (p), a1 = _mm256_loadu_ps (p + 8);        // voxels 0 1 | 2 3
+  const __m256 a2 = _mm256_loadu_ps (p + 16), a3 = _mm256_loadu_ps (p + 24);  // voxels 4 5 | 6 7
+  // Per 128-bit half: unpack pairs the fields of voxels k and k+2, the shuffle gathers four
+  // voxels' field; the halves then hold voxels 0 2 4 6 and 1 3 5 7, which the permute sorts.
+  const __m256 t0 = _mm256_unpacklo_ps (a0, a1), t1 = _mm256_unpacklo_ps (a2, a3);
+  const __m256 t2 = _mm256_unpackhi_ps (a0, a1), t3 = _mm256_unpackhi_ps (a2, a3);
+  const __m256i order = _mm256_setr_epi32 (0, 4, 1, 5, 2, 6, 3, 7);
+  sdf = _mm256_permutevar8x32_ps (_mm256_shuffle_ps (t0, t1, _MM_SHUFFLE (1, 0, 1, 0)), order);
+  weight = _mm256_permutevar8x32_ps (_mm256_shuffle_ps (t0, t1, _MM_SHUFFLE (3, 2, 3, 2)), order);
+  color = _mm256_permutevar8x32_ps (_mm256_shuffle_ps (t2, t3, _MM_SHUFFLE (1, 0, 1, 0)), order);
+  label = _mm256_permutevar8x32_ps (_mm256_shuffle_ps (t2, t3, _MM_SHUFFLE (3, 2, 3, 2)), order);
+}
+
+/** \brief The inverse of loadVoxels8. */
+CUEFUSION_AVX2 inline void
+storeVoxels8 (float* p, __m256 sdf, __m256 weight, __m256 color, __m256 label)
+{
+  const __m256i order = _mm256_setr_epi32 (0, 2, 4, 6, 1, 3, 5, 7);
+  sdf = _mm256_permutevar8x32_ps (sdf, order);
+  weight = _mm256_permutevar8x32_ps (weight, order);
+  color = _mm256_permutevar8x32_ps (color, order);
+  label = _mm256_permutevar8x32_ps (label, order);
+  const __m256 t0 = _mm256_unpacklo_ps (sdf, weight), t1 = _mm256_unpacklo_ps (color, label);
+  const __m256 t2 = _mm256_unpackhi_ps (sdf, weight), t3 = _mm256_unpackhi_ps (color, label);
+  _mm256_storeu_ps (p, _mm256_shuffle_ps (t0, t1, _MM_SHUFFLE (1, 0, 1, 0)));
+  _mm256_storeu_ps (p + 8, _mm256_shuffle_ps (t0, t1, _MM_SHUFFLE (3, 2, 3, 2)));
+  _mm256_storeu_ps (p + 16, _mm256_shuffle_ps (t2, t3, _MM_SHUFFLE (1, 0, 1, 0)));
+  _mm256_storeu_ps (p + 24, _mm256_shuffle_ps (t2, t3, _MM_SHUFFLE (3, 2, 3, 2)));
+}
+
 /** \brief updateVoxel's colour average of one channel (0–255 in 32-bit lanes). */
 CUEFUSION_AVX2 inline __m256i
 averageChannel (__m256i old_channel, const std::int32_t* observed, __m256 w, __m256 w_new)
@@ -119,15 +159,11 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
   const __m256 max_weight = _mm256_set1_ps (f.max_weight);
   const __m256 same_surface = _mm256_set1_ps (0.02f);
   const __m256i depth_step = _mm256_set1_epi32 (static_cast<int> (f.depth_step));
-  const __m256i voxel_floats = _mm256_setr_epi32 (0, 4, 8, 12, 16, 20, 24, 28);  // 16-byte voxels
-  static_assert (sizeof (TsdfVoxel) == 16 && offsetof (TsdfVoxel, weight) == 4 && offsetof (TsdfVoxel, r) == 8,
-                 "the gathers below assume TsdfVoxel's layout");
   const __m256 lx = _mm256_mul_ps (lane, _mm256_set1_ps (dx.x ()));
   const __m256 ly = _mm256_mul_ps (lane, _mm256_set1_ps (dx.y ()));
   const __m256 lz = _mm256_mul_ps (lane, _mm256_set1_ps (dx.z ()));
 
-  alignas (32) float new_sdf[8], new_weight[8];
-  alignas (32) std::int32_t new_rgb[8], new_distance[8], pixel_u[8], pixel_v[8];
+  alignas (32) std::int32_t pixel_u[8], pixel_v[8];
   alignas (32) std::int32_t obs_r[8], obs_g[8], obs_b[8];
 
   for (int z = 0; z < kBlockSide; ++z)
@@ -187,24 +223,28 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
         continue;
       const __m256 tsdf = _mm256_min_ps (_mm256_div_ps (sdf, truncation), one);  // min(1, x) as std::min
 
+      // The row's eight voxels (128 contiguous bytes) in four loads, deinterleaved into
+      // sdf, weight, colour word and label word. Gathering the three fields instead (24
+      // loads) and writing updated voxels field by field were a third of the kernel's time
+      // (AMD's gathers issue a load per lane).
       TsdfVoxel* voxels = &block.voxels[static_cast<std::size_t> (localVoxelIndex (0, y, z))];
-      const float* voxel_floats_base = reinterpret_cast<const float*> (voxels);
-      const __m256 w = _mm256_mask_i32gather_ps (zero, voxel_floats_base + 1, voxel_floats, update, 4);
-      const __m256 old_sdf = _mm256_mask_i32gather_ps (zero, voxel_floats_base, voxel_floats, update, 4);
+      float* voxel_floats_base = reinterpret_cast<float*> (voxels);
+      __m256 w, old_sdf, word_f, label_f;
+      loadVoxels8 (voxel_floats_base, old_sdf, w, word_f, label_f);
+      const __m256i word = _mm256_castps_si256 (word_f);
       const __m256 w_new = _mm256_add_ps (w, one);
       const __m256 sdf_out = _mm256_div_ps (_mm256_add_ps (_mm256_mul_ps (w, old_sdf), tsdf), w_new);
-      _mm256_store_ps (new_sdf, sdf_out);
-      _mm256_store_ps (new_weight, _mm256_min_ps (w_new, max_weight));
+      const __m256 weight_out = _mm256_min_ps (w_new, max_weight);
 
       // Distance layer: weight > 0 now, so clamp, scale and round half away from zero.
       const __m256 s = _mm256_mul_ps (_mm256_max_ps (_mm256_min_ps (sdf_out, one), _mm256_set1_ps (-1.f)),
                                       _mm256_set1_ps (kDistanceScale));
       const __m256 rounded = _mm256_blendv_ps (_mm256_sub_ps (s, half), _mm256_add_ps (s, half),
                                                _mm256_cmp_ps (s, zero, _CMP_GE_OQ));
-      _mm256_store_si256 (reinterpret_cast<__m256i*> (new_distance), _mm256_cvttps_epi32 (rounded));
+      const __m256i new_distance = _mm256_cvttps_epi32 (rounded);
 
-      const bool has_color = f.color != nullptr;
-      if (has_color)
+      __m256i word_out = word;
+      if (f.color != nullptr)
       {
         _mm256_store_si256 (reinterpret_cast<__m256i*> (pixel_u), u);
         _mm256_store_si256 (reinterpret_cast<__m256i*> (pixel_v), v);
@@ -216,31 +256,24 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
           obs_g[i] = bgr[1];
           obs_r[i] = bgr[2];
         }
-        const __m256i word = _mm256_mask_i32gather_epi32 (_mm256_setzero_si256 (), reinterpret_cast<const int*> (voxels) + 2,
-                                                          voxel_floats, _mm256_castps_si256 (update), 4);
         const __m256i byte = _mm256_set1_epi32 (0xff);
         const __m256i r = averageChannel (_mm256_and_si256 (word, byte), obs_r, w, w_new);
         const __m256i g = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 8), byte), obs_g, w, w_new);
         const __m256i b = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 16), byte), obs_b, w, w_new);
-        _mm256_store_si256 (reinterpret_cast<__m256i*> (new_rgb),
-                            _mm256_or_si256 (_mm256_or_si256 (r, _mm256_slli_epi32 (g, 8)), _mm256_slli_epi32 (b, 16)));
+        // The top byte is label_confidence: kept.
+        word_out = _mm256_or_si256 (_mm256_and_si256 (word, _mm256_set1_epi32 (static_cast<int> (0xff000000u))),
+                                    _mm256_or_si256 (_mm256_or_si256 (r, _mm256_slli_epi32 (g, 8)), _mm256_slli_epi32 (b, 16)));
       }
-
+      // Lanes not updated keep what was loaded; all eight voxels are stored back.
+      storeVoxels8 (voxel_floats_base, _mm256_blendv_ps (old_sdf, sdf_out, update), _mm256_blendv_ps (w, weight_out, update),
+                    _mm256_blendv_ps (word_f, _mm256_castsi256_ps (word_out), update), label_f);
       std::int16_t* distances = &block.distances[static_cast<std::size_t> (localVoxelIndex (0, y, z))];
-      for (; mask != 0; mask &= mask - 1)
-      {
-        const int i = __builtin_ctz (static_cast<unsigned> (mask));
-        TsdfVoxel& voxel = voxels[i];
-        voxel.sdf = new_sdf[i];
-        voxel.weight = new_weight[i];
-        if (has_color)
-        {
-          voxel.r = static_cast<std::uint8_t> (new_rgb[i]);
-          voxel.g = static_cast<std::uint8_t> (new_rgb[i] >> 8);
-          voxel.b = static_cast<std::uint8_t> (new_rgb[i] >> 16);
-        }
-        distances[i] = static_cast<std::int16_t> (new_distance[i]);
-      }
+      const __m128i old_distances = _mm_loadu_si128 (reinterpret_cast<const __m128i*> (distances));
+      const __m128i packed = _mm256_castsi256_si128 (_mm256_permute4x64_epi64 (
+          _mm256_packs_epi32 (new_distance, new_distance), _MM_SHUFFLE (3, 1, 2, 0)));
+      const __m128i update16 = _mm256_castsi256_si128 (_mm256_permute4x64_epi64 (
+          _mm256_packs_epi32 (_mm256_castps_si256 (update), _mm256_castps_si256 (update)), _MM_SHUFFLE (3, 1, 2, 0)));
+      _mm_storeu_si128 (reinterpret_cast<__m128i*> (distances), _mm_blendv_epi8 (old_distances, packed, update16));
     }
 }
 #else

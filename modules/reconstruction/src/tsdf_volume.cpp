@@ -352,7 +352,7 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
         continue;
       }
       std::array<float, 8> values;
-      if (!access.cell (Eigen::Vector3i (x, y, z), values))
+      if (!access.cellAcrossBlocks (x, y, z, values))
       {
         read &= ~(1 << i);
         continue;
