@@ -3,11 +3,14 @@
 #include "reconstruction_fixtures.h"
 
 #include <cuefusion/common/cpu_features.h>
+#include <cuefusion/reconstruction/preprocessing.h>
 #include <cuefusion/reconstruction/projective_icp.h>
 #include <cuefusion/reconstruction/vertex_maps.h>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
+#include <cmath>
 #include <random>
 
 using namespace cuefusion;
@@ -252,4 +255,75 @@ TEST (VectorKernels, HintedRaycastIsTheScalarOne)
   EXPECT_LT (far, hits / 1000 + 1);
   EXPECT_LT (worst_normal, 1e-3f);
   EXPECT_LT (colors_differ, hits / 1000 + 1);
+}
+
+TEST (DepthSmoothing, NoiseAdaptiveBilateralIsOpenCVsFilterInNoiseUnits)
+{
+  // noiseAdaptiveBilateral filters depth mapped to noise units u(z) = atan(√(b/a)(z − z0)) /
+  // √(ab) (σ_z(z) = a + b (z − z0)², Kinect) with its own bilateral filter; it must be
+  // cv::bilateralFilter's (window, weights, reflected border) in both kernels. Reference:
+  // the exact mapping, OpenCV's filter, the exact inverse.
+  constexpr double a = 0.0012, b = 0.0019, z0 = 0.4;
+  const auto to_units = [&] (double z) { return std::atan (std::sqrt (b / a) * (z - z0)) / std::sqrt (a * b); };
+  const auto to_depth = [&] (double u) { return z0 + std::tan (u * std::sqrt (a * b)) / std::sqrt (b / a); };
+  const int width = 97, height = 61;  // not multiples of eight: the vector rows' tails
+  cv::Mat depth (height, width, CV_32F);
+  std::mt19937 rng (7);
+  std::normal_distribution<float> noise (0.f, 1.f);
+  std::uniform_real_distribution<float> uniform (0.f, 1.f);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+    {
+      // A slanted plane at 1–3 m, a box 40 cm in front of it, Kinect noise and holes.
+      float z = 1.f + 2.f * static_cast<float> (x) / width;
+      if (x > 30 && x < 60 && y > 20 && y < 45)
+        z -= 0.4f;
+      z += static_cast<float> (kinectAxialNoise (z, 0.0)) * noise (rng);
+      const float hole = uniform (rng);
+      depth.at<float> (y, x) = hole < 0.03f ? 0.f : hole < 0.05f ? std::numeric_limits<float>::quiet_NaN () : z;
+    }
+  const float range_sigma = 8.f, sigma_space = 4.5f;
+  const float invalid = static_cast<float> (to_units (0.0)) - 20.f * range_sigma;
+  cv::Mat units (depth.size (), CV_32F), smoothed;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+    {
+      const float z = depth.at<float> (y, x);
+      units.at<float> (y, x) = z > 0.f ? static_cast<float> (to_units (z)) : invalid;
+    }
+  cv::bilateralFilter (units, smoothed, 5, range_sigma, sigma_space);
+  cv::Mat filtered[2];
+  for (const bool vector : {false, true})
+  {
+    if (vector && !cpuHasAvx2Fma ())
+      continue;
+    const KernelChoice choice (vector);
+    noiseAdaptiveBilateral (depth, 5, range_sigma, sigma_space, filtered[vector]);
+    double worst = 0.0, moved = 0.0;
+    int valid = 0;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+      {
+        const float z = depth.at<float> (y, x), out = filtered[vector].at<float> (y, x);
+        if (!(z > 0.f))
+        {
+          EXPECT_EQ (out, 0.f) << "holes stay holes";
+          continue;
+        }
+        ++valid;
+        worst = std::max (worst, std::abs (out - to_depth (smoothed.at<float> (y, x))));
+        moved = std::max (moved, static_cast<double> (std::abs (out - z)));
+      }
+    ASSERT_GT (valid, width * height * 9 / 10);
+    EXPECT_LT (worst, 2e-5) << (vector ? "vector" : "scalar") << " kernel, metres";
+    EXPECT_GT (moved, 1e-3) << "the filter must smooth the noise";
+  }
+  if (cpuHasAvx2Fma ())
+  {
+    double differs = 0.0;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+        differs = std::max (differs, static_cast<double> (std::abs (filtered[0].at<float> (y, x) - filtered[1].at<float> (y, x))));
+    EXPECT_LT (differs, 1e-5) << "scalar and vector kernels, metres";
+  }
 }
