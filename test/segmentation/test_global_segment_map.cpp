@@ -328,4 +328,26 @@ TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)
   EXPECT_EQ (result[0].candidates, result[1].candidates);
   EXPECT_EQ (result[0].inherited, result[1].inherited);
   EXPECT_EQ (result[0].fresh, result[1].fresh);
+
+  // Every pixel its own frame segment: a pixel inherits exactly when it agrees with the
+  // model, so the two label maps compare the decisions pixel by pixel (including those
+  // the vector kernel brackets by the viewing angle and the few it leaves to the acos).
+  cv::Mat own (h, w, CV_32S);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      own.at<std::int32_t> (y, x) = lj.at<std::int32_t> (y, x) > 0 ? 1 + y * w + x : 0;
+  config.min_segment_size = 1;
+  const SegmentPropagation per_pixel (config);
+  for (const bool vector : {false, true})
+  {
+    const bool before = vectorKernelsEnabled ();
+    setVectorKernelsEnabled (vector);
+    GlobalSegmentMap map;
+    per_pixel.propagate (V, N, own, Vm, Nm, li, map, 0, result[vector]);
+    setVectorKernelsEnabled (before);
+  }
+  EXPECT_GT (result[0].inherited, 300);
+  EXPECT_GT (result[0].fresh, 300);
+  EXPECT_EQ (result[0].inherited, result[1].inherited);
+  EXPECT_EQ (cv::countNonZero (result[0].labels != result[1].labels), 0);
 }

@@ -47,10 +47,18 @@ agreesOnSurface (const cv::Vec3f& v, const cv::Vec3f& n, const cv::Vec3f& vm, fl
 }
 
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
+/** \brief kinectAxialNoise's angular term, scale · θ²/(π/2 − θ)², in eight lanes. */
+CUEFUSION_AVX2 inline __m256
+angularNoise8 (__m256 scale, __m256 theta)
+{
+  const __m256 rest = _mm256_sub_ps (_mm256_set1_ps (1.57079632679489661923f), theta);
+  return _mm256_div_ps (_mm256_mul_ps (scale, _mm256_mul_ps (theta, theta)), _mm256_mul_ps (rest, rest));
+}
+
 /** \brief The per-pixel tests of §4.2.2.3 for eight pixels (CV_32FC3 rows at the
   * pointers, labels L_t \a lj and L^m \a li): returns the lanes with a frame label;
-  * \a accepted gets the lanes that pass everything with σ_d's bound at θ = 0, \a exact
-  * those that pass all but that bound (the caller tries the exact σ_d there).
+  * \a accepted gets the lanes that pass everything, \a exact those too close to σ_d to
+  * decide without its acos (the caller runs the exact test there).
   */
 CUEFUSION_AVX2 int
 agreeingPixels8 (const float* v, const float* n, const float* vm, const float* nm, const std::int32_t* lj,
@@ -78,9 +86,33 @@ agreeingPixels8 (const float* v, const float* n, const float* vm, const float* n
   const __m256 along_ray = _mm256_div_ps (avx2::abs (dot), length);
   const __m256 dz = _mm256_sub_ps (vz, _mm256_set1_ps (0.4f));  // axialNoiseLowerBound
   const __m256 bound = _mm256_add_ps (_mm256_set1_ps (0.0012f), _mm256_mul_ps (_mm256_set1_ps (0.0019f), _mm256_mul_ps (dz, dz)));
-  const __m256 near = _mm256_cmp_ps (along_ray, _mm256_mul_ps (_mm256_set1_ps (noise_factor), bound), _CMP_LT_OQ);
+  const __m256 k = _mm256_set1_ps (noise_factor);
+  const __m256 near = _mm256_cmp_ps (along_ray, _mm256_mul_ps (k, bound), _CMP_LT_OQ);
   accepted = _mm256_movemask_ps (_mm256_and_ps (ok, near));
-  exact = _mm256_movemask_ps (_mm256_andnot_ps (near, ok));
+  const __m256 beyond_bound = _mm256_andnot_ps (near, ok);
+  if (_mm256_movemask_ps (beyond_bound) == 0)
+    return labelled;
+  // Past the bound at θ = 0, σ_d(θ) decides; it grows with θ, and with c = cos θ,
+  // √(2(1 − c)) ≤ θ ≤ (π/2)√(1 − c) on [0, π/2]. σ_d at both ends brackets the exact one
+  // (kinectAxialNoise: bound + 0.0001/√z · θ²/(π/2 − θ)², θ ≤ π/2 − 10⁻³): below the lower
+  // end a pixel agrees, above the upper end it does not, and only the few in between go
+  // to agreesOnSurface's acos. A 10⁻³ relative margin on both sides keeps float rounding
+  // from deciding differently from that exact test. (The exact test per lane was most of
+  // the propagation's time on Kinect data, where many pixels fail the θ = 0 bound.)
+  const __m256 normal_dot = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (vx, nx), _mm256_mul_ps (vy, ny)), _mm256_mul_ps (vz, nz));
+  const __m256 one = _mm256_set1_ps (1.f);
+  const __m256 c = _mm256_min_ps (one, _mm256_div_ps (avx2::abs (normal_dot), length));
+  const __m256 root = _mm256_sqrt_ps (_mm256_max_ps (_mm256_sub_ps (one, c), _mm256_setzero_ps ()));
+  const __m256 half_pi = _mm256_set1_ps (1.57079632679489661923f), theta_max = _mm256_set1_ps (1.57079632679489661923f - 1e-3f);
+  const __m256 theta_lo = _mm256_min_ps (_mm256_mul_ps (_mm256_set1_ps (1.41421356237309504880f), root), theta_max);
+  const __m256 theta_hi = _mm256_min_ps (_mm256_mul_ps (half_pi, root), theta_max);
+  const __m256 scale = _mm256_div_ps (_mm256_set1_ps (0.0001f), _mm256_sqrt_ps (_mm256_max_ps (vz, _mm256_set1_ps (1e-6f))));
+  const __m256 sigma_lo = _mm256_add_ps (bound, angularNoise8 (scale, theta_lo));
+  const __m256 sigma_hi = _mm256_add_ps (bound, angularNoise8 (scale, theta_hi));
+  const __m256 surely = _mm256_cmp_ps (along_ray, _mm256_mul_ps (_mm256_mul_ps (k, sigma_lo), _mm256_set1_ps (1.f - 1e-3f)), _CMP_LT_OQ);
+  const __m256 maybe = _mm256_cmp_ps (along_ray, _mm256_mul_ps (_mm256_mul_ps (k, sigma_hi), _mm256_set1_ps (1.f + 1e-3f)), _CMP_LT_OQ);
+  accepted |= _mm256_movemask_ps (_mm256_and_ps (beyond_bound, surely));
+  exact = _mm256_movemask_ps (_mm256_andnot_ps (surely, _mm256_and_ps (beyond_bound, maybe)));
   return labelled;
 }
 #endif
