@@ -136,20 +136,21 @@ blockFootprint (const Eigen::Vector3f& corner0, const Eigen::Matrix3f& R_cw_scal
   return true;
 }
 
-/** \brief Distance (in ray parameter) from \a g to where the ray leaves the block that
-  * holds it; \a g and \a dir are in voxel units.
+/** \brief Distance (in ray parameter) from \a g to where the ray leaves block \a block
+  * (which holds it); \a g in voxel units, \a inverse_dir = 1 / the ray's direction in
+  * voxel units (infinite along axes it does not move on).
   */
 inline float
-blockExit (const Eigen::Vector3f& g, const Eigen::Vector3f& dir)
+blockExit (const Eigen::Vector3f& g, const Eigen::Vector3i& block, const Eigen::Vector3f& inverse_dir)
 {
   float t = std::numeric_limits<float>::infinity ();
   for (int a = 0; a < 3; ++a)
   {
-    if (dir[a] == 0.f)
+    if (std::isinf (inverse_dir[a]))
       continue;
-    const float lower = static_cast<float> (fastFloor (g[a] / kBlockSide) * kBlockSide);
-    const float face = dir[a] > 0.f ? lower + kBlockSide : lower;
-    t = std::min (t, (face - g[a]) / dir[a]);
+    const float lower = static_cast<float> (block[a] * kBlockSide);
+    const float face = inverse_dir[a] > 0.f ? lower + kBlockSide : lower;
+    t = std::min (t, (face - g[a]) * inverse_dir[a]);
   }
   return t;
 }
@@ -171,20 +172,29 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
          bool* started_behind = nullptr)
 {
   const float one_voxel = 1.f / dir.norm ();
+  const Eigen::Vector3f inverse_dir = dir.cwiseInverse ();  // divisions once per ray, not per block
   float z = z_start, z_prev = 0.f, f_prev = 0.f;
   bool in_front = false;  // the previous sample was a valid positive one
   bool sampled = false;   // a sample inside the band has been seen
   while (z < z_end)
   {
     const Eigen::Vector3f g = origin + dir * z;
-    if (access.block (blockOfVoxel (fastFloor (g))) == nullptr)
+    const Eigen::Vector3i lower = fastFloor (g);
+    const Eigen::Vector3i block_index = blockOfVoxel (lower);
+    const VoxelBlock* block = access.block (block_index);
+    if (block == nullptr)
     {
       // Unallocated block: empty space; jump to just past the block's far side.
       in_front = false;
-      z += std::max (blockExit (g, dir), 0.f) + 0.1f * one_voxel;
+      z += std::max (blockExit (g, block_index, inverse_dir), 0.f) + 0.1f * one_voxel;
       continue;
     }
-    const std::int16_t* nearest = access.distance (nearestVoxel (g));
+    // The nearest voxel, mostly in the block just found.
+    const Eigen::Vector3i near = lower + (g - lower.cast<float> ()).unaryExpr ([] (float t) { return t >= 0.5f ? 1.f : 0.f; }).cast<int> ();
+    const Eigen::Vector3i local = near - block_index * kBlockSide;
+    const std::int16_t* nearest =
+        (local.array () < kBlockSide).all () ? &block->distances[static_cast<std::size_t> (localVoxelIndex (local.x (), local.y (), local.z ()))]
+                                             : access.distance (near);
     if (nearest == nullptr || *nearest == kUnobservedDistance || *nearest >= static_cast<std::int16_t> (kDistanceScale))
     {
       // Truncated or never observed: at least a band's depth in front of any surface seen
