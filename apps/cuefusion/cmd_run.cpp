@@ -218,6 +218,7 @@ runRun (const std::vector<std::string>& args)
   bool use_gt_poses = false, save_volume = false;
   std::string masks, mode;
   std::size_t save_every = 0;
+  unsigned hole_refresh = 8;
   std::string render_dir, video_path, screenshot;
   bool view = false, async_masks = false;
   recognition::OnnxSegmenterConfig onnx;
@@ -232,6 +233,7 @@ runRun (const std::vector<std::string>& args)
     ("truncation", po::value (&truncation)->default_value (truncation), "TSDF truncation distance in voxels")
     ("max-depth", po::value (&max_depth)->default_value (max_depth), "ignore depth beyond this (metres)")
     ("use-gt-poses", po::bool_switch (&use_gt_poses), "integrate with the sequence's own poses instead of tracking")
+    ("hole-refresh", po::value (&hole_refresh)->default_value (hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
     ("save-volume", po::bool_switch (&save_volume), "also write the TSDF volume (volume.tsdf)")
     ("mode", po::value (&mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
     ("masks", po::value (&masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
@@ -258,12 +260,15 @@ runRun (const std::vector<std::string>& args)
   config.volume.max_depth = max_depth;
   config.preprocessing.max_depth = max_depth;
   config.use_reference_poses = use_gt_poses;
+  config.hole_refresh_period = hole_refresh;
   if (!(voxel >= 0.001 && voxel <= 1.0))
     throw ParameterError ("--voxel", "must lie in [0.001, 1] metres");
   if (!(truncation >= 1.0 && truncation <= 64.0))
     throw ParameterError ("--truncation", "must lie in [1, 64] voxels");
   if (!(max_depth > 0.2 && max_depth <= 100.0))
     throw ParameterError ("--max-depth", "must lie in (0.2, 100] metres");
+  if (!(hole_refresh >= 1 && hole_refresh <= 1000))
+    throw ParameterError ("--hole-refresh", "must lie in [1, 1000] frames");
 
   if (!screenshot.empty () && !view)
     throw UsageError ("--view-screenshot needs --view");

@@ -366,3 +366,94 @@ TEST (TSDFVolume, DepthHintedRaycastMatchesTheFullRaycast)
   EXPECT_GT (static_cast<double> (same), 0.97 * static_cast<double> (both));
   EXPECT_LT (static_cast<double> (only_full), 0.01 * static_cast<double> (both));
 }
+
+TEST (TSDFVolume, HoleSkipSearchesOnlyTheRefreshedHoles)
+{
+  // A fused tabletop, then a hint with a band of hole pixels punched across it (where the
+  // model has surface) and the sky of the view (where it has none).
+  io::SyntheticSequenceConfig config;
+  config.frames = 10;
+  config.width = 320;
+  config.height = 240;
+  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  TSDFVolume volume;
+  for (std::size_t i = 0; i < config.frames; ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    volume.integrate (frame->depth, frame->color, frame->camera, *frame->pose);
+  }
+  const RGBDFrame::Ptr last = sequence.frame (config.frames - 1);
+  cv::Mat hint = last->depth.clone ();
+  hint.rowRange (100, 140).setTo (0.f);
+  RaycastResult searched, skipped, stale;
+  volume.raycast (last->camera, *last->pose, hint, searched);
+  ASSERT_EQ (searched.empty_holes.type (), CV_8U);
+  const cv::Mat depth = searched.depth ();
+  int holes_found = 0, holes_empty = 0;
+  for (int v = 0; v < hint.rows; ++v)
+    for (int u = 0; u < hint.cols; ++u)
+    {
+      const bool hole = !(hint.at<float> (v, u) > 0.f), found = depth.at<float> (v, u) > 0.f;
+      // Marked only where a hole's search came back empty (rays through tiles without
+      // any block are not searched, and not marked).
+      if (searched.empty_holes.at<std::uint8_t> (v, u) != 0)
+        ASSERT_TRUE (hole && !found) << u << ", " << v;
+      holes_found += hole && found;
+      holes_empty += searched.empty_holes.at<std::uint8_t> (v, u) != 0;
+    }
+  ASSERT_GT (holes_found, 5000);  // the band's rays reach the table behind the holes
+
+  // The mask of this very raycast changes nothing: what it skips found nothing anyway.
+  RaycastHoleSkip skip;
+  skip.empty_holes = searched.empty_holes.clone ();
+  skip.phase = 3;
+  volume.raycast (last->camera, *last->pose, hint, skip, skipped);
+  EXPECT_EQ (cv::countNonZero (skipped.depth () != depth), 0);
+  EXPECT_EQ (cv::countNonZero (skipped.empty_holes != searched.empty_holes), 0);
+
+  // A stale mask marking every pixel: hole rays Newton cannot settle are searched only on
+  // the refreshed diagonals (u + v + phase) mod 8 = 0; rays with a usable hint as before.
+  skip.empty_holes.setTo (255);
+  volume.raycast (last->camera, *last->pose, hint, skip, stale);
+  const cv::Mat stale_depth = stale.depth ();
+  int stale_found = 0, refreshed_found = 0, lost = 0;
+  for (int v = 0; v < hint.rows; ++v)
+    for (int u = 0; u < hint.cols; ++u)
+    {
+      const bool hole = !(hint.at<float> (v, u) > 0.f);
+      const float z = stale_depth.at<float> (v, u);
+      if (!hole)
+      {
+        ASSERT_EQ (z, depth.at<float> (v, u)) << u << ", " << v;
+        continue;
+      }
+      if (z > 0.f)
+      {
+        ++stale_found;
+        refreshed_found += (static_cast<unsigned> (u + v) + skip.phase) % skip.refresh_period == 0;
+      }
+      else
+      {
+        ASSERT_NE (stale.empty_holes.at<std::uint8_t> (v, u), 0) << "an empty hole stays marked: " << u << ", " << v;
+        lost += depth.at<float> (v, u) > 0.f;
+      }
+    }
+  // Skipped searches lose surface the full search found; the refreshed diagonals (an
+  // eighth) are searched, and Newton from each row's last surface fills most of the band.
+  EXPECT_GT (lost, 50) << stale_found << " " << refreshed_found << " " << holes_found;
+  EXPECT_GT (refreshed_found, holes_found / 16);
+  // In the band's rows (holes from the left edge on) no surface precedes the first one
+  // found, so Newton from the row's last surface cannot have found it: a search did, on
+  // a refreshed diagonal.
+  for (int v = 100; v < 140; ++v)
+  {
+    const float* row = stale_depth.ptr<float> (v);
+    const int first = static_cast<int> (std::find_if (row, row + hint.cols, [] (float z) { return z > 0.f; }) - row);
+    if (first < hint.cols)
+      EXPECT_EQ ((static_cast<unsigned> (first + v) + skip.phase) % skip.refresh_period, 0u) << "row " << v;
+  }
+
+  // Bad masks are refused with a message, not read out of bounds.
+  skip.empty_holes = cv::Mat (10, 10, CV_8U, cv::Scalar (0));
+  EXPECT_THROW (volume.raycast (last->camera, *last->pose, hint, skip, stale), Error);
+}

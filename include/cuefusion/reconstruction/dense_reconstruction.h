@@ -18,6 +18,9 @@ struct DenseReconstructionConfig
   DepthPreprocessingConfig preprocessing;
   CameraTrackerConfig tracking;
   bool use_reference_poses = false;   ///< integrate with the frames' own poses, no tracking
+  /// Rays behind holes of the depth that found no surface in the last raycast are searched
+  /// again only every this many frames (RaycastHoleSkip); 1 = every frame, as a plain raycast
+  unsigned hole_refresh_period = 8;
 
   void validate () const;
 };
@@ -84,6 +87,7 @@ private:
   CameraTracker tracker_;
   TSDFVolume volume_;
   RaycastResult model_;
+  RaycastHoleSkip hole_skip_;  ///< the last raycast's empty holes, for the next one
   FramePyramid frame_pyramid_;
   FramePyramid model_pyramid_;
   Eigen::Isometry3d last_good_pose_ = Eigen::Isometry3d::Identity ();

@@ -32,6 +32,8 @@ DenseReconstructionConfig::validate () const
   volume.validate ();
   preprocessing.validate ();
   tracking.validate ();
+  if (hole_refresh_period < 1 || hole_refresh_period > 1000)
+    throw ParameterError ("hole_refresh_period", "must lie in [1, 1000] frames");
   if (static_cast<std::size_t> (preprocessing.pyramid_levels) < tracking.icp.iterations.size ())
     throw ParameterError ("pyramid_levels", "must be at least the number of ICP levels");
 }
@@ -47,6 +49,7 @@ DenseReconstruction::reset ()
 {
   volume_.reset ();
   model_ = RaycastResult ();
+  hole_skip_ = RaycastHoleSkip ();
   frame_pyramid_.clear ();
   model_pyramid_.clear ();
   last_good_pose_ = Eigen::Isometry3d::Identity ();
@@ -90,7 +93,10 @@ DenseReconstruction::process (const RGBDFrame& frame)
   }
   report.timings.track_ms = clock.lap ();
   if (!report.tracked)
+  {
+    hole_skip_.empty_holes.release ();  // the next raycast may be far from the last: search every hole
     return report;
+  }
 
   last_good_pose_ = report.pose;
   initialized_ = true;
@@ -98,7 +104,13 @@ DenseReconstruction::process (const RGBDFrame& frame)
   report.timings.integrate_ms = clock.lap ();
 
   // The frame just fused tells where the surface is along each ray (see raycast()).
-  volume_.raycast (frame.camera, report.pose, frame_pyramid_[0].depth, model_);
+  // The last raycast's empty holes become this one's skip mask (two buffers, swapped).
+  std::swap (hole_skip_.empty_holes, model_.empty_holes);
+  if (config_.hole_refresh_period <= 1 || hole_skip_.empty_holes.size () != frame_pyramid_[0].depth.size ())
+    hole_skip_.empty_holes.release ();
+  hole_skip_.refresh_period = config_.hole_refresh_period;
+  ++hole_skip_.phase;
+  volume_.raycast (frame.camera, report.pose, frame_pyramid_[0].depth, hole_skip_, model_);
   buildModelPyramid (model_.vertices, model_.normals, model_.camera, config_.preprocessing.pyramid_levels,
                      static_cast<float> (config_.preprocessing.max_depth_jump), model_pyramid_);
   report.timings.raycast_ms = clock.lap ();

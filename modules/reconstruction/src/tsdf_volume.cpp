@@ -705,9 +705,21 @@ void
 TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,
                      RaycastResult& out) const
 {
+  raycast (camera, pose, depth_hint, RaycastHoleSkip (), out);
+}
+
+void
+TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,
+                     const RaycastHoleSkip& skip, RaycastResult& out) const
+{
   camera.validate ("TSDFVolume::raycast");
   if (!depth_hint.empty () && (depth_hint.type () != CV_32F || depth_hint.cols != camera.width || depth_hint.rows != camera.height))
     throw Error ("TSDFVolume::raycast", "depth hint must be CV_32F of the camera's image size");
+  const bool skip_holes = !depth_hint.empty () && !skip.empty_holes.empty ();
+  if (skip_holes && (skip.empty_holes.type () != CV_8U || skip.empty_holes.size () != depth_hint.size () ||
+                     skip.empty_holes.data == out.empty_holes.data || skip.refresh_period < 1))
+    throw Error ("TSDFVolume::raycast", "hole skip mask must be CV_8U of the image size, not the output's own, "
+                                        "with a refresh period of at least 1");
   out.camera = camera;
   out.pose = pose;
   const cv::Size size (camera.width, camera.height);
@@ -715,6 +727,10 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   out.normals.create (size, CV_32FC3);
   out.colors.create (size, CV_8UC3);
   out.labels.create (size, CV_32S);
+  if (depth_hint.empty ())
+    out.empty_holes.release ();
+  else
+    out.empty_holes.create (size, CV_8U);
 
   const float voxel_size = static_cast<float> (config_.voxel_size);
   const float block_size = static_cast<float> (config_.blockSize ());
@@ -775,6 +791,10 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
       out.normals.row (v).setTo (cv::Scalar::all (std::numeric_limits<float>::quiet_NaN ()));
       out.colors.row (v).setTo (cv::Scalar::all (0));
       out.labels.row (v).setTo (cv::Scalar::all (0));
+      std::uint8_t* empty_row = depth_hint.empty () ? nullptr : out.empty_holes.ptr<std::uint8_t> (v);
+      const std::uint8_t* skip_row = skip_holes ? skip.empty_holes.ptr<std::uint8_t> (v) : nullptr;
+      if (empty_row != nullptr)
+        std::fill (empty_row, empty_row + camera.width, std::uint8_t{0});
       cv::Vec3f* vertex_row = out.vertices.ptr<cv::Vec3f> (v);
       cv::Vec3f* normal_row = out.normals.ptr<cv::Vec3f> (v);
       cv::Vec3b* color_row = out.colors.ptr<cv::Vec3b> (v);
@@ -877,6 +897,19 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
             z = refineNearHint (access, origin_voxels, dir, row_z, truncation_voxels, &hit, &grad);
             hinted = z > 0.f;
           }
+          if (!hinted && !(d > 0.f))
+          {
+            // Behind a hole: the previous search from about here found nothing (see
+            // RaycastHoleSkip) and this pixel is not among this call's re-searched ones.
+            const bool searched = skip_row != nullptr && skip_row[u] != 0 &&
+                                  (static_cast<unsigned> (u + v) + skip.phase) % skip.refresh_period != 0;
+            if (searched)
+            {
+              if (empty_row != nullptr)
+                empty_row[u] = 255;
+              continue;
+            }
+          }
           if (!hinted && !(d > 0.f) && row_z > 0.f && row_z - truncation > tiles.zmin[tile])
           {
             // A hole in the depth (shadow, dropout) next to a surface just found on this row:
@@ -893,7 +926,11 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         if (!hinted)
           z = castRay (access, origin_voxels, dir, tiles.zmin[tile], tiles.zmax[tile], truncation_voxels, &hit, &grad);
         if (z <= 0.f)
+        {
+          if (empty_row != nullptr && !(depth_hint.at<float> (v, u) > 0.f))
+            empty_row[u] = 255;
           continue;
+        }
         row_z = z;
         const Eigen::Vector3f p = ray_c * z;
         vertex_row[u] = cv::Vec3f (p.x (), p.y (), p.z ());
