@@ -311,16 +311,19 @@ TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)
   SegmentPropagationConfig config;
   config.min_segment_size = 5;
   config.inherit_overlap = 0.3f;
-  const SegmentPropagation propagation (config);
   PropagationResult result[2];
-  for (const bool vector : {false, true})
-  {
-    const bool before = vectorKernelsEnabled ();
-    setVectorKernelsEnabled (vector);
-    GlobalSegmentMap map;
-    propagation.propagate (V, N, lj, Vm, Nm, li, map, 0, result[vector]);
-    setVectorKernelsEnabled (before);
-  }
+  // Propagates frame labels \a frame onto a fresh map with the scalar and the vector code.
+  const auto both_ways = [&] (const SegmentPropagation& propagation, const cv::Mat& frame) {
+    for (const bool vector : {false, true})
+    {
+      const bool before = vectorKernelsEnabled ();
+      setVectorKernelsEnabled (vector);
+      GlobalSegmentMap map;
+      propagation.propagate (V, N, frame, Vm, Nm, li, map, 0, result[vector]);
+      setVectorKernelsEnabled (before);
+    }
+  };
+  both_ways (SegmentPropagation (config), lj);
   // The data is not one-sided: both inheriting and fresh segments occur.
   EXPECT_GT (result[0].inherited, 5);
   EXPECT_GT (result[0].fresh, 5);
@@ -337,15 +340,7 @@ TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)
     for (int x = 0; x < w; ++x)
       own.at<std::int32_t> (y, x) = lj.at<std::int32_t> (y, x) > 0 ? 1 + y * w + x : 0;
   config.min_segment_size = 1;
-  const SegmentPropagation per_pixel (config);
-  for (const bool vector : {false, true})
-  {
-    const bool before = vectorKernelsEnabled ();
-    setVectorKernelsEnabled (vector);
-    GlobalSegmentMap map;
-    per_pixel.propagate (V, N, own, Vm, Nm, li, map, 0, result[vector]);
-    setVectorKernelsEnabled (before);
-  }
+  both_ways (SegmentPropagation (config), own);
   EXPECT_GT (result[0].inherited, 300);
   EXPECT_GT (result[0].fresh, 300);
   EXPECT_EQ (result[0].inherited, result[1].inherited);
