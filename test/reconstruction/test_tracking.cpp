@@ -119,8 +119,11 @@ TEST (DenseReconstruction, DetectsAGarbageFrameAndRecovers)
       EXPECT_FALSE (report.failure.empty ());
       EXPECT_TRUE (report.pose.isApprox (before));       // kept the last good pose
       EXPECT_EQ (fusion.volume ().blockCount (), blocks);  // and fused nothing
+      // The next raycast searches every hole: no skip mask from before the failure.
+      EXPECT_TRUE (fusion.model ().empty_holes.empty ());
       continue;
     }
+    EXPECT_FALSE (fusion.model ().empty_holes.empty ()) << "frame " << i << ": the hinted raycast marks its empty holes";
     ASSERT_TRUE (report.tracked) << "frame " << i << ": " << report.failure;
     estimate.push_back ({frame->timestamp, report.pose});
     reference.push_back ({frame->timestamp, *frame->pose});

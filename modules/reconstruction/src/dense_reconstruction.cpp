@@ -94,7 +94,9 @@ DenseReconstruction::process (const RGBDFrame& frame)
   report.timings.track_ms = clock.lap ();
   if (!report.tracked)
   {
-    hole_skip_.empty_holes.release ();  // the next raycast may be far from the last: search every hole
+    // The next raycast may be far from the last: it searches every hole (the last
+    // raycast's empty holes, which would become its skip mask, are dropped).
+    model_.empty_holes.release ();
     return report;
   }
 
