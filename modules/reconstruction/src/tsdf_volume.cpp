@@ -901,12 +901,11 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
           {
             // Behind a hole: the previous search from about here found nothing (see
             // RaycastHoleSkip) and this pixel is not among this call's re-searched ones.
-            const bool searched = skip_row != nullptr && skip_row[u] != 0 &&
-                                  (static_cast<unsigned> (u + v) + skip.phase) % skip.refresh_period != 0;
-            if (searched)
+            const bool already_searched = skip_row != nullptr && skip_row[u] != 0 &&
+                                          (static_cast<unsigned> (u + v) + skip.phase) % skip.refresh_period != 0;
+            if (already_searched)
             {
-              if (empty_row != nullptr)
-                empty_row[u] = 255;
+              empty_row[u] = 255;  // a skip mask implies a hint, so the output mask exists
               continue;
             }
           }
