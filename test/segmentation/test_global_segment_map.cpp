@@ -10,6 +10,7 @@
 #include <cuefusion/segmentation/segment_propagation.h>
 
 #include <cuefusion/common/cpu_features.h>
+#include <cuefusion/common/exceptions.h>
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -17,6 +18,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <string>
 #include <tuple>
 
 using namespace cuefusion;
@@ -94,6 +96,7 @@ protected:
     reconstruction::TSDFVolumeConfig volume_config;
     volume_config.voxel_size = 0.01;
     volume.reset (new reconstruction::TSDFVolume (volume_config));
+    volume->setRecordObservedSurface (true);
   }
 
   /** L_t for frame i: the true instances under ids that change every frame, so that only
@@ -131,7 +134,7 @@ protected:
     for (const auto& m : map.updateMerges (result.candidates))
       if (std::getenv ("CUEFUSION_TEST_VERBOSE"))
         std::cerr << "frame " << i << " merge " << m.first << " " << m.second << "\n";
-    writes += updateVoxelLabels (*volume, result.labels, frame->depth, frame->camera, pose, map);
+    writes += updateVoxelLabels (*volume, result.labels, map);
     truth = frame->instance_mask;
     return result.labels;
   }
@@ -213,7 +216,7 @@ TEST_F (PropagationFixture, OneNoisyFrameDoesNotFlipVoxelLabelsAndMergesWriteNoV
   const RGBDFrame::Ptr frame = sequence->frame (11);
   cv::Mat wrong = cv::Mat::zeros (frame->instance_mask.size (), CV_32S);
   wrong.setTo (static_cast<int> (ball), frame->instance_mask == 5);
-  updateVoxelLabels (*volume, wrong, frame->depth, frame->camera, pose, map);
+  updateVoxelLabels (*volume, wrong, map);
   volume->raycast (sequence->camera (), pose, model);
   EXPECT_EQ (majority (resolveLabels (model.labels, map), 5), mug);
 
@@ -275,6 +278,94 @@ TEST_F (PropagationFixture, VectorKernelsLabelTheMapAsTheScalarOnes)
   EXPECT_GT (static_cast<double> (same), 0.995 * static_cast<double> (labelled[0].size ()));
   EXPECT_NEAR (static_cast<double> (labelled[1].size ()), static_cast<double> (labelled[0].size ()),
                0.005 * static_cast<double> (labelled[0].size ()));
+}
+
+TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBand)
+{
+  // §4.2.4's voxel set, worked out here from the geometry: a voxel of a block the frame
+  // integrated is labelled iff the frame updated it, its nearest pixel is labelled, that
+  // pixel's depth lies within band · τ of the voxel (along the pixel's ray) and its fused
+  // |sdf| < band. Frames 0 and 20 see the table from different places, so fused and
+  // observed distances differ; only the left half of L^p is labelled.
+  const bool before = vectorKernelsEnabled ();
+  const RGBDFrame::Ptr first = sequence->frame (0), frame = sequence->frame (20);
+  const Eigen::Isometry3d pose = sequence->poseAt (20);
+  const PinholeCamera& camera = frame->camera;
+  cv::Mat labels = cv::Mat::zeros (frame->depth.size (), CV_32S);
+  labels.colRange (0, labels.cols / 2).setTo (7);
+  const float truncation = static_cast<float> (volume->config ().truncation ());
+  for (const bool vector : {false, true})
+    for (const float band : {1.f, 0.5f})
+    {
+      if (vector && !cpuHasAvx2Fma ())
+        continue;
+      setVectorKernelsEnabled (vector);
+      SetUp ();
+      volume->integrate (first->depth, first->color, first->camera, sequence->poseAt (0));
+      std::map<std::size_t, float> weight_before;
+      for (std::size_t b = 0; b < volume->blocks ().size (); ++b)
+        for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
+          weight_before[b * reconstruction::kBlockVoxels + static_cast<std::size_t> (i)] = volume->blocks ()[b]->voxels[static_cast<std::size_t> (i)].weight;
+      volume->integrate (frame->depth, frame->color, camera, pose);
+      // The list integration made: each voxel once, all inside the band.
+      std::set<std::uint32_t> listed;
+      for (const auto& list : volume->lastObservedSurface ())
+        for (const reconstruction::SurfaceObservation& seen : list)
+        {
+          EXPECT_TRUE (listed.insert (seen.voxel).second);
+          EXPECT_LT (seen.gap, truncation);
+          EXPECT_LT (std::abs (volume->blocks ()[seen.voxel / reconstruction::kBlockVoxels]->voxels[seen.voxel % reconstruction::kBlockVoxels].sdf), 1.f);
+        }
+      SegmentUpdateConfig config;
+      config.band = band;
+      const std::size_t writes = updateVoxelLabels (*volume, labels, GlobalSegmentMap (), config);
+
+      std::set<std::size_t> expected, labelled;
+      const Eigen::Isometry3d world_to_camera = pose.inverse ();
+      for (const std::int32_t id : volume->lastIntegratedBlocks ())
+      {
+        const reconstruction::VoxelBlock& block = *volume->blocks ()[static_cast<std::size_t> (id)];
+        for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
+        {
+          const std::size_t key = static_cast<std::size_t> (id) * reconstruction::kBlockVoxels + static_cast<std::size_t> (i);
+          const reconstruction::TsdfVoxel& voxel = block.voxels[static_cast<std::size_t> (i)];
+          if (voxel.label != 0)
+            labelled.insert (key);
+          const auto it = weight_before.find (key);
+          if (!(voxel.weight > (it == weight_before.end () ? 0.f : it->second)))
+            continue;  // not updated by this frame
+          const Eigen::Vector3i v = block.index * reconstruction::kBlockSide +
+                                    Eigen::Vector3i (i % 8, (i / 8) % 8, i / 64);
+          const Eigen::Vector3d p = world_to_camera * (v.cast<double> () * volume->config ().voxel_size);
+          const int u = static_cast<int> (std::floor (camera.fx * p.x () / p.z () + camera.cx + 0.5));
+          const int r = static_cast<int> (std::floor (camera.fy * p.y () / p.z () + camera.cy + 0.5));
+          ASSERT_TRUE (u >= 0 && r >= 0 && u < camera.width && r < camera.height);  // it was updated
+          if (labels.at<std::int32_t> (r, u) > 0 && std::abs (p.z () - frame->depth.at<float> (r, u)) < band * truncation &&
+              std::abs (voxel.sdf) < band)
+            expected.insert (key);
+        }
+      }
+      std::size_t missing = 0, extra = 0;
+      for (const std::size_t key : expected)
+        missing += labelled.count (key) == 0;
+      for (const std::size_t key : labelled)
+        extra += expected.count (key) == 0;
+      const std::string what = std::string (vector ? "vector" : "scalar") + " kernels, band " + std::to_string (band);
+      ASSERT_GT (expected.size (), 5000u) << what;
+      EXPECT_EQ (writes, labelled.size ()) << what;  // every write labelled an unlabelled voxel
+      // Rounding of the voxel positions (float, stepped) may move a voxel on a pixel border.
+      EXPECT_LT (missing + extra, expected.size () / 500) << what << ": " << missing << " missing, " << extra << " extra";
+    }
+  setVectorKernelsEnabled (before);
+
+  // Misuse: a volume that does not record what it integrates, or L^p of another size.
+  volume->setRecordObservedSurface (false);
+  volume->integrate (frame->depth, frame->color, camera, pose);
+  EXPECT_THROW (updateVoxelLabels (*volume, labels, GlobalSegmentMap ()), Error);
+  volume->setRecordObservedSurface (true);
+  volume->integrate (frame->depth, frame->color, camera, pose);
+  EXPECT_THROW (updateVoxelLabels (*volume, labels.colRange (0, 100).clone (), GlobalSegmentMap ()), Error);
+  EXPECT_GT (updateVoxelLabels (*volume, labels, GlobalSegmentMap ()), 0u);
 }
 
 TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)

@@ -171,6 +171,22 @@ public:
   /** \brief Blocks allocated or updated by the last integrate() call. */
   const std::vector<std::int32_t>& lastIntegratedBlocks () const { return integrated_blocks_; }
 
+  /** \brief When on, integrate() lists the voxels the frame saw inside the truncation band
+    * (lastObservedSurface()), for the label update of §4.2.4. Off by default: it costs
+    * integration a little and only the segmentation pipeline reads it.
+    */
+  void setRecordObservedSurface (bool on) { record_observed_ = on; }
+  bool getRecordObservedSurface () const { return record_observed_; }
+
+  /** \brief The voxels the last integrate() saw inside the truncation band (see
+    * SurfaceObservation), in lists filled by its parallel work items (each voxel appears
+    * once); empty when recording is off, after reset() and in a loaded volume.
+    */
+  const std::vector<std::vector<SurfaceObservation>>& lastObservedSurface () const { return observed_; }
+
+  /** \brief Image size of the last integrate() call (0 × 0 before the first). */
+  cv::Size lastIntegratedSize () const { return integrated_size_; }
+
   /** \brief Block storage, indexed by block id (for the segment map and tests). */
   const std::vector<std::unique_ptr<VoxelBlock>>& blocks () const { return blocks_; }
 
@@ -224,6 +240,9 @@ private:
   std::vector<std::unique_ptr<VoxelBlock>> blocks_;
   std::vector<Eigen::Vector3i> block_indices_;  ///< blocks_[i]->index, packed for the per-frame culling pass
   std::vector<std::int32_t> integrated_blocks_;
+  bool record_observed_ = false;
+  std::vector<std::vector<SurfaceObservation>> observed_;  ///< one list per integration work item
+  cv::Size integrated_size_;
   std::vector<std::uint32_t> block_stamp_;  ///< frame counter that last listed each block
   std::uint32_t stamp_ = 0;
 };

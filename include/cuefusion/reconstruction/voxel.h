@@ -81,6 +81,18 @@ struct VoxelBlock
   }
 };
 
+/** \brief A voxel that the last integrated frame saw inside the truncation band of the
+  * surface (TSDFVolume::setRecordObservedSurface): updated by that frame, |z − D(u)| < τ at
+  * the nearest pixel and |sdf| < 1 after the update. The label update of §4.2.4 walks
+  * these instead of projecting every voxel of the frame's blocks a second time.
+  */
+struct SurfaceObservation
+{
+  std::uint32_t voxel = 0;  ///< block id × kBlockVoxels + the voxel's index in its block
+  std::uint32_t pixel = 0;  ///< nearest pixel the voxel projects to: v << 16 | u
+  float gap = 0.f;          ///< |z_voxel − D(u)| at that pixel, metres (< truncation)
+};
+
 using ::cuefusion::fastFloor;
 
 inline Eigen::Vector3i

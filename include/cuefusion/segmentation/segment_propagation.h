@@ -82,18 +82,19 @@ struct SegmentUpdateConfig
   void validate () const;
 };
 
-/** \brief §4.2.4: every observed voxel of the blocks integrated this frame that lies in
-  * the truncation band of the surface a labelled pixel of L^p sees (|z_voxel − D(u)| < τ
-  * along that pixel's ray — voxels of surfaces hidden behind it are not touched) is updated: unlabelled →
-  * the pixel's label with Ψ = 0; the same label (resolved) → Ψ = min(Ψ + 1, Ψ_max); a
-  * different one → Ψ = max(Ψ − 1, 0), and at 0 the label is replaced. Voxels are visited
-  * once each (projective association, as integration does), so no two pixels race for a
-  * voxel. \a depth is the frame's depth (CV_32F metres, 0/NaN invalid). Returns the
-  * number of voxel writes (label or Ψ changed).
+/** \brief §4.2.4: every voxel the frame last integrated into \a volume saw inside the
+  * truncation band of the surface its pixel shows (|z_voxel − D(u)| < band · τ along that
+  * pixel's ray, and |sdf| < band — voxels of surfaces hidden behind it are not touched),
+  * where that pixel of L^p carries a label, is updated: unlabelled → the pixel's label
+  * with Ψ = 0; the same label (resolved) → Ψ = min(Ψ + 1, Ψ_max); a different one →
+  * Ψ = max(Ψ − 1, 0), and at 0 the label is replaced. Each voxel is visited once, through
+  * the pixel integration projected it to (projective association), so no two pixels race
+  * for a voxel. \a labels is L^p of that frame (CV_32S, its size); the volume must record
+  * what it integrates (TSDFVolume::setRecordObservedSurface). Returns the number of
+  * voxel writes (label or Ψ changed).
   */
 std::size_t
-updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const cv::Mat& depth, const PinholeCamera& camera,
-                   const Eigen::Isometry3d& pose, const GlobalSegmentMap& map,
+updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const GlobalSegmentMap& map,
                    const SegmentUpdateConfig& config = SegmentUpdateConfig ());
 
 /** \brief A raycast label map (voxel labels) resolved through the map's equivalence. */

@@ -79,6 +79,8 @@ FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
   , map_ (config.merging)
 {
   config_.validate ();
+  // The label update (§4.2.4) reads the voxels each integration saw in the band.
+  reconstruction_.volume ().setRecordObservedSurface (true);
 }
 
 PipelineFrameReport
@@ -139,8 +141,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   report.merges = map_.updateMerges (propagated.candidates).size ();
   report.segmentation.merging_ms = watch.getTime ();
   watch.reset ();
-  report.voxel_writes = segmentation::updateVoxelLabels (reconstruction_.volume (), propagated.labels, frame.depth, camera,
-                                                         report.reconstruction.pose, map_, config_.update);
+  report.voxel_writes = segmentation::updateVoxelLabels (reconstruction_.volume (), propagated.labels, map_, config_.update);
   report.segmentation.update_ms = watch.getTime ();
   return report;
 }

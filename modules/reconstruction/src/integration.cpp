@@ -3,6 +3,7 @@
 #include <cuefusion/common/avx2.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 
 namespace cuefusion
@@ -44,7 +45,8 @@ interpolatedDepth (const IntegrationFrame& f, float uf, float vf, int u, int v)
 }  // namespace
 
 void
-integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f)
+integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t first_voxel,
+                      std::vector<SurfaceObservation>* observed)
 {
   const Eigen::Vector3f origin = f.R_cw * (block.index.cast<float> () * (kBlockSide * f.voxel_size)) + f.t_cw;
   const Eigen::Vector3f dx = f.R_cw.col (0) * f.voxel_size;
@@ -74,6 +76,13 @@ integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f)
                      f.color != nullptr ? f.color + static_cast<std::size_t> (v) * f.color_step + 3 * u : nullptr,
                      f.max_weight);
         block.distances[i] = encodeDistance (block.voxels[i]);
+        if (observed != nullptr)
+        {
+          const float gap = std::abs (p.z () - f.depth[static_cast<std::size_t> (v) * f.depth_step + static_cast<std::size_t> (u)]);
+          if (gap < f.truncation && std::abs (block.voxels[i].sdf) < 1.f)
+            observed->push_back ({first_voxel + static_cast<std::uint32_t> (i),
+                                  static_cast<std::uint32_t> (v) << 16 | static_cast<std::uint32_t> (u), gap});
+        }
       }
     }
 }
@@ -145,7 +154,8 @@ averageChannel (__m256i old_channel, const std::int32_t* observed, __m256 w, __m
 // a voxel that lands on the same pixel. Only the voxel positions differ in rounding (row
 // origin + x · dx in one FMA instead of stepping).
 CUEFUSION_AVX2 void
-integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
+integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t first_voxel,
+                    std::vector<SurfaceObservation>* observed)
 {
   const Eigen::Vector3f origin = f.R_cw * (block.index.cast<float> () * (kBlockSide * f.voxel_size)) + f.t_cw;
   const Eigen::Vector3f dx = f.R_cw.col (0) * f.voxel_size;
@@ -165,6 +175,8 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
 
   alignas (32) std::int32_t pixel_u[8], pixel_v[8];
   alignas (32) std::int32_t obs_r[8], obs_g[8], obs_b[8];
+  alignas (32) std::uint32_t seen_pixel[8];
+  alignas (32) float seen_gap[8];
 
   for (int z = 0; z < kBlockSide; ++z)
     for (int y = 0; y < kBlockSide; ++y)
@@ -274,13 +286,34 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f)
       const __m128i update16 = _mm256_castsi256_si128 (_mm256_permute4x64_epi64 (
           _mm256_packs_epi32 (_mm256_castps_si256 (update), _mm256_castps_si256 (update)), _MM_SHUFFLE (3, 1, 2, 0)));
       _mm_storeu_si128 (reinterpret_cast<__m128i*> (distances), _mm_blendv_epi8 (old_distances, packed, update16));
+
+      if (observed != nullptr)
+      {
+        const __m256 abs_mask = _mm256_castsi256_ps (_mm256_set1_epi32 (0x7fffffff));
+        const __m256 gap = _mm256_and_ps (_mm256_sub_ps (pz, nearest), abs_mask);
+        const __m256 in_band = _mm256_and_ps (update, _mm256_and_ps (_mm256_cmp_ps (gap, truncation, _CMP_LT_OQ),
+                                                                      _mm256_cmp_ps (_mm256_and_ps (sdf_out, abs_mask), one, _CMP_LT_OQ)));
+        int seen_mask = _mm256_movemask_ps (in_band);
+        if (seen_mask != 0)
+        {
+          _mm256_store_ps (seen_gap, gap);
+          _mm256_store_si256 (reinterpret_cast<__m256i*> (seen_pixel), _mm256_or_si256 (_mm256_slli_epi32 (v, 16), u));
+          const std::uint32_t row_voxel = first_voxel + static_cast<std::uint32_t> (localVoxelIndex (0, y, z));
+          for (; seen_mask != 0; seen_mask &= seen_mask - 1)
+          {
+            const int i = __builtin_ctz (static_cast<unsigned> (seen_mask));
+            observed->push_back ({row_voxel + static_cast<std::uint32_t> (i), seen_pixel[i], seen_gap[i]});
+          }
+        }
+      }
     }
 }
 #else
 void
-integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& frame)
+integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& frame, std::uint32_t first_voxel,
+                    std::vector<SurfaceObservation>* observed)
 {
-  integrateBlockScalar (block, frame);
+  integrateBlockScalar (block, frame, first_voxel, observed);
 }
 #endif
 }  // namespace detail

@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 namespace cuefusion
 {
@@ -37,17 +38,21 @@ usableDepth (float z, float min_depth, float max_depth)
 }
 
 /** \brief §4.1.4 for every voxel of \a block: projected into the depth map, its truncated
-  * distance (and colour) averaged in. Plain C++.
+  * distance (and colour) averaged in. Plain C++. When \a observed is given, the voxels
+  * the frame saw inside the truncation band are appended to it (see SurfaceObservation;
+  * \a first_voxel is the block's id × kBlockVoxels).
   */
 void
-integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& frame);
+integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& frame, std::uint32_t first_voxel,
+                      std::vector<SurfaceObservation>* observed);
 
 /** \brief The same, eight voxels (one x-row of the block) at a time with AVX2 + FMA.
   * Only call when cpuHasAvx2Fma(). Agrees with the scalar version up to rounding of the
   * voxel positions (a voxel on a pixel border may fall to the other pixel).
   */
 void
-integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& frame);
+integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& frame, std::uint32_t first_voxel,
+                    std::vector<SurfaceObservation>* observed);
 }  // namespace detail
 }  // namespace reconstruction
 }  // namespace cuefusion

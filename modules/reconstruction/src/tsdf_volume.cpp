@@ -517,6 +517,8 @@ TSDFVolume::reset ()
   block_indices_.clear ();
   block_indices_.shrink_to_fit ();
   integrated_blocks_.clear ();
+  observed_.clear ();
+  integrated_size_ = cv::Size ();
   block_stamp_.clear ();
   stamp_ = 0;
 }
@@ -533,6 +535,10 @@ std::int32_t
 TSDFVolume::allocateBlock (const Eigen::Vector3i& index)
 {
   const auto id = static_cast<std::int32_t> (blocks_.size ());
+  // SurfaceObservation numbers voxels in 32 bits: 2^23 blocks (70 GiB of voxels).
+  constexpr std::size_t kMaxBlocks = (std::size_t (1) << 32) / kBlockVoxels;
+  if (blocks_.size () >= kMaxBlocks)
+    throw Error ("TSDFVolume", "more than 2^23 voxel blocks: use a larger voxel size or spatial bounds");
   const auto inserted = hash_.insert (packBlockIndex (index), id);
   if (inserted.second)
   {
@@ -681,9 +687,25 @@ TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const Pinhole
   frame.max_weight = config_.max_weight;
   const auto kernel = vectorKernelsEnabled () ? &detail::integrateBlockAvx2 : &detail::integrateBlockScalar;
   const int n = static_cast<int> (integrated_blocks_.size ());
-  parallelForChunks (n, 16, [&] (int, int begin, int end) {
+  constexpr int kChunk = 16;
+  // One observation list per work item, so no two threads append to one; the lists (and
+  // their capacity) are reused frame after frame.
+  integrated_size_ = depth.size ();
+  if (record_observed_)
+  {
+    observed_.resize (static_cast<std::size_t> (chunkCount (n, kChunk)));
+    for (auto& list : observed_)
+      list.clear ();
+  }
+  else
+    observed_.clear ();
+  parallelForChunks (n, kChunk, [&] (int chunk, int begin, int end) {
+    std::vector<SurfaceObservation>* observed = record_observed_ ? &observed_[static_cast<std::size_t> (chunk)] : nullptr;
     for (int i = begin; i < end; ++i)
-      kernel (*blocks_[static_cast<std::size_t> (integrated_blocks_[static_cast<std::size_t> (i)])], frame);
+    {
+      const auto id = static_cast<std::uint32_t> (integrated_blocks_[static_cast<std::size_t> (i)]);
+      kernel (*blocks_[id], frame, id * static_cast<std::uint32_t> (kBlockVoxels), observed);
+    }
   });
 }
 

@@ -292,18 +292,6 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
 
 namespace
 {
-/** \brief What updateVoxelLabels needs of the frame, as raw rows. */
-struct LabelFrame
-{
-  const std::int32_t* labels = nullptr;
-  std::size_t labels_step = 0;  ///< int32 per row
-  const float* depth = nullptr;
-  std::size_t depth_step = 0;  ///< floats per row
-  FloatIntrinsics camera;
-  float max_gap = 0.f;  ///< |z_voxel − D(u)| below this: the pixel sees this voxel's surface
-  int band_limit = 0;   ///< |distance| above this (distance-layer units): outside the band
-};
-
 /** \brief §4.2.4 for one voxel and the label its pixel observed; true when it wrote. */
 inline bool
 updateVoxelLabel (reconstruction::TsdfVoxel& voxel, std::uint32_t label, const GlobalSegmentMap& map,
@@ -328,136 +316,40 @@ updateVoxelLabel (reconstruction::TsdfVoxel& voxel, std::uint32_t label, const G
     voxel.label = label;
   return true;
 }
-
-/** \brief The label the pixel a voxel projects to observed on the voxel's own surface,
-  * or 0 (outside the image, unlabelled, or the pixel sees another surface).
-  */
-inline std::uint32_t
-observedLabel (const LabelFrame& f, const Eigen::Vector3f& p)
-{
-  if (p.z () <= 0.f)
-    return 0;
-  const float inv_z = 1.f / p.z ();
-  const int px = fastFloor (f.camera.fx * p.x () * inv_z + f.camera.cx + 0.5f), py = fastFloor (f.camera.fy * p.y () * inv_z + f.camera.cy + 0.5f);
-  if (px < 0 || py < 0 || px >= f.camera.width || py >= f.camera.height)
-    return 0;
-  const std::int32_t observed = f.labels[static_cast<std::size_t> (py) * f.labels_step + static_cast<std::size_t> (px)];
-  const float d = f.depth[static_cast<std::size_t> (py) * f.depth_step + static_cast<std::size_t> (px)];
-  if (observed <= 0 || !(std::abs (p.z () - d) < f.max_gap))
-    return 0;
-  return static_cast<std::uint32_t> (observed);
-}
-
-/** \brief Labels each of the eight voxels of one block row would take, 0 for none
-  * (scalar). \a row is the camera-frame position of voxel x = 0, \a dx the step.
-  */
-inline void
-rowLabels (const LabelFrame& f, const std::int16_t* distance, const Eigen::Vector3f& row, const Eigen::Vector3f& dx,
-           std::uint32_t* out)
-{
-  for (int x = 0; x < reconstruction::kBlockSide; ++x)
-    out[x] = std::abs (static_cast<int> (distance[x])) > f.band_limit ? 0u
-                                                                         : observedLabel (f, row + dx * static_cast<float> (x));
-}
-
-#ifdef CUEFUSION_HAVE_AVX2_KERNELS
-/** \brief rowLabels with AVX2: the eight projections, bounds, and the label and depth
-  * lookups at once (gathers). Same arithmetic per lane as observedLabel.
-  */
-CUEFUSION_AVX2 void
-rowLabelsAvx2 (const LabelFrame& f, const std::int16_t* distance, const Eigen::Vector3f& row, const Eigen::Vector3f& dx,
-               std::uint32_t* out)
-{
-  const __m256i d = _mm256_cvtepi16_epi32 (_mm_loadu_si128 (reinterpret_cast<const __m128i*> (distance)));
-  const __m256i in_band = _mm256_cmpgt_epi32 (_mm256_set1_epi32 (f.band_limit + 1), _mm256_abs_epi32 (d));
-  if (_mm256_movemask_epi8 (in_band) == 0)
-  {
-    _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_setzero_si256 ());
-    return;
-  }
-  const __m256 lane = _mm256_setr_ps (0.f, 1.f, 2.f, 3.f, 4.f, 5.f, 6.f, 7.f);
-  const __m256 px = _mm256_add_ps (_mm256_set1_ps (row.x ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.x ())));
-  const __m256 py = _mm256_add_ps (_mm256_set1_ps (row.y ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.y ())));
-  const __m256 pz = _mm256_add_ps (_mm256_set1_ps (row.z ()), _mm256_mul_ps (lane, _mm256_set1_ps (dx.z ())));
-  const __m256 zero = _mm256_setzero_ps ();
-  __m256 uf, vf;
-  __m256i u, v;
-  __m256i ok = _mm256_and_si256 (in_band, _mm256_castps_si256 (avx2::projectToPixel8 (px, py, pz, f.camera, uf, vf, u, v)));
-  if (_mm256_movemask_epi8 (ok) == 0)
-  {
-    _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_setzero_si256 ());
-    return;
-  }
-  const __m256i label_index = _mm256_add_epi32 (_mm256_mullo_epi32 (v, _mm256_set1_epi32 (static_cast<int> (f.labels_step))), u);
-  const __m256i depth_index = _mm256_add_epi32 (_mm256_mullo_epi32 (v, _mm256_set1_epi32 (static_cast<int> (f.depth_step))), u);
-  const __m256i observed = _mm256_mask_i32gather_epi32 (_mm256_setzero_si256 (), f.labels, label_index, ok, 4);
-  const __m256 depth = _mm256_mask_i32gather_ps (zero, f.depth, depth_index, _mm256_castsi256_ps (ok), 4);
-  const __m256 gap = _mm256_andnot_ps (_mm256_set1_ps (-0.f), _mm256_sub_ps (pz, depth));  // |z − D(u)|
-  ok = _mm256_and_si256 (ok, _mm256_cmpgt_epi32 (observed, _mm256_setzero_si256 ()));
-  ok = _mm256_and_si256 (ok, _mm256_castps_si256 (_mm256_cmp_ps (gap, _mm256_set1_ps (f.max_gap), _CMP_LT_OQ)));
-  _mm256_storeu_si256 (reinterpret_cast<__m256i*> (out), _mm256_and_si256 (observed, ok));
-}
-#endif
 }  // namespace
 
 std::size_t
-updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const cv::Mat& depth, const PinholeCamera& camera,
-                   const Eigen::Isometry3d& pose, const GlobalSegmentMap& map, const SegmentUpdateConfig& config)
+updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const GlobalSegmentMap& map,
+                   const SegmentUpdateConfig& config)
 {
   config.validate ();
-  if (labels.type () != CV_32S || labels.cols != camera.width || labels.rows != camera.height)
-    throw Error ("updateVoxelLabels", "L^p must be CV_32S of the camera's size");
-  if (depth.type () != CV_32F || depth.size () != labels.size ())
-    throw Error ("updateVoxelLabels", "depth must be CV_32F of L^p's size");
-  const float truncation = static_cast<float> (volume.config ().truncation ());
-  const Eigen::Isometry3f world_to_camera = pose.inverse ().cast<float> ();
-  const std::vector<std::int32_t>& ids = volume.lastIntegratedBlocks ();
-  std::atomic<std::size_t> writes (0);
+  if (!volume.getRecordObservedSurface ())
+    throw Error ("updateVoxelLabels", "the volume does not record the voxels it integrates: call "
+                                      "setRecordObservedSurface (true) before integrate()");
+  if (labels.type () != CV_32S || labels.size () != volume.lastIntegratedSize ())
+    throw Error ("updateVoxelLabels", "L^p must be CV_32S of the size of the frame last integrated");
+  // The voxels come from integrate(): it projects each voxel of the frame's blocks anyway
+  // and lists those inside the truncation band of the surface their pixel sees. Visiting
+  // every voxel of those blocks again here (a second projection and depth lookup per
+  // voxel, mostly of voxels outside the band) was 3 ms a frame on 7scenes-redkitchen.
+  const float max_gap = config.band * static_cast<float> (volume.config ().truncation ());
+  const float band = config.band;
   const auto max_confidence = static_cast<std::uint8_t> (config.max_confidence);
-  LabelFrame frame;
-  frame.labels = labels.ptr<std::int32_t> ();
-  frame.labels_step = labels.step1 ();
-  frame.depth = depth.ptr<float> ();
-  frame.depth_step = depth.step1 ();
-  frame.camera = FloatIntrinsics (camera);
-  frame.max_gap = config.band * truncation;
-  // Most voxels of the blocks just integrated are truncated or unobserved: the 2-byte
-  // distance layer rules them out before the 16-byte voxel is read. |sdf| < band in its
-  // units, rounded up (the exact test on the voxel follows); unobserved (-32768) lies
-  // beyond it.
-  frame.band_limit = std::min (32767, static_cast<int> (std::ceil (config.band * reconstruction::kDistanceScale)) + 1);
-  auto row_labels = &rowLabels;
-#ifdef CUEFUSION_HAVE_AVX2_KERNELS
-  if (vectorKernelsEnabled ())
-    row_labels = &rowLabelsAvx2;
-#endif
-  // Positions are stepped through each block in the camera frame, as integration does.
-  const float voxel_size = static_cast<float> (volume.config ().voxel_size);
-  const Eigen::Matrix3f R = world_to_camera.linear ();
-  const Eigen::Vector3f dx = R.col (0) * voxel_size, dy = R.col (1) * voxel_size, dz = R.col (2) * voxel_size;
-  parallelForChunks (static_cast<int> (ids.size ()), 16, [&] (int, int begin, int end) {
+  const std::vector<std::vector<reconstruction::SurfaceObservation>>& lists = volume.lastObservedSurface ();
+  std::atomic<std::size_t> writes (0);
+  parallelForChunks (static_cast<int> (lists.size ()), 8, [&] (int, int begin, int end) {
     std::size_t local_writes = 0;
-    alignas (32) std::uint32_t observed[reconstruction::kBlockSide];
     for (int k = begin; k < end; ++k)
-    {
-      const std::size_t id = static_cast<std::size_t> (ids[static_cast<std::size_t> (k)]);
-      auto& voxels = volume.voxels (id);
-      const auto& distances = volume.blocks ()[id]->distances;
-      const Eigen::Vector3f origin = world_to_camera * volume.voxelPosition (volume.blocks ()[id]->index * reconstruction::kBlockSide);
-      for (int z = 0; z < reconstruction::kBlockSide; ++z)
-        for (int y = 0; y < reconstruction::kBlockSide; ++y)
-        {
-          const std::size_t first = static_cast<std::size_t> (reconstruction::localVoxelIndex (0, y, z));
-          row_labels (frame, &distances[first], origin + dy * static_cast<float> (y) + dz * static_cast<float> (z), dx,
-                      observed);
-          for (int x = 0; x < reconstruction::kBlockSide; ++x)
-          {
-            reconstruction::TsdfVoxel& voxel = voxels[first + static_cast<std::size_t> (x)];
-            if (observed[x] != 0 && voxel.weight > 0.f && std::abs (voxel.sdf) < config.band)
-              local_writes += updateVoxelLabel (voxel, observed[x], map, max_confidence);
-          }
-        }
-    }
+      for (const reconstruction::SurfaceObservation& seen : lists[static_cast<std::size_t> (k)])
+      {
+        const std::int32_t observed = labels.ptr<std::int32_t> (static_cast<int> (seen.pixel >> 16))[seen.pixel & 0xffffu];
+        if (observed <= 0 || !(seen.gap < max_gap))
+          continue;
+        reconstruction::TsdfVoxel& voxel =
+            volume.voxels (seen.voxel / reconstruction::kBlockVoxels)[seen.voxel % reconstruction::kBlockVoxels];
+        if (std::abs (voxel.sdf) < band)
+          local_writes += updateVoxelLabel (voxel, static_cast<std::uint32_t> (observed), map, max_confidence);
+      }
     writes += local_writes;
   });
   return writes.load ();
