@@ -139,10 +139,10 @@ storeVoxels8 (float* p, __m256 sdf, __m256 weight, __m256 color, __m256 label)
 
 /** \brief updateVoxel's colour average of one channel (0–255 in 32-bit lanes). */
 CUEFUSION_AVX2 inline __m256i
-averageChannel (__m256i old_channel, const std::int32_t* observed, __m256 w, __m256 w_new)
+averageChannel (__m256i old_channel, __m256i observed, __m256 w, __m256 w_new)
 {
   const __m256 old_f = _mm256_cvtepi32_ps (old_channel);
-  const __m256 obs_f = _mm256_cvtepi32_ps (_mm256_load_si256 (reinterpret_cast<const __m256i*> (observed)));
+  const __m256 obs_f = _mm256_cvtepi32_ps (observed);
   const __m256 mean = _mm256_add_ps (_mm256_div_ps (_mm256_add_ps (_mm256_mul_ps (w, old_f), obs_f), w_new),
                                      _mm256_set1_ps (0.5f));
   return _mm256_and_si256 (_mm256_cvttps_epi32 (mean), _mm256_set1_epi32 (0xff));
@@ -173,8 +173,7 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
   const __m256 ly = _mm256_mul_ps (lane, _mm256_set1_ps (dx.y ()));
   const __m256 lz = _mm256_mul_ps (lane, _mm256_set1_ps (dx.z ()));
 
-  alignas (32) std::int32_t pixel_u[8], pixel_v[8];
-  alignas (32) std::int32_t obs_r[8], obs_g[8], obs_b[8];
+  alignas (32) std::int32_t color_offset[8];
   alignas (32) std::uint32_t seen_pixel[8];
   alignas (32) float seen_gap[8];
 
@@ -258,20 +257,25 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
       __m256i word_out = word;
       if (f.color != nullptr)
       {
-        _mm256_store_si256 (reinterpret_cast<__m256i*> (pixel_u), u);
-        _mm256_store_si256 (reinterpret_cast<__m256i*> (pixel_v), v);
-        for (int m = mask; m != 0; m &= m - 1)
-        {
-          const int i = __builtin_ctz (static_cast<unsigned> (m));
-          const std::uint8_t* bgr = f.color + static_cast<std::size_t> (pixel_v[i]) * f.color_step + 3 * pixel_u[i];
-          obs_b[i] = bgr[0];
-          obs_g[i] = bgr[1];
-          obs_r[i] = bgr[2];
-        }
+        // Each lane's pixel as one BGR word, read through byte offsets (0 for lanes not
+        // updated, whose pixel may lie outside the image) and set as a vector: filling
+        // per-channel arrays with scalar stores and loading them as vectors stalled on
+        // store forwarding (a tenth of this kernel).
+        const __m256i offset = _mm256_add_epi32 (_mm256_mullo_epi32 (v, _mm256_set1_epi32 (static_cast<int> (f.color_step))),
+                                                 _mm256_mullo_epi32 (u, _mm256_set1_epi32 (3)));
+        _mm256_store_si256 (reinterpret_cast<__m256i*> (color_offset), _mm256_and_si256 (offset, _mm256_castps_si256 (update)));
+        const auto bgr_word = [&] (int i) {
+          const std::uint8_t* bgr = f.color + color_offset[i];
+          return static_cast<int> (bgr[0] | bgr[1] << 8 | bgr[2] << 16);
+        };
+        const __m256i observed_bgr = _mm256_setr_epi32 (bgr_word (0), bgr_word (1), bgr_word (2), bgr_word (3), bgr_word (4),
+                                                        bgr_word (5), bgr_word (6), bgr_word (7));
         const __m256i byte = _mm256_set1_epi32 (0xff);
-        const __m256i r = averageChannel (_mm256_and_si256 (word, byte), obs_r, w, w_new);
-        const __m256i g = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 8), byte), obs_g, w, w_new);
-        const __m256i b = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 16), byte), obs_b, w, w_new);
+        const __m256i r = averageChannel (_mm256_and_si256 (word, byte), _mm256_srli_epi32 (observed_bgr, 16), w, w_new);
+        const __m256i g = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 8), byte),
+                                          _mm256_and_si256 (_mm256_srli_epi32 (observed_bgr, 8), byte), w, w_new);
+        const __m256i b = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 16), byte),
+                                          _mm256_and_si256 (observed_bgr, byte), w, w_new);
         // The top byte is label_confidence: kept.
         word_out = _mm256_or_si256 (_mm256_and_si256 (word, _mm256_set1_epi32 (static_cast<int> (0xff000000u))),
                                     _mm256_or_si256 (_mm256_or_si256 (r, _mm256_slli_epi32 (g, 8)), _mm256_slli_epi32 (b, 16)));

@@ -337,11 +337,20 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
   const auto max_confidence = static_cast<std::uint8_t> (config.max_confidence);
   const std::vector<std::vector<reconstruction::SurfaceObservation>>& lists = volume.lastObservedSurface ();
   std::atomic<std::size_t> writes (0);
+  constexpr std::size_t kPrefetchAhead = 16;
   parallelForChunks (static_cast<int> (lists.size ()), 8, [&] (int, int begin, int end) {
     std::size_t local_writes = 0;
     for (int k = begin; k < end; ++k)
-      for (const reconstruction::SurfaceObservation& seen : lists[static_cast<std::size_t> (k)])
+    {
+      const std::vector<reconstruction::SurfaceObservation>& list = lists[static_cast<std::size_t> (k)];
+      for (std::size_t j = 0; j < list.size (); ++j)
       {
+        const reconstruction::SurfaceObservation& seen = list[j];
+        if (j + kPrefetchAhead < list.size ())
+        {
+          const std::uint32_t ahead = list[j + kPrefetchAhead].voxel;
+          __builtin_prefetch (&volume.voxels (ahead / reconstruction::kBlockVoxels)[ahead % reconstruction::kBlockVoxels], 1);
+        }
         const std::int32_t observed = labels.ptr<std::int32_t> (static_cast<int> (seen.pixel >> 16))[seen.pixel & 0xffffu];
         if (observed <= 0 || !(seen.gap < max_gap))
           continue;
@@ -350,6 +359,7 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
         if (std::abs (voxel.sdf) < band)
           local_writes += updateVoxelLabel (voxel, static_cast<std::uint32_t> (observed), map, max_confidence);
       }
+    }
     writes += local_writes;
   });
   return writes.load ();
