@@ -367,6 +367,40 @@ TEST (TSDFVolume, DepthHintedRaycastMatchesTheFullRaycast)
   EXPECT_LT (static_cast<double> (only_full), 0.01 * static_cast<double> (both));
 }
 
+TEST (TSDFVolume, HintBehindTheSurfaceStillFindsIt)
+{
+  // A wall 1.2 m in front of the camera, and a hint 5 voxels behind it: Newton from the
+  // hint reads unobserved voxels, the march from two voxels in front of the hint starts
+  // behind the surface, and the second march from a band further in front must find the
+  // wall where the full march does, with its normal.
+  const std::string text = "scene wall\ncamera 320 240 262.5 262.5 159.5 119.5\n"
+                           "object wall class=wall color=200,200,200\n  box center=0,1.25,1 size=8,0.1,8\n";
+  const io::SyntheticScene scene = io::SyntheticScene::parse (text, "wall");
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
+  pose.linear () << 1, 0, 0, 0, 0, 1, 0, -1, 0;  // camera z along world +y
+  pose.translation () = Eigen::Vector3d (0, 0, 1);
+  const io::RenderedView view = io::SceneRenderer (scene).render (scene.camera, pose);
+  TSDFVolume volume;
+  volume.integrate (view.depth, view.color, scene.camera, pose);
+  RaycastResult full, hinted;
+  volume.raycast (scene.camera, pose, full);
+  cv::Mat hint = view.depth + 5.0 * volume.config ().voxel_size;
+  volume.raycast (scene.camera, pose, hint, hinted);
+  const cv::Mat a = full.depth (), b = hinted.depth ();
+  // Away from the view's rim, whose cells have unobserved corners (both marches then
+  // use nearest-voxel values and give no normal).
+  std::size_t surface = 0, same = 0;
+  for (int v = 4; v < a.rows - 4; ++v)
+    for (int u = 4; u < a.cols - 4; ++u)
+      if (a.at<float> (v, u) > 0.f)
+      {
+        ++surface;
+        same += std::abs (a.at<float> (v, u) - b.at<float> (v, u)) < 1e-3f && hinted.normals.at<cv::Vec3f> (v, u)[2] < -0.99f;
+      }
+  ASSERT_GT (surface, 70000u);
+  EXPECT_GT (static_cast<double> (same), 0.99 * static_cast<double> (surface));
+}
+
 TEST (TSDFVolume, HoleSkipSearchesOnlyTheRefreshedHoles)
 {
   // A fused tabletop, then a hint with a band of hole pixels punched across it (where the
