@@ -26,14 +26,22 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
   const std::uint8_t* ok = valid.ptr<std::uint8_t> ();
   // Open pixels: valid depth, no segment (the edge band); a small share of the image.
   // Collected per fixed chunk of rows on the pool and kept in chunk (raster) order.
+  // Each keeps its column: recovering it as i % w in every round was most of this
+  // function's time (an integer division per pixel and round).
+  struct OpenPixel
+  {
+    int index, x;
+  };
   constexpr int kRowsPerChunk = 16;
   const int chunks = chunkCount (h, kRowsPerChunk);
-  std::vector<std::vector<int>> open (static_cast<std::size_t> (chunks));
+  std::vector<std::vector<OpenPixel>> open (static_cast<std::size_t> (chunks));
   parallelForChunks (h, kRowsPerChunk, [&] (int k, int begin, int end) {
-    for (int i = begin * w; i < end * w; ++i)
-      if (ok[i] && label[i] == 0)
-        open[static_cast<std::size_t> (k)].push_back (i);
+    for (int y = begin; y < end; ++y)
+      for (int x = 0, i = y * w; x < w; ++x, ++i)
+        if (ok[i] && label[i] == 0)
+          open[static_cast<std::size_t> (k)].push_back ({i, x});
   });
+  const int pixels = w * h;
   // One ring per round: an open pixel takes the label of its first 4-neighbour (right,
   // left, down, up) that was labelled before this round and continues it in depth. All
   // of a round's assignments apply together, so the result depends neither on scan order
@@ -42,14 +50,14 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
   for (int round = 0; round < radius; ++round)
   {
     parallelFor (chunks, [&] (int k) {
-      std::vector<int>& mine = open[static_cast<std::size_t> (k)];
+      std::vector<OpenPixel>& mine = open[static_cast<std::size_t> (k)];
       std::vector<std::pair<int, std::int32_t>>& assigned = taken[static_cast<std::size_t> (k)];
       assigned.clear ();
       std::size_t kept = 0;
-      for (const int i : mine)
+      for (const OpenPixel& pixel : mine)
       {
-        const int x = i % w, y = i / w;
-        const int neighbours[4] = {x + 1 < w ? i + 1 : -1, x > 0 ? i - 1 : -1, y + 1 < h ? i + w : -1, y > 0 ? i - w : -1};
+        const int i = pixel.index, x = pixel.x;
+        const int neighbours[4] = {x + 1 < w ? i + 1 : -1, x > 0 ? i - 1 : -1, i + w < pixels ? i + w : -1, i >= w ? i - w : -1};
         std::int32_t found = 0;
         for (const int j : neighbours)
           if (j >= 0 && label[j] > 0 && std::abs (z[j] - z[i]) < max_jump * z[j])
@@ -60,7 +68,7 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
         if (found)
           assigned.emplace_back (i, found);
         else
-          mine[kept++] = i;
+          mine[kept++] = pixel;
       }
       mine.resize (kept);
     });
