@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 using namespace cuefusion;
@@ -214,6 +215,45 @@ TEST (VectorKernels, NormalMapIsTheScalarOne)
   EXPECT_GT (valid, 5000);
   EXPECT_EQ (mismatched, 0);
   EXPECT_LT (worst, 1e-5f);
+}
+
+TEST (VectorKernels, ModelPyramidIsTheScalarOne)
+{
+  if (!cpuHasAvx2Fma ())
+    GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
+  // Vertex and normal maps of a view with holes (invalid vertices), invalid normals at the
+  // outlines and depth jumps inside 2×2 blocks; 2 · 157 px wide, so rows end in a scalar
+  // tail. The kernel sums and divides in the scalar order: results agree to the bit.
+  const io::SyntheticScene scene = test::sphereAndBoxScene (314, 240);
+  const io::RenderedView view = viewsWithHoles (scene, 1).front ();
+  cv::Mat vertices, normals;
+  computeVertexMap (view.depth, scene.camera, vertices);
+  computeNormalMap (vertices, normals);
+  cv::Mat half_vertices[2], half_normals[2];
+  for (const bool vector : {false, true})
+  {
+    const KernelChoice choice (vector);
+    downsampleVertexNormalMaps (vertices, normals, half_vertices[vector], half_normals[vector], 0.02f);
+  }
+  ASSERT_EQ (half_vertices[0].size (), cv::Size (157, 120));
+  int valid = 0, invalid = 0, differing = 0;
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 157; ++x)
+    {
+      const cv::Vec3f a = half_vertices[0].at<cv::Vec3f> (y, x), b = half_vertices[1].at<cv::Vec3f> (y, x);
+      const cv::Vec3f m = half_normals[0].at<cv::Vec3f> (y, x), n = half_normals[1].at<cv::Vec3f> (y, x);
+      if (std::isnan (a[0]))
+      {
+        ++invalid;
+        differing += !(std::isnan (b[0]) && std::isnan (n[0]) && std::isnan (m[0]));
+        continue;
+      }
+      ++valid;
+      differing += std::memcmp (&a, &b, sizeof a) != 0 || std::memcmp (&m, &n, sizeof m) != 0;
+    }
+  EXPECT_GT (valid, 1500);
+  EXPECT_GT (invalid, 1000);
+  EXPECT_EQ (differing, 0);
 }
 
 TEST (VectorKernels, HintedRaycastIsTheScalarOne)
