@@ -584,7 +584,9 @@ TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, c
   const float inv_block = static_cast<float> (1.0 / config_.blockSize ());
   const float min_depth = static_cast<float> (config_.min_depth), max_depth = static_cast<float> (config_.max_depth);
   const Eigen::Matrix3f R = pose.linear ().cast<float> ();
-  const Eigen::Vector3f t = pose.translation ().cast<float> ();
+  const Eigen::Vector3f origin_blocks = pose.translation ().cast<float> () * inv_block;
+  const float inv_fx = static_cast<float> (1.0 / camera.fx), inv_fy = static_cast<float> (1.0 / camera.fy);
+  const float cx = static_cast<float> (camera.cx), cy = static_cast<float> (camera.cy);
   // Samples along each ray through the band [d − τ, d + τ], at most half a block apart,
   // and every second pixel: at 5 m a pixel of a 525 px focal length spans 1 cm, far
   // below the 8 cm of a block.
@@ -604,18 +606,22 @@ TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, c
     {
       const int v = r * kPixelStride;
       const float* row = depth.ptr<float> (v);
+      // The row's ray at u = 0 and its step per pixel, in block units per metre of depth
+      // (PinholeCamera::backProject divides in double, twice per pixel).
+      const Eigen::Vector3f ray0 = R * Eigen::Vector3f (-cx * inv_fx, (static_cast<float> (v) - cy) * inv_fy, 1.f) * inv_block;
+      const Eigen::Vector3f ray_step = R.col (0) * (inv_fx * inv_block);
       for (int u = 0; u < depth.cols; u += kPixelStride)
       {
         const float d = row[u];
         if (!detail::usableDepth (d, min_depth, max_depth))
           continue;
-        const Eigen::Vector3f ray = R * camera.backProject (static_cast<float> (u), static_cast<float> (v), 1.f);
+        const Eigen::Vector3f ray = ray0 + ray_step * static_cast<float> (u);
         for (int s = 0; s < samples; ++s)
         {
           const float z = d - truncation + step * static_cast<float> (s);
           if (z <= 0.f)
             continue;
-          const Eigen::Vector3f b = (t + ray * z) * inv_block;
+          const Eigen::Vector3f b = origin_blocks + ray * z;
           const Eigen::Vector3i index = fastFloor (b);
           if (!inBlockRange (index))
             continue;
