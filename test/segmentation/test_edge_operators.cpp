@@ -209,6 +209,22 @@ TEST (LabelEdgeMap, ComponentsClosingSmallSegmentsAndEdgeAssignment)
   depth.at<float> (15, 5) = std::numeric_limits<float>::quiet_NaN ();
   labelEdgeMap (edges, depth, config, labels);
   EXPECT_EQ (labels.at<std::int32_t> (15, 5), 0);
+
+  // A 7-pixel edge band on one surface fills one ring per round from both sides; the
+  // middle column is reached in the fourth round and takes its right neighbour's label
+  // (right is tested first). With three rounds it stays open.
+  cv::Mat band = cv::Mat::zeros (20, 40, CV_8U);
+  band.colRange (17, 24).setTo (1);
+  const cv::Mat flat (20, 40, CV_32F, cv::Scalar (1.f));
+  config.closing_iterations = 0;
+  EXPECT_EQ (labelEdgeMap (band, flat, config, labels), 2);
+  for (int x = 17; x < 24; ++x)
+    EXPECT_EQ (labels.at<std::int32_t> (10, x), x < 20 ? 1 : 2) << "x " << x;
+  config.edge_assignment_radius = 3;
+  labelEdgeMap (band, flat, config, labels);
+  EXPECT_EQ (labels.at<std::int32_t> (10, 20), 0);
+  EXPECT_EQ (labels.at<std::int32_t> (10, 19), 1);
+  EXPECT_EQ (labels.at<std::int32_t> (10, 21), 2);
 }
 
 TEST (SegmentationInput, BadInputIsAClearError)

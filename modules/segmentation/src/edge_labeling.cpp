@@ -47,6 +47,13 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
   // of a round's assignments apply together, so the result depends neither on scan order
   // nor on how the chunks are spread over threads.
   std::vector<std::vector<std::pair<int, std::int32_t>>> taken (static_cast<std::size_t> (chunks));
+  // After the first round a pixel can only take a label from a neighbour labelled in the
+  // round before (labels only appear, and the others it already found too far in depth):
+  // touched[i] = round + 1 marks the neighbours of the pixels a round labelled, and the
+  // next round tests only those. Most open pixels never find a label (small discarded
+  // segments, the band between two surfaces); testing them in every round was most of
+  // this function's time.
+  std::vector<std::uint8_t> touched (static_cast<std::size_t> (pixels), 0);
   for (int round = 0; round < radius; ++round)
   {
     parallelFor (chunks, [&] (int k) {
@@ -57,6 +64,11 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
       for (const OpenPixel& pixel : mine)
       {
         const int i = pixel.index, x = pixel.x;
+        if (round > 0 && touched[static_cast<std::size_t> (i)] != round)
+        {
+          mine[kept++] = pixel;
+          continue;
+        }
         const int neighbours[4] = {x + 1 < w ? i + 1 : -1, x > 0 ? i - 1 : -1, i + w < pixels ? i + w : -1, i >= w ? i - w : -1};
         std::int32_t found = 0;
         for (const int j : neighbours)
@@ -77,7 +89,12 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
     {
       any = any || !assigned.empty ();
       for (const auto& [i, l] : assigned)
+      {
         label[i] = l;
+        for (const int j : {i - 1, i + 1, i - w, i + w})
+          if (j >= 0 && j < pixels)
+            touched[static_cast<std::size_t> (j)] = static_cast<std::uint8_t> (round + 1);
+      }
     }
     if (!any)
       break;
