@@ -376,13 +376,15 @@ DepthPreprocessor::compute (const cv::Mat& depth, const PinholeCamera& camera, F
   // gives them no weight next to real surfaces (|0 − z| ≫ σ), and they are masked again
   // afterwards so the filter cannot invent depth in holes.
   cv::Mat clean (depth.size (), CV_32F);
-  for (int v = 0; v < depth.rows; ++v)
-  {
-    const float* in = depth.ptr<float> (v);
-    float* out = clean.ptr<float> (v);
-    for (int u = 0; u < depth.cols; ++u)
-      out[u] = (in[u] >= lo && in[u] <= hi) ? in[u] : 0.f;
-  }
+  parallelForChunks (depth.rows, 16, [&] (int, int begin, int end) {
+    for (int v = begin; v < end; ++v)
+    {
+      const float* in = depth.ptr<float> (v);
+      float* out = clean.ptr<float> (v);
+      for (int u = 0; u < depth.cols; ++u)
+        out[u] = (in[u] >= lo && in[u] <= hi) ? in[u] : 0.f;
+    }
+  });
   PyramidLevel& base = pyramid[0];
   base.camera = camera;
   if (config_.bilateral_filter && config_.noise_range_sigma > 0.0)
