@@ -230,6 +230,31 @@ TEST (TSDFVolume, MeshVerticesLieOnTheSurfaceAndFacesPointOutwards)
   EXPECT_TRUE (has_label);
 }
 
+namespace
+{
+// Every block's upper-neighbour links name exactly the allocated blocks at +x, +y, +z
+// and their combinations, whatever order the blocks were allocated in.
+void
+expectNeighbourLinksMatchTheHash (const TSDFVolume& volume)
+{
+  int links = 0;
+  for (std::size_t id = 0; id < volume.blocks ().size (); ++id)
+  {
+    const Eigen::Vector3i index = volume.blocks ()[id]->index;
+    const auto& upper = volume.upperNeighbours (id);
+    ASSERT_EQ (upper[0], volume.blocks ()[id].get ());
+    for (int j = 1; j < 8; ++j)
+    {
+      const std::int32_t other = volume.findBlock (index + Eigen::Vector3i (j & 1, (j >> 1) & 1, (j >> 2) & 1));
+      const VoxelBlock* expected = other >= 0 ? volume.blocks ()[static_cast<std::size_t> (other)].get () : nullptr;
+      ASSERT_EQ (upper[static_cast<std::size_t> (j)], expected) << "block " << id << ", neighbour " << j;
+      links += expected != nullptr;
+    }
+  }
+  EXPECT_GT (links, static_cast<int> (volume.blocks ().size ()));  // a surface's blocks have neighbours
+}
+}  // namespace
+
 TEST (TSDFVolume, SaveLoadRoundTripIsExact)
 {
   const io::SyntheticScene scene = test::sphereAndBoxScene (160, 120);
@@ -248,6 +273,9 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
   ASSERT_TRUE (loaded.config ().bounds.has_value ());
   EXPECT_TRUE (loaded.config ().bounds->isApprox (*config.bounds));
   ASSERT_EQ (loaded.blockCount (), volume.blockCount ());
+  // Both volumes link each block to its neighbours (what cells across blocks read).
+  expectNeighbourLinksMatchTheHash (volume);
+  expectNeighbourLinksMatchTheHash (loaded);
   for (const auto& block : volume.blocks ())
   {
     const std::int32_t id = loaded.findBlock (block->index);
@@ -431,7 +459,9 @@ TEST (TSDFVolume, HoleSkipSearchesOnlyTheRefreshedHoles)
       // Marked only where a hole's search came back empty (rays through tiles without
       // any block are not searched, and not marked).
       if (searched.empty_holes.at<std::uint8_t> (v, u) != 0)
+      {
         ASSERT_TRUE (hole && !found) << u << ", " << v;
+      }
       holes_found += hole && found;
       holes_empty += searched.empty_holes.at<std::uint8_t> (v, u) != 0;
     }
@@ -484,7 +514,9 @@ TEST (TSDFVolume, HoleSkipSearchesOnlyTheRefreshedHoles)
     const float* row = stale_depth.ptr<float> (v);
     const int first = static_cast<int> (std::find_if (row, row + hint.cols, [] (float z) { return z > 0.f; }) - row);
     if (first < hint.cols)
+    {
       EXPECT_EQ ((static_cast<unsigned> (first + v) + skip.phase) % skip.refresh_period, 0u) << "row " << v;
+    }
   }
 
   // Bad masks are refused with a message, not read out of bounds.

@@ -516,6 +516,8 @@ TSDFVolume::reset ()
   blocks_.shrink_to_fit ();
   block_indices_.clear ();
   block_indices_.shrink_to_fit ();
+  upper_neighbours_.clear ();
+  upper_neighbours_.shrink_to_fit ();
   integrated_blocks_.clear ();
   observed_.clear ();
   integrated_size_ = cv::Size ();
@@ -527,7 +529,7 @@ std::size_t
 TSDFVolume::memoryUsage () const
 {
   return blocks_.size () * (sizeof (VoxelBlock) + sizeof (std::unique_ptr<VoxelBlock>) + sizeof (std::uint32_t) +
-                            sizeof (Eigen::Vector3i)) +
+                            sizeof (Eigen::Vector3i) + sizeof (std::array<const VoxelBlock*, 8>)) +
          hash_.memoryBytes ();
 }
 
@@ -546,6 +548,21 @@ TSDFVolume::allocateBlock (const Eigen::Vector3i& index)
     blocks_.back ()->index = index;
     block_indices_.push_back (index);
     block_stamp_.push_back (0);
+    // Link the new block with its allocated neighbours both ways: its own upper ones, and
+    // it as the upper neighbour of the blocks below it (14 lookups per new block).
+    std::array<const VoxelBlock*, 8> upper{};
+    upper[0] = blocks_.back ().get ();
+    for (int j = 1; j < 8; ++j)
+    {
+      const Eigen::Vector3i offset (j & 1, (j >> 1) & 1, (j >> 2) & 1);
+      const std::int32_t above = findBlock (index + offset);
+      if (above >= 0)
+        upper[static_cast<std::size_t> (j)] = blocks_[static_cast<std::size_t> (above)].get ();
+      const std::int32_t below = findBlock (index - offset);
+      if (below >= 0)
+        upper_neighbours_[static_cast<std::size_t> (below)][static_cast<std::size_t> (j)] = blocks_.back ().get ();
+    }
+    upper_neighbours_.push_back (upper);
   }
   return inserted.first;
 }
