@@ -1,7 +1,8 @@
-// The AVX2 kernels (TSDF integration, ICP accumulation) against their scalar versions on
+// The AVX2 kernels (integration, ICP and its pixel reads, normals, the raycast) against their scalar versions on
 // generated views: both paths must build the same volume and find the same motion.
 #include "reconstruction_fixtures.h"
 
+#include <cuefusion/common/avx2.h>
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/reconstruction/preprocessing.h>
 #include <cuefusion/reconstruction/projective_icp.h>
@@ -12,6 +13,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <random>
 
 using namespace cuefusion;
@@ -182,6 +184,44 @@ TEST (VectorKernels, ICPFindsTheScalarMotion)
     EXPECT_NEAR (result[0].rmse, result[1].rmse, 1e-3 * result[0].rmse + 1e-7);
   }
 }
+
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+/** avx2::gatherXyz8 with its results stored as got[coordinate][lane]. */
+static CUEFUSION_AVX2 void
+gatherXyz8Stored (const float* base, const std::int32_t* offsets, float (&got)[3][8])
+{
+  __m256 x, y, z;
+  avx2::gatherXyz8 (base, offsets, x, y, z);
+  _mm256_storeu_ps (got[0], x);
+  _mm256_storeu_ps (got[1], y);
+  _mm256_storeu_ps (got[2], z);
+}
+
+TEST (VectorKernels, GatherXyz8ReadsTheNamedPixels)
+{
+  if (!cpuHasAvx2Fma ())
+    GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
+  // A CV_32FC3 image's floats, exactly sized: the last pixel's x, y, z end the buffer, so
+  // a read of a fourth float there would run past it (as a 16-byte load would).
+  const int pixels = 1000;
+  const std::unique_ptr<float[]> image (new float[3 * pixels]);
+  for (int i = 0; i < 3 * pixels; ++i)
+    image[static_cast<std::size_t> (i)] = static_cast<float> (i) * 0.5f - 7.f;
+  std::mt19937 rng (3);
+  std::uniform_int_distribution<int> pixel (0, pixels - 1);
+  for (int round = 0; round < 50; ++round)
+  {
+    alignas (32) std::int32_t offsets[8];
+    for (int i = 0; i < 8; ++i)
+      offsets[i] = 3 * (i == round % 8 ? pixels - 1 : pixel (rng));
+    float got[3][8];
+    gatherXyz8Stored (image.get (), offsets, got);
+    for (int i = 0; i < 8; ++i)
+      for (int c = 0; c < 3; ++c)
+        ASSERT_EQ (got[c][i], image[static_cast<std::size_t> (offsets[i] + c)]) << "lane " << i << ", coordinate " << c;
+  }
+}
+#endif
 
 TEST (VectorKernels, NormalMapIsTheScalarOne)
 {

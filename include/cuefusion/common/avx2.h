@@ -11,6 +11,8 @@
 
 #include <immintrin.h>
 
+#include <cstdint>
+
 /** Defined where the AVX2 kernels can be compiled (x86-64 with GCC or Clang). */
 #define CUEFUSION_HAVE_AVX2_KERNELS 1
 /** Compiles one function for AVX2 + FMA, leaving the rest of the file baseline x86-64. */
@@ -50,6 +52,28 @@ storeXyz8 (float* p, __m256 x, __m256 y, __m256 z)
   _mm256_storeu_ps (p, _mm256_blend_ps (_mm256_blend_ps (tx, ty, 0x92), tz, 0x24));
   _mm256_storeu_ps (p + 8, _mm256_blend_ps (_mm256_blend_ps (tx, ty, 0x24), tz, 0x49));
   _mm256_storeu_ps (p + 16, _mm256_blend_ps (_mm256_blend_ps (tx, ty, 0x49), tz, 0x92));
+}
+
+/** \brief x, y, z of eight 3-float pixels at \a base + offsets[i] (floats), for pixels
+  * scattered over an image: a masked 3-float load per lane and a transpose. On AMD Zen 4
+  * this is faster than three AVX2 gathers, which issue one load per lane each (ICP's
+  * association: tracking 4.0–4.1 → 3.7 ms a frame on 7-Scenes, A/B). The masked load reads
+  * nothing past the third float, so the image's last pixel is safe.
+  */
+CUEFUSION_AVX2 inline void
+gatherXyz8 (const float* base, const std::int32_t* offsets, __m256& x, __m256& y, __m256& z)
+{
+  const __m128i xyz = _mm_setr_epi32 (-1, -1, -1, 0);
+  __m256 r[4];
+  for (int i = 0; i < 4; ++i)
+    r[i] = _mm256_insertf128_ps (_mm256_castps128_ps256 (_mm_maskload_ps (base + offsets[i], xyz)),
+                                 _mm_maskload_ps (base + offsets[i + 4], xyz), 1);
+  // r[i] = (x_i y_i z_i 0 | x_i+4 y_i+4 z_i+4 0): a 4 × 4 transpose within each half.
+  const __m256 t0 = _mm256_unpacklo_ps (r[0], r[1]), t1 = _mm256_unpackhi_ps (r[0], r[1]);
+  const __m256 t2 = _mm256_unpacklo_ps (r[2], r[3]), t3 = _mm256_unpackhi_ps (r[2], r[3]);
+  x = _mm256_shuffle_ps (t0, t2, 0x44);
+  y = _mm256_shuffle_ps (t0, t2, 0xee);
+  z = _mm256_shuffle_ps (t1, t3, 0x44);
 }
 
 /** \brief Lanes where 0 ≤ u < width and 0 ≤ v < height (all ones / zeros); a lane holding

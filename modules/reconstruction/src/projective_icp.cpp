@@ -128,21 +128,21 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
     __m256 ok = _mm256_and_ps (valid_source, _mm256_cmp_ps (qz, zero, _CMP_GT_OQ));
     ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_cmp_ps (uf, minus_one, _CMP_GT_OQ), _mm256_cmp_ps (vf, minus_one, _CMP_GT_OQ)));
     ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_cmp_ps (uf, width, _CMP_LT_OQ), _mm256_cmp_ps (vf, height, _CMP_LT_OQ)));
-    // Lanes already rejected convert garbage; they are masked out of the gathers below.
+    // Lanes already rejected convert garbage; they read pixel (0, 0) below and are masked out.
     const __m256i u = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (_mm256_and_ps (uf, ok), half)));
     const __m256i v = _mm256_cvttps_epi32 (_mm256_floor_ps (_mm256_add_ps (_mm256_and_ps (vf, ok), half)));
     ok = _mm256_and_ps (ok, _mm256_castsi256_ps (avx2::insideImage (u, v, target.camera.width, target.camera.height)));
     if (_mm256_movemask_ps (ok) == 0)
       continue;
-    const __m256i u3 = _mm256_mullo_epi32 (u, three);
-    const __m256i vi = _mm256_add_epi32 (_mm256_mullo_epi32 (v, target_step), u3);
-    const __m256i ni = _mm256_add_epi32 (_mm256_mullo_epi32 (v, normal_step), u3);
-    const __m256 gx = _mm256_mask_i32gather_ps (zero, tgt_v, vi, ok, 4);
-    const __m256 gy = _mm256_mask_i32gather_ps (zero, tgt_v + 1, vi, ok, 4);
-    const __m256 gz = _mm256_mask_i32gather_ps (zero, tgt_v + 2, vi, ok, 4);
-    const __m256 hx = _mm256_mask_i32gather_ps (zero, tgt_n, ni, ok, 4);
-    const __m256 hy = _mm256_mask_i32gather_ps (zero, tgt_n + 1, ni, ok, 4);
-    const __m256 hz = _mm256_mask_i32gather_ps (zero, tgt_n + 2, ni, ok, 4);
+    const __m256i inside = _mm256_castps_si256 (ok);
+    const __m256i u3 = _mm256_mullo_epi32 (_mm256_and_si256 (u, inside), three);
+    const __m256i v_inside = _mm256_and_si256 (v, inside);
+    alignas (32) std::int32_t vertex_offsets[8], normal_offsets[8];
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (vertex_offsets), _mm256_add_epi32 (_mm256_mullo_epi32 (v_inside, target_step), u3));
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (normal_offsets), _mm256_add_epi32 (_mm256_mullo_epi32 (v_inside, normal_step), u3));
+    __m256 gx, gy, gz, hx, hy, hz;
+    avx2::gatherXyz8 (tgt_v, vertex_offsets, gx, gy, gz);
+    avx2::gatherXyz8 (tgt_n, normal_offsets, hx, hy, hz);
     ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_cmp_ps (gx, gx, _CMP_ORD_Q), _mm256_cmp_ps (hx, hx, _CMP_ORD_Q)));
     const __m256 dx = _mm256_sub_ps (qx, gx), dy = _mm256_sub_ps (qy, gy), dz = _mm256_sub_ps (qz, gz);
     const __m256 dist_sq = _mm256_fmadd_ps (dx, dx, _mm256_fmadd_ps (dy, dy, _mm256_mul_ps (dz, dz)));
