@@ -197,7 +197,17 @@ gatherXyz8Stored (const float* base, const std::int32_t* offsets, float (&got)[3
   _mm256_storeu_ps (got[2], z);
 }
 
-TEST (VectorKernels, GatherXyz8ReadsTheNamedPixels)
+/** avx2::gatherQuads8 with its results stored as got[corner][lane]. */
+static CUEFUSION_AVX2 void
+gatherQuads8Stored (const float* base, const std::int32_t* offsets, std::ptrdiff_t row_step, float (&got)[4][8])
+{
+  __m256 c[4];
+  avx2::gatherQuads8 (base, offsets, row_step, c[0], c[1], c[2], c[3]);
+  for (int k = 0; k < 4; ++k)
+    _mm256_storeu_ps (got[k], c[k]);
+}
+
+TEST (VectorKernels, PixelGathersReadTheNamedPixels)
 {
   if (!cpuHasAvx2Fma ())
     GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
@@ -219,6 +229,25 @@ TEST (VectorKernels, GatherXyz8ReadsTheNamedPixels)
     for (int i = 0; i < 8; ++i)
       for (int c = 0; c < 3; ++c)
         ASSERT_EQ (got[c][i], image[static_cast<std::size_t> (offsets[i] + c)]) << "lane " << i << ", coordinate " << c;
+  }
+
+  // Quads (bilinear depth) of a 37 × 29 image, exactly sized, the last quad included.
+  const int width = 37, height = 29;
+  const std::unique_ptr<float[]> depth (new float[width * height]);
+  for (int i = 0; i < width * height; ++i)
+    depth[static_cast<std::size_t> (i)] = static_cast<float> (i) + 0.25f;
+  std::uniform_int_distribution<int> column (0, width - 2), row (0, height - 2);
+  for (int round = 0; round < 50; ++round)
+  {
+    alignas (32) std::int32_t offsets[8];
+    for (int i = 0; i < 8; ++i)
+      offsets[i] = i == round % 8 ? (height - 2) * width + width - 2 : row (rng) * width + column (rng);
+    float got[4][8];
+    gatherQuads8Stored (depth.get (), offsets, width, got);
+    for (int i = 0; i < 8; ++i)
+      for (int k = 0; k < 4; ++k)
+        ASSERT_EQ (got[k][i], depth[static_cast<std::size_t> (offsets[i] + (k & 1) + (k >> 1) * width)])
+            << "lane " << i << ", corner " << k;
   }
 }
 #endif

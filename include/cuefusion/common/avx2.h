@@ -11,6 +11,7 @@
 
 #include <immintrin.h>
 
+#include <cstddef>
 #include <cstdint>
 
 /** Defined where the AVX2 kernels can be compiled (x86-64 with GCC or Clang). */
@@ -54,6 +55,20 @@ storeXyz8 (float* p, __m256 x, __m256 y, __m256 z)
   _mm256_storeu_ps (p + 16, _mm256_blend_ps (_mm256_blend_ps (tx, ty, 0x49), tz, 0x92));
 }
 
+/** \brief Eight lanes of four floats each, r[i] holding lane i in its low half and lane
+  * i + 4 in its high half, as four vectors of one float per lane (c_k = float k).
+  */
+CUEFUSION_AVX2 inline void
+transposeHalves (const __m256 (&r)[4], __m256& c0, __m256& c1, __m256& c2, __m256& c3)
+{
+  const __m256 t0 = _mm256_unpacklo_ps (r[0], r[1]), t1 = _mm256_unpackhi_ps (r[0], r[1]);
+  const __m256 t2 = _mm256_unpacklo_ps (r[2], r[3]), t3 = _mm256_unpackhi_ps (r[2], r[3]);
+  c0 = _mm256_shuffle_ps (t0, t2, 0x44);
+  c1 = _mm256_shuffle_ps (t0, t2, 0xee);
+  c2 = _mm256_shuffle_ps (t1, t3, 0x44);
+  c3 = _mm256_shuffle_ps (t1, t3, 0xee);
+}
+
 /** \brief x, y, z of eight 3-float pixels at \a base + offsets[i] (floats), for pixels
   * scattered over an image: a masked 3-float load per lane and a transpose. On AMD Zen 4
   * this is faster than three AVX2 gathers, which issue one load per lane each (ICP's
@@ -68,12 +83,28 @@ gatherXyz8 (const float* base, const std::int32_t* offsets, __m256& x, __m256& y
   for (int i = 0; i < 4; ++i)
     r[i] = _mm256_insertf128_ps (_mm256_castps128_ps256 (_mm_maskload_ps (base + offsets[i], xyz)),
                                  _mm_maskload_ps (base + offsets[i + 4], xyz), 1);
-  // r[i] = (x_i y_i z_i 0 | x_i+4 y_i+4 z_i+4 0): a 4 × 4 transpose within each half.
-  const __m256 t0 = _mm256_unpacklo_ps (r[0], r[1]), t1 = _mm256_unpackhi_ps (r[0], r[1]);
-  const __m256 t2 = _mm256_unpacklo_ps (r[2], r[3]), t3 = _mm256_unpackhi_ps (r[2], r[3]);
-  x = _mm256_shuffle_ps (t0, t2, 0x44);
-  y = _mm256_shuffle_ps (t0, t2, 0xee);
-  z = _mm256_shuffle_ps (t1, t3, 0x44);
+  __m256 unused;
+  transposeHalves (r, x, y, z, unused);
+}
+
+/** \brief The 2 × 2 pixels at \a base + offsets[i] (floats; the pixel, its right
+  * neighbour, and the two below, \a row_step floats further) of eight lanes: two 8-byte
+  * loads per lane and a transpose, in place of four AVX2 gathers (bilinear depth in the
+  * TSDF integration).
+  */
+CUEFUSION_AVX2 inline void
+gatherQuads8 (const float* base, const std::int32_t* offsets, std::ptrdiff_t row_step, __m256& top_left, __m256& top_right,
+              __m256& bottom_left, __m256& bottom_right)
+{
+  const auto quad = [&] (int i) {
+    const float* p = base + offsets[i];
+    return _mm_castsi128_ps (_mm_unpacklo_epi64 (_mm_loadl_epi64 (reinterpret_cast<const __m128i*> (p)),
+                                                 _mm_loadl_epi64 (reinterpret_cast<const __m128i*> (p + row_step))));
+  };
+  __m256 r[4];
+  for (int i = 0; i < 4; ++i)
+    r[i] = _mm256_insertf128_ps (_mm256_castps128_ps256 (quad (i)), quad (i + 4), 1);
+  transposeHalves (r, top_left, top_right, bottom_left, bottom_right);
 }
 
 /** \brief Lanes where 0 ≤ u < width and 0 ≤ v < height (all ones / zeros); a lane holding

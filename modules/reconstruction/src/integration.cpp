@@ -206,13 +206,14 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
       __m256 depth = nearest;
       if (_mm256_movemask_ps (bilinear_ok) != 0)
       {
-        const __m256i i00 = _mm256_add_epi32 (_mm256_mullo_epi32 (v0, depth_step), u0);
-        const __m256i i10 = _mm256_add_epi32 (i00, depth_step);
-        const __m256i one_i = _mm256_set1_epi32 (1);
-        const __m256 d00 = _mm256_mask_i32gather_ps (zero, f.depth, i00, bilinear_ok, 4);
-        const __m256 d01 = _mm256_mask_i32gather_ps (zero, f.depth, _mm256_add_epi32 (i00, one_i), bilinear_ok, 4);
-        const __m256 d10 = _mm256_mask_i32gather_ps (zero, f.depth, i10, bilinear_ok, 4);
-        const __m256 d11 = _mm256_mask_i32gather_ps (zero, f.depth, _mm256_add_epi32 (i10, one_i), bilinear_ok, 4);
+        // Lanes without a usable quad read the image's first one (offset 0); their
+        // values are masked out below.
+        alignas (32) std::int32_t quad_offset[8];
+        _mm256_store_si256 (reinterpret_cast<__m256i*> (quad_offset),
+                            _mm256_and_si256 (_mm256_add_epi32 (_mm256_mullo_epi32 (v0, depth_step), u0),
+                                              _mm256_castps_si256 (bilinear_ok)));
+        __m256 d00, d01, d10, d11;
+        avx2::gatherQuads8 (f.depth, quad_offset, static_cast<std::ptrdiff_t> (f.depth_step), d00, d01, d10, d11);
         const __m256 lo = _mm256_min_ps (_mm256_min_ps (d00, d01), _mm256_min_ps (d10, d11));
         const __m256 hi = _mm256_max_ps (_mm256_max_ps (d00, d01), _mm256_max_ps (d10, d11));
         bilinear_ok = _mm256_and_ps (
