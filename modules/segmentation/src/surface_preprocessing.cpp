@@ -7,6 +7,7 @@
 #include <pcl/features/integral_image_normal.h>
 
 #include <limits>
+#include <vector>
 
 namespace cuefusion
 {
@@ -88,6 +89,10 @@ SurfacePlanes::assignDepth (const cv::Mat& depth, double fx, double fy, double c
   for (std::vector<float>* plane : {&x, &y, &z, &nx, &ny, &nz})
     plane->resize (n);
   const float nan = std::numeric_limits<float>::quiet_NaN ();
+  // (u − cx) / fx per column once, not a double division per pixel (the same floats).
+  std::vector<float> rx (static_cast<std::size_t> (width));
+  for (int u = 0; u < width; ++u)
+    rx[static_cast<std::size_t> (u)] = static_cast<float> ((u - cx) / fx);
   parallelFor (height, [&] (int v) {
     const float* d = depth.ptr<float> (v);
     const float ry = static_cast<float> ((v - cy) / fy);
@@ -95,7 +100,7 @@ SurfacePlanes::assignDepth (const cv::Mat& depth, double fx, double fy, double c
     {
       const std::size_t i = static_cast<std::size_t> (v) * width + u;
       const bool valid = d[u] > 0.f && std::isfinite (d[u]);
-      x[i] = valid ? static_cast<float> ((u - cx) / fx) * d[u] : nan;
+      x[i] = valid ? rx[static_cast<std::size_t> (u)] * d[u] : nan;
       y[i] = valid ? ry * d[u] : nan;
       z[i] = valid ? d[u] : nan;
     }
