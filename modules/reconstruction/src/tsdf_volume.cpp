@@ -831,17 +831,22 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
     for (int v = begin; v < end; ++v)
     {
       std::fill (hits.begin (), hits.end (), nullptr);
-      // Rows are cleared here, on the pool, rather than four whole-image fills up front
-      // (plain fills: Mat::setTo's per-call set-up, four times a row, was measurable).
-      {
+      // Vertices and normals are cleared to NaN where nothing else writes them first: the
+      // eight-ray kernel writes all eight pixels of each group it runs on, so with it only
+      // the groups it skips are filled (clearing whole rows first wrote 7 MB a frame twice).
+      // Colours and labels are written for every pixel after the row.
+      const auto clear_vertices = [&] (int first, int count) {
         constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN ();
-        float* vertex_floats = out.vertices.ptr<float> (v);
-        float* normal_floats = out.normals.ptr<float> (v);
-        std::fill (vertex_floats, vertex_floats + 3 * camera.width, kNaNf);
-        std::fill (normal_floats, normal_floats + 3 * camera.width, kNaNf);
-        std::fill (out.colors.ptr<std::uint8_t> (v), out.colors.ptr<std::uint8_t> (v) + 3 * camera.width, std::uint8_t{0});
-        std::fill (out.labels.ptr<std::int32_t> (v), out.labels.ptr<std::int32_t> (v) + camera.width, 0);
-      }
+        std::fill (out.vertices.ptr<float> (v) + 3 * first, out.vertices.ptr<float> (v) + 3 * (first + count), kNaNf);
+        std::fill (out.normals.ptr<float> (v) + 3 * first, out.normals.ptr<float> (v) + 3 * (first + count), kNaNf);
+      };
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+      const bool vector_hints = use_avx2 && !depth_hint.empty ();
+#else
+      const bool vector_hints = false;
+#endif
+      if (!vector_hints)
+        clear_vertices (0, camera.width);
       std::uint8_t* empty_row = depth_hint.empty () ? nullptr : out.empty_holes.ptr<std::uint8_t> (v);
       const std::uint8_t* skip_row = skip_holes ? skip.empty_holes.ptr<std::uint8_t> (v) : nullptr;
       if (empty_row != nullptr)
@@ -865,7 +870,6 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
       }
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
       // Rays with a usable hint, eight at a time; what does not settle goes the scalar way.
-      const bool vector_hints = use_avx2 && !depth_hint.empty ();
       if (vector_hints)
       {
         const float* hint_row = depth_hint.ptr<float> (v);
@@ -887,16 +891,20 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
           if (lanes == 0)
           {
             std::fill (hint_z.begin () + u0, hint_z.begin () + u0 + 8, 0.f);
+            clear_vertices (u0, 8);
             continue;
           }
           alignas (32) float grads[24];
           float* z8 = &hint_z[static_cast<std::size_t> (u0)];
           refineNearHint8 (access, origin_voxels, dir_x, dir_y, dir_z, hint_row + u0, lanes, truncation_voxels, z8, grads);
-          writeSettledRays8 (access, origin_voxels, dir_x, dir_y, dir_z, &ray_x[static_cast<std::size_t> (u0)], ray_y, R_cw,
-                             z8, grads, &vertex_row[u0][0], &normal_row[u0][0], &hits[static_cast<std::size_t> (u0)]);
+          if (writeSettledRays8 (access, origin_voxels, dir_x, dir_y, dir_z, &ray_x[static_cast<std::size_t> (u0)], ray_y,
+                                 R_cw, z8, grads, &vertex_row[u0][0], &normal_row[u0][0],
+                                 &hits[static_cast<std::size_t> (u0)]) == 0)
+            clear_vertices (u0, 8);  // it writes nothing when no ray settled
         }
         for (int u = camera.width - camera.width % 8; u < camera.width; ++u)
           hint_z[static_cast<std::size_t> (u)] = -1.f;  // the row's tail: scalar
+        clear_vertices (camera.width - camera.width % 8, camera.width % 8);
       }
 #endif
       for (int u = 0; u < camera.width; ++u)
@@ -1020,6 +1028,11 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
         {
           color_row[u] = cv::Vec3b (hit->b, hit->g, hit->r);
           label_row[u] = static_cast<std::int32_t> (hit->label);
+        }
+        else
+        {
+          color_row[u] = cv::Vec3b (0, 0, 0);
+          label_row[u] = 0;
         }
     }
   });
