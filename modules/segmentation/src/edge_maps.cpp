@@ -195,11 +195,20 @@ computeNormalPlanes (SurfacePlanes& planes, int step, float max_depth_jump)
   const float nan = std::numeric_limits<float>::quiet_NaN ();
   parallelFor (h, [&] (int y) {
     const std::size_t row = static_cast<std::size_t> (y) * w;
-    std::fill (planes.nx.data () + row, planes.nx.data () + row + w, nan);
-    std::fill (planes.ny.data () + row, planes.ny.data () + row + w, nan);
-    std::fill (planes.nz.data () + row, planes.nz.data () + row + w, nan);
-    if (y >= step && y + step < h)  // border rows have no vertical neighbour on one side
+    const auto clear = [&] (int first, int end) {
+      for (std::vector<float>* plane : {&planes.nx, &planes.ny, &planes.nz})
+        std::fill (plane->data () + row + first, plane->data () + row + end, nan);
+    };
+    // Border rows have no vertical neighbour on one side; normalRow writes columns
+    // [step, w − step) of the others, so only their borders are cleared.
+    if (y >= step && y + step < h && 2 * step < w)
+    {
+      clear (0, step);
+      clear (w - step, w);
       normalRow (planes, y, step, max_depth_jump, planes.nx.data () + row, planes.ny.data () + row, planes.nz.data () + row);
+    }
+    else
+      clear (0, w);
   });
 }
 
