@@ -97,6 +97,16 @@ struct FloatIntrinsics
   }
 };
 
+/** \brief The terms of kinectAxialNoise at normal incidence, σ_z(z, 0) = base +
+  * quadratic · (z − offset)², for kernels that evaluate it in float lanes.
+  */
+struct KinectNoiseModel
+{
+  static constexpr double base = 0.0012;
+  static constexpr double quadratic = 0.0019;
+  static constexpr double offset = 0.4;
+};
+
 /** \brief Kinect axial depth noise σ_z(z, θ) of Nguyen et al. 2012 (metres).
   * \param[in] z depth in metres
   * \param[in] theta angle between the viewing ray and the surface normal (radians)

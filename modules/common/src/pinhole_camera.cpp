@@ -52,7 +52,7 @@ kinectAxialNoise (double z, double theta)
 {
   constexpr double half_pi = 1.57079632679489661923;
   const double t = std::min (std::abs (theta), half_pi - 1e-3);
-  const double dz = z - 0.4;
-  return 0.0012 + 0.0019 * dz * dz + 0.0001 / std::sqrt (std::max (z, 1e-6)) * t * t / ((half_pi - t) * (half_pi - t));
+  const double dz = z - KinectNoiseModel::offset;
+  return KinectNoiseModel::base + KinectNoiseModel::quadratic * dz * dz + 0.0001 / std::sqrt (std::max (z, 1e-6)) * t * t / ((half_pi - t) * (half_pi - t));
 }
 }  // namespace cuefusion

@@ -250,18 +250,35 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
   return 0.f;
 }
 
+/** \brief How far along the ray (voxels) Newton from a hint at depth \a z may settle: a band
+  * plus three σ of the depth noise at \a z, the window the march after a failed Newton
+  * searches too (from a band plus 3σ in front of the depth to a band plus 3σ behind it).
+  * Far from the camera, where the noise is centimetres, a fixed band made Newton give up
+  * on rays its steps were converging on, and their marches found the same surface.
+  */
+inline float
+newtonReach (float z, float truncation_voxels, float inv_voxel)
+{
+  const float dz = z - static_cast<float> (KinectNoiseModel::offset);
+  return truncation_voxels +
+         3.f * (static_cast<float> (KinectNoiseModel::base) + static_cast<float> (KinectNoiseModel::quadratic) * dz * dz) *
+             inv_voxel;
+}
+
 /** \brief With a depth hint (the frame just fused at this pose), the surface lies within a
   * voxel or two of the hint along the ray: Newton steps on the trilinear field from there
   * (each step one cell read, whose gradient also gives the slope and the normal) replace
   * the march's 3–4 samples and bracket search. Returns 0 — the caller then marches —
   * when a cell is unobserved, the field is truncated or back-facing there (slope ≥ 0),
-  * the steps leave the band, or they do not settle within four steps.
+  * the steps go further from the hint than newtonReach, or they do not settle within
+  * four steps.
   */
 inline float
 refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float z_hint,
-                float truncation_voxels, const TsdfVoxel** hit, Eigen::Vector3f* gradient)
+                float truncation_voxels, float inv_voxel, const TsdfVoxel** hit, Eigen::Vector3f* gradient)
 {
   const float voxels_per_z = dir.norm ();
+  const float reach = newtonReach (z_hint, truncation_voxels, inv_voxel);
   float z = z_hint;
   for (int step = 0; step < 4; ++step)
   {
@@ -275,7 +292,7 @@ refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, co
       return 0.f;  // the field does not fall along the ray: a back face or a corner
     const float dz = -f / slope;
     z += dz;
-    if (std::abs (z - z_hint) * voxels_per_z > truncation_voxels)
+    if (std::abs (z - z_hint) * voxels_per_z > reach)
       return 0.f;  // wandered off to another surface
     // Along a ray the trilinear field is a cubic with small higher terms: from within a
     // quarter voxel one Newton step lands within a few hundredths of a voxel (0.1 mm at
@@ -308,7 +325,8 @@ lerp8 (__m256 a, __m256 b, __m256 t)
   */
 CUEFUSION_AVX2 void
 refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const float* dir_x, const float* dir_y,
-                 const float* dir_z, const float* hint, int lanes, float truncation_voxels, float* z_out, float* grad_out)
+                 const float* dir_z, const float* hint, int lanes, float truncation_voxels, float inv_voxel, float* z_out,
+                 float* grad_out)
 {
   const __m256 dx = _mm256_loadu_ps (dir_x), dy = _mm256_loadu_ps (dir_y), dz = _mm256_loadu_ps (dir_z);
   const __m256 ox = _mm256_set1_ps (origin.x ()), oy = _mm256_set1_ps (origin.y ()), oz = _mm256_set1_ps (origin.z ());
@@ -316,6 +334,15 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
   const __m256 voxels_per_z = _mm256_sqrt_ps (_mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (dx, dx), _mm256_mul_ps (dy, dy)),
                                                              _mm256_mul_ps (dz, dz)));
   const __m256 zero = _mm256_setzero_ps (), scale = _mm256_set1_ps (1.f / kDistanceScale);
+  // newtonReach per lane, in the same float operations.
+  const __m256 noise_dz = _mm256_sub_ps (z_hint, _mm256_set1_ps (static_cast<float> (KinectNoiseModel::offset)));
+  const __m256 reach = _mm256_add_ps (
+      _mm256_set1_ps (truncation_voxels),
+      _mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (3.f),
+                                    _mm256_add_ps (_mm256_set1_ps (static_cast<float> (KinectNoiseModel::base)),
+                                                   _mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (static_cast<float> (KinectNoiseModel::quadratic)), noise_dz),
+                                                                  noise_dz))),
+                     _mm256_set1_ps (inv_voxel)));
   __m256 z = z_hint, z_result = zero, gx_result = zero, gy_result = zero, gz_result = zero;
   alignas (32) std::int32_t lx[8], ly[8], lz[8];
   alignas (32) float corners[8][8] = {};  // lanes not read keep zeros (masked out below)
@@ -393,7 +420,7 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
     const __m256 step_z = _mm256_div_ps (_mm256_sub_ps (zero, f), slope);
     const __m256 z_next = _mm256_add_ps (z, step_z);
     ok = _mm256_and_ps (ok, _mm256_cmp_ps (_mm256_mul_ps (avx2::abs (_mm256_sub_ps (z_next, z_hint)), voxels_per_z),
-                                           _mm256_set1_ps (truncation_voxels), _CMP_LE_OQ));  // else wandered off
+                                           reach, _CMP_LE_OQ));  // else wandered off
     const __m256 settled = _mm256_and_ps (
         ok, _mm256_cmp_ps (_mm256_mul_ps (avx2::abs (step_z), voxels_per_z), _mm256_set1_ps (0.25f), _CMP_LT_OQ));
     z_result = _mm256_blendv_ps (z_result, z_next, settled);
@@ -896,7 +923,8 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
           }
           alignas (32) float grads[24];
           float* z8 = &hint_z[static_cast<std::size_t> (u0)];
-          refineNearHint8 (access, origin_voxels, dir_x, dir_y, dir_z, hint_row + u0, lanes, truncation_voxels, z8, grads);
+          refineNearHint8 (access, origin_voxels, dir_x, dir_y, dir_z, hint_row + u0, lanes, truncation_voxels, inv_voxel, z8,
+                           grads);
           if (writeSettledRays8 (access, origin_voxels, dir_x, dir_y, dir_z, &ray_x[static_cast<std::size_t> (u0)], ray_y,
                                  R_cw, z8, grads, &vertex_row[u0][0], &normal_row[u0][0],
                                  &hits[static_cast<std::size_t> (u0)]) == 0)
@@ -936,7 +964,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
               z = 0.f;  // the eight-ray Newton failed: march
             else
 #endif
-              z = refineNearHint (access, origin_voxels, dir, d, truncation_voxels, &hit, &grad);
+              z = refineNearHint (access, origin_voxels, dir, d, truncation_voxels, inv_voxel, &hit, &grad);
             hinted = z > 0.f;
           }
           if (!hinted && d > 0.f && std::isfinite (d) && d - hint_margin > tiles.zmin[tile])
@@ -968,7 +996,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
           {
             // A hole next to a surface just found on this row: most holes (dropouts on a
             // surface) see that surface, so first Newton from its depth.
-            z = refineNearHint (access, origin_voxels, dir, row_z, truncation_voxels, &hit, &grad);
+            z = refineNearHint (access, origin_voxels, dir, row_z, truncation_voxels, inv_voxel, &hit, &grad);
             hinted = z > 0.f;
           }
           if (!hinted && !(d > 0.f))
