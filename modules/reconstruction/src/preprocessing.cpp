@@ -211,8 +211,9 @@ splitEvenOdd (__m256 a, __m256 b, __m256& even, __m256& odd)
                                                  _MM_SHUFFLE (3, 1, 2, 0)));
 }
 
-/** \brief The 2×2 blocks under eight output pixels: corner i (as in the scalar loop: top
-  * left, top right, bottom left, bottom right) of map \a m as x, y, z vectors.
+/** \brief The 2×2 blocks under eight output pixels of a 3-float map, from its rows \a top
+  * and \a bottom: c[i] is corner i (as in the scalar loop: top left, top right, bottom
+  * left, bottom right) as x, y, z vectors.
   */
 CUEFUSION_AVX2 inline void
 loadBlockCorners8 (const float* top, const float* bottom, __m256 (&c)[4][3])
