@@ -232,26 +232,30 @@ TEST (TSDFVolume, MeshVerticesLieOnTheSurfaceAndFacesPointOutwards)
 
 namespace
 {
-// Every block's upper-neighbour links name exactly the allocated blocks at +x, +y, +z
-// and their combinations, whatever order the blocks were allocated in.
+// Every block's distance layer holds its own voxels' encoded distances, and its apron the
+// distances of the voxels one past its positive faces, read through the hash from the
+// blocks that own them ("unobserved" where none is allocated), whatever order the blocks
+// were allocated and integrated in.
 void
-expectNeighbourLinksMatchTheHash (const TSDFVolume& volume)
+expectDistanceLayersMatchTheVoxels (const TSDFVolume& volume)
 {
-  int links = 0;
+  std::size_t mirrored = 0;
   for (std::size_t id = 0; id < volume.blocks ().size (); ++id)
   {
-    const Eigen::Vector3i index = volume.blocks ()[id]->index;
-    const auto& upper = volume.upperNeighbours (id);
-    ASSERT_EQ (upper[0], volume.blocks ()[id].get ());
-    for (int j = 1; j < 8; ++j)
-    {
-      const std::int32_t other = volume.findBlock (index + Eigen::Vector3i (j & 1, (j >> 1) & 1, (j >> 2) & 1));
-      const VoxelBlock* expected = other >= 0 ? volume.blocks ()[static_cast<std::size_t> (other)].get () : nullptr;
-      ASSERT_EQ (upper[static_cast<std::size_t> (j)], expected) << "block " << id << ", neighbour " << j;
-      links += expected != nullptr;
-    }
+    const VoxelBlock& block = *volume.blocks ()[id];
+    for (int z = 0; z <= kBlockSide; ++z)
+      for (int y = 0; y <= kBlockSide; ++y)
+        for (int x = 0; x <= kBlockSide; ++x)
+        {
+          const Eigen::Vector3i voxel = block.index * kBlockSide + Eigen::Vector3i (x, y, z);
+          const TsdfVoxel* owner = volume.findVoxel (voxel);
+          const std::int16_t expected = owner != nullptr ? encodeDistance (*owner) : kUnobservedDistance;
+          ASSERT_EQ (block.distances[static_cast<std::size_t> (distanceIndex (x, y, z))], expected)
+              << "block " << id << ", local voxel " << x << " " << y << " " << z;
+          mirrored += (x == kBlockSide || y == kBlockSide || z == kBlockSide) && expected != kUnobservedDistance;
+        }
   }
-  EXPECT_GT (links, static_cast<int> (volume.blocks ().size ()));  // a surface's blocks have neighbours
+  EXPECT_GT (mirrored, volume.blocks ().size ());  // a surface's blocks have observed neighbours
 }
 }  // namespace
 
@@ -273,9 +277,16 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
   ASSERT_TRUE (loaded.config ().bounds.has_value ());
   EXPECT_TRUE (loaded.config ().bounds->isApprox (*config.bounds));
   ASSERT_EQ (loaded.blockCount (), volume.blockCount ());
-  // Both volumes link each block to its neighbours (what cells across blocks read).
-  expectNeighbourLinksMatchTheHash (volume);
-  expectNeighbourLinksMatchTheHash (loaded);
+  // Both volumes mirror each block's first layers in its neighbours' aprons (what cells
+  // across blocks read), and refreshDistances () keeps them so after a direct write.
+  {
+    SCOPED_TRACE ("integrated");
+    expectDistanceLayersMatchTheVoxels (volume);
+  }
+  {
+    SCOPED_TRACE ("loaded");
+    expectDistanceLayersMatchTheVoxels (loaded);
+  }
   for (const auto& block : volume.blocks ())
   {
     const std::int32_t id = loaded.findBlock (block->index);
@@ -283,6 +294,15 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
     EXPECT_EQ (std::memcmp (loaded.blocks ()[static_cast<std::size_t> (id)]->voxels.data (), block->voxels.data (),
                             sizeof (TsdfVoxel) * kBlockVoxels), 0);
   }
+  for (std::size_t id = 0; id < volume.blocks ().size (); ++id)
+  {
+    TsdfVoxel& corner = volume.voxels (id)[0];  // on three of the block's lower faces
+    corner.sdf = 0.25f;
+    corner.weight = 3.f;
+    volume.refreshDistances (id);
+  }
+  SCOPED_TRACE ("written directly");
+  expectDistanceLayersMatchTheVoxels (volume);
 
   // Damaged files are refused with the file's name.
   const std::string bytes = test::readFile (path);

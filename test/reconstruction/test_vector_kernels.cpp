@@ -97,7 +97,9 @@ TEST (VectorKernels, IntegrationBuildsTheScalarVolume)
       sdf_differs += d > 1e-4f;
       color_differs += std::abs (a.r - b.r) > 1 || std::abs (a.g - b.g) > 1 || std::abs (a.b - b.b) > 1;
       // The compact copy must follow each path's own voxels exactly.
-      distance_differs += other.distances[static_cast<std::size_t> (i)] != encodeDistance (b);
+      distance_differs +=
+          other.distances[static_cast<std::size_t> (distanceIndex (i % kBlockSide, (i / kBlockSide) % kBlockSide, i / (kBlockSide * kBlockSide)))] !=
+          encodeDistance (b);
     }
   }
   ASSERT_GT (observed, 50000u);

@@ -190,15 +190,10 @@ public:
   /** \brief Block storage, indexed by block id (for the segment map and tests). */
   const std::vector<std::unique_ptr<VoxelBlock>>& blocks () const { return blocks_; }
 
-  /** \brief Block \a id and its seven neighbours on the positive side: entry j is the
-    * block at index + (j & 1, (j >> 1) & 1, (j >> 2) & 1), nullptr where none is allocated
-    * (entry 0 is block \a id itself). Kept up to date by every allocation, so that reads
-    * of cells straddling blocks (a third of all cells) need no hash lookups.
+  /** \brief Rebuilds block \a id's distance copy from its voxels, and the copies of its
+    * first layer in the aprons of the blocks below it (see VoxelBlock).
     */
-  const std::array<const VoxelBlock*, 8>& upperNeighbours (std::size_t id) const { return upper_neighbours_[id]; }
-
-  /** \brief Rebuilds block \a id's distance copy from its voxels (see VoxelBlock). */
-  void refreshDistances (std::size_t id) { blocks_[id]->refreshDistances (); }
+  void refreshDistances (std::size_t id);
 
   /** \brief Writable voxels of block \a id, for the label layer (label, label_confidence).
     * Changing sdf or weight here bypasses the block's distance copy that raycast() reads;
@@ -242,11 +237,20 @@ private:
   std::int32_t
   allocateBlock (const Eigen::Vector3i& index);
 
+  /** \brief Copies block \a id's first layers into the aprons of the blocks below it. */
+  void
+  copyToLowerAprons (std::size_t id);
+
   TSDFVolumeConfig config_;
   VoxelBlockHash hash_;
   std::vector<std::unique_ptr<VoxelBlock>> blocks_;
   std::vector<Eigen::Vector3i> block_indices_;  ///< blocks_[i]->index, packed for the per-frame culling pass
-  std::vector<std::array<const VoxelBlock*, 8>> upper_neighbours_;  ///< see upperNeighbours ()
+  /** \brief Per block, the blocks whose aprons mirror part of it: entry j is the block at
+    * index − (j & 1, (j >> 1) & 1, (j >> 2) & 1), nullptr where none is allocated (entry 0
+    * unused). Kept by allocateBlock (), so that integration updates the aprons without
+    * hash lookups.
+    */
+  std::vector<std::array<VoxelBlock*, 8>> lower_neighbours_;
   std::vector<std::int32_t> integrated_blocks_;
   bool record_observed_ = false;
   std::vector<std::vector<SurfaceObservation>> observed_;  ///< one list per integration work item

@@ -57,29 +57,104 @@ decodeDistance (std::int16_t d)
   return static_cast<float> (d) / kDistanceScale;
 }
 
+/** \brief Linear index of local voxel (x, y, z) inside its block. */
+inline int
+localVoxelIndex (int x, int y, int z)
+{
+  return x + kBlockSide * (y + kBlockSide * z);
+}
+
+/** \brief Side of a block's distance layer: its 8 voxels plus a one-voxel apron that
+  * mirrors the neighbouring blocks' first layer on the positive side.
+  */
+constexpr int kDistanceSide = kBlockSide + 1;
+constexpr int kDistanceCount = kDistanceSide * kDistanceSide * kDistanceSide;
+
+/** \brief Index of local voxel (x, y, z), each in [0, kBlockSide], in a distance layer;
+  * a coordinate of kBlockSide is the apron (see VoxelBlock).
+  */
+inline int
+distanceIndex (int x, int y, int z)
+{
+  return x + kDistanceSide * (y + kDistanceSide * z);
+}
+
 /** \brief 8³ voxels and a compact copy of their distances.
   *
   * The ray caster reads only distances, and reading them from the 16-byte voxels costs a
   * cell of 2×2×2 voxels four cache lines; the 2-byte copy mostly fits one, and a whole
-  * block's distances are 1 KiB instead of 8. integrate() keeps both in step (and load()
-  * rebuilds the copy); code that writes sdf or weight directly must call
-  * refreshDistances().
+  * block's distances are 1.4 KiB instead of 8. The copy is 9³: besides the block's own
+  * voxels it holds an apron, a copy of the distances of the voxels one past its positive
+  * faces, edges and corner, which belong to the seven neighbouring blocks on the positive
+  * side (kUnobservedDistance where such a block is not allocated). So every 2×2×2 cell
+  * the ray caster reads lies in the layer of its lower corner's block: a third of all
+  * cells straddle blocks, and reading those from two to eight blocks was a seventh of
+  * the raycast on 7-Scenes.
+  *
+  * TSDFVolume keeps all of it in step: integrate() writes the own voxels' distances and
+  * copies them into the neighbours' aprons, a new block takes its apron from the
+  * neighbours already there, and load() rebuilds both. Code that writes sdf or weight
+  * directly must call TSDFVolume::refreshDistances().
   */
 struct VoxelBlock
 {
+  alignas (64) std::array<std::int16_t, kDistanceCount> distances;  ///< see distanceIndex ()
   Eigen::Vector3i index = Eigen::Vector3i::Zero ();  ///< block coordinates (voxel index / 8)
   std::array<TsdfVoxel, kBlockVoxels> voxels;
-  std::array<std::int16_t, kBlockVoxels> distances;
 
   VoxelBlock () { distances.fill (kUnobservedDistance); }
 
+  /** \brief Rebuilds the own voxels' distances (not the apron, which its neighbours own). */
   void
   refreshDistances ()
   {
-    for (std::size_t i = 0; i < voxels.size (); ++i)
-      distances[i] = encodeDistance (voxels[i]);
+    for (int z = 0; z < kBlockSide; ++z)
+      for (int y = 0; y < kBlockSide; ++y)
+        for (int x = 0; x < kBlockSide; ++x)
+          distances[static_cast<std::size_t> (distanceIndex (x, y, z))] =
+              encodeDistance (voxels[static_cast<std::size_t> (localVoxelIndex (x, y, z))]);
   }
 };
+
+/** \brief Copies the distances of the voxels on \a upper's lower faces into \a lower's apron,
+  * where \a upper is the block at \a lower's index + (J & 1, (J >> 1) & 1, (J >> 2) & 1),
+  * 1 ≤ J ≤ 7: one face (J = 1, 2, 4), edge (3, 5, 6) or the corner (7). The shape is a
+  * template argument so that the row copies compile to fixed-size moves (with a run-time
+  * length they were a library call per row, 64 of them for the x face).
+  */
+template <int J>
+inline void
+copyApron (const VoxelBlock& upper, VoxelBlock& lower)
+{
+  static_assert (J >= 1 && J <= 7, "J names one of the seven neighbours on the positive side");
+  constexpr bool ox = J & 1, oy = (J >> 1) & 1, oz = (J >> 2) & 1;
+  constexpr int nx = ox ? 1 : kBlockSide, ny = oy ? 1 : kBlockSide, nz = oz ? 1 : kBlockSide;
+  for (int z = 0; z < nz; ++z)
+    for (int y = 0; y < ny; ++y)
+    {
+      const std::int16_t* from = &upper.distances[static_cast<std::size_t> (distanceIndex (0, y, z))];
+      std::int16_t* to = &lower.distances[static_cast<std::size_t> (
+          distanceIndex (ox ? kBlockSide : 0, oy ? kBlockSide : y, oz ? kBlockSide : z))];
+      std::copy (from, from + nx, to);
+    }
+}
+
+/** \brief copyApron<j> (upper, lower) for a run-time \a j in [1, 7]. */
+inline void
+copyApron (const VoxelBlock& upper, VoxelBlock& lower, int j)
+{
+  switch (j)
+  {
+    case 1: copyApron<1> (upper, lower); break;
+    case 2: copyApron<2> (upper, lower); break;
+    case 3: copyApron<3> (upper, lower); break;
+    case 4: copyApron<4> (upper, lower); break;
+    case 5: copyApron<5> (upper, lower); break;
+    case 6: copyApron<6> (upper, lower); break;
+    case 7: copyApron<7> (upper, lower); break;
+    default: break;
+  }
+}
 
 /** \brief A voxel that the last integrated frame saw inside the truncation band of the
   * surface (TSDFVolume::setRecordObservedSurface): updated by that frame, |z − D(u)| < τ at
@@ -106,13 +181,6 @@ inline Eigen::Vector3i
 nearestVoxel (const Eigen::Vector3f& g)
 {
   return fastFloor (Eigen::Vector3f (g.array () + 0.5f));
-}
-
-/** \brief Linear index of local voxel (x, y, z) inside its block. */
-inline int
-localVoxelIndex (int x, int y, int z)
-{
-  return x + kBlockSide * (y + kBlockSide * z);
 }
 
 inline Eigen::Vector3i

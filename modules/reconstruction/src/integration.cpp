@@ -75,7 +75,7 @@ integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f, std::uint32_
         updateVoxel (block.voxels[i], tsdf,
                      f.color != nullptr ? f.color + static_cast<std::size_t> (v) * f.color_step + 3 * u : nullptr,
                      f.max_weight);
-        block.distances[i] = encodeDistance (block.voxels[i]);
+        block.distances[static_cast<std::size_t> (distanceIndex (x, y, z))] = encodeDistance (block.voxels[i]);
         if (observed != nullptr)
         {
           const float gap = std::abs (p.z () - f.depth[static_cast<std::size_t> (v) * f.depth_step + static_cast<std::size_t> (u)]);
@@ -284,7 +284,9 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
       // Lanes not updated keep what was loaded; all eight voxels are stored back.
       storeVoxels8 (voxel_floats_base, _mm256_blendv_ps (old_sdf, sdf_out, update), _mm256_blendv_ps (w, weight_out, update),
                     _mm256_blendv_ps (word_f, _mm256_castsi256_ps (word_out), update), label_f);
-      std::int16_t* distances = &block.distances[static_cast<std::size_t> (localVoxelIndex (0, y, z))];
+      // The row's eight distances; the ninth, the apron's, is not touched (see
+      // TSDFVolume::integrate).
+      std::int16_t* distances = &block.distances[static_cast<std::size_t> (distanceIndex (0, y, z))];
       const __m128i old_distances = _mm_loadu_si128 (reinterpret_cast<const __m128i*> (distances));
       const __m128i packed = _mm256_castsi256_si128 (_mm256_permute4x64_epi64 (
           _mm256_packs_epi32 (new_distance, new_distance), _MM_SHUFFLE (3, 1, 2, 0)));

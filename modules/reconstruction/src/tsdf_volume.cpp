@@ -189,13 +189,12 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
       z += std::max (blockExit (g, block_index, inverse_dir), 0.f) + 0.1f * one_voxel;
       continue;
     }
-    // The nearest voxel, mostly in the block just found.
-    const Eigen::Vector3i near = lower + (g - lower.cast<float> ()).unaryExpr ([] (float t) { return t >= 0.5f ? 1.f : 0.f; }).cast<int> ();
-    const Eigen::Vector3i local = near - block_index * kBlockSide;
-    const std::int16_t* nearest =
-        (local.array () < kBlockSide).all () ? &block->distances[static_cast<std::size_t> (localVoxelIndex (local.x (), local.y (), local.z ()))]
-                                             : access.distance (near);
-    if (nearest == nullptr || *nearest == kUnobservedDistance || *nearest >= static_cast<std::int16_t> (kDistanceScale))
+    // The nearest voxel: in the block just found or its apron.
+    const Eigen::Vector3i local =
+        lower - block_index * kBlockSide +
+        (g - lower.cast<float> ()).unaryExpr ([] (float t) { return t >= 0.5f ? 1.f : 0.f; }).cast<int> ();
+    const std::int16_t* nearest = &block->distances[static_cast<std::size_t> (distanceIndex (local.x (), local.y (), local.z ()))];
+    if (*nearest == kUnobservedDistance || *nearest >= static_cast<std::int16_t> (kDistanceScale))
     {
       // Truncated or never observed: at least a band's depth in front of any surface seen
       // from this side, since the rays that saw a surface also observed the band in front
@@ -376,26 +375,14 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
     {
       const int i = __builtin_ctz (static_cast<unsigned> (m));
       const int x = lx[i], y = ly[i], z = lz[i];
+      // Read straight into the lane's column: through VoxelAccessor::cell and a copy it
+      // took ~100 instructions a lane.
       constexpr int last = kBlockSide - 1;
-      if ((x & last) != last && (y & last) != last && (z & last) != last)
-      {
-        // The cell lies in one block (the common case), read straight into the lane's
-        // column: through VoxelAccessor::cell and a copy it took ~100 instructions a lane.
-        const VoxelBlock* block = access.block (blockOfVoxel (Eigen::Vector3i (x, y, z)));
-        if (block == nullptr ||
-            !detail::VoxelAccessor::cellInBlock (block->distances.data () + localVoxelIndex (x & last, y & last, z & last),
-                                                 &corners[0][i], 8))
-          read &= ~(1 << i);
-        continue;
-      }
-      std::array<float, 8> values;
-      if (!access.cellAcrossBlocks (x, y, z, values))
-      {
+      const VoxelBlock* block = access.block (blockOfVoxel (Eigen::Vector3i (x, y, z)));
+      if (block == nullptr ||
+          !detail::VoxelAccessor::cellInBlock (block->distances.data () + distanceIndex (x & last, y & last, z & last),
+                                               &corners[0][i], 8))
         read &= ~(1 << i);
-        continue;
-      }
-      for (int k = 0; k < 8; ++k)
-        corners[k][i] = values[static_cast<std::size_t> (k)];
     }
     __m256 v[8];
     for (int k = 0; k < 8; ++k)
@@ -543,8 +530,8 @@ TSDFVolume::reset ()
   blocks_.shrink_to_fit ();
   block_indices_.clear ();
   block_indices_.shrink_to_fit ();
-  upper_neighbours_.clear ();
-  upper_neighbours_.shrink_to_fit ();
+  lower_neighbours_.clear ();
+  lower_neighbours_.shrink_to_fit ();
   integrated_blocks_.clear ();
   observed_.clear ();
   integrated_size_ = cv::Size ();
@@ -556,7 +543,7 @@ std::size_t
 TSDFVolume::memoryUsage () const
 {
   return blocks_.size () * (sizeof (VoxelBlock) + sizeof (std::unique_ptr<VoxelBlock>) + sizeof (std::uint32_t) +
-                            sizeof (Eigen::Vector3i) + sizeof (std::array<const VoxelBlock*, 8>)) +
+                            sizeof (Eigen::Vector3i) + sizeof (std::array<VoxelBlock*, 8>)) +
          hash_.memoryBytes ();
 }
 
@@ -575,23 +562,44 @@ TSDFVolume::allocateBlock (const Eigen::Vector3i& index)
     blocks_.back ()->index = index;
     block_indices_.push_back (index);
     block_stamp_.push_back (0);
-    // Link the new block with its allocated neighbours both ways: its own upper ones, and
-    // it as the upper neighbour of the blocks below it (14 lookups per new block).
-    std::array<const VoxelBlock*, 8> upper{};
-    upper[0] = blocks_.back ().get ();
+    // Link the new block with its allocated neighbours both ways (14 lookups per new
+    // block): it takes its apron from the blocks above it, and becomes the apron's source
+    // for the blocks below it (whose aprons already hold "unobserved" there, as its
+    // distances do).
+    VoxelBlock& block = *blocks_.back ();
+    std::array<VoxelBlock*, 8> lower{};
     for (int j = 1; j < 8; ++j)
     {
       const Eigen::Vector3i offset (j & 1, (j >> 1) & 1, (j >> 2) & 1);
       const std::int32_t above = findBlock (index + offset);
       if (above >= 0)
-        upper[static_cast<std::size_t> (j)] = blocks_[static_cast<std::size_t> (above)].get ();
+      {
+        copyApron (*blocks_[static_cast<std::size_t> (above)], block, j);
+        lower_neighbours_[static_cast<std::size_t> (above)][static_cast<std::size_t> (j)] = &block;
+      }
       const std::int32_t below = findBlock (index - offset);
       if (below >= 0)
-        upper_neighbours_[static_cast<std::size_t> (below)][static_cast<std::size_t> (j)] = blocks_.back ().get ();
+        lower[static_cast<std::size_t> (j)] = blocks_[static_cast<std::size_t> (below)].get ();
     }
-    upper_neighbours_.push_back (upper);
+    lower_neighbours_.push_back (lower);
   }
   return inserted.first;
+}
+
+void
+TSDFVolume::copyToLowerAprons (std::size_t id)
+{
+  const std::array<VoxelBlock*, 8>& lower = lower_neighbours_[id];
+  for (int j = 1; j < 8; ++j)
+    if (lower[static_cast<std::size_t> (j)] != nullptr)
+      copyApron (*blocks_[id], *lower[static_cast<std::size_t> (j)], j);
+}
+
+void
+TSDFVolume::refreshDistances (std::size_t id)
+{
+  blocks_[id]->refreshDistances ();
+  copyToLowerAprons (id);
 }
 
 const TsdfVoxel*
@@ -755,6 +763,9 @@ TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const Pinhole
     {
       const auto id = static_cast<std::uint32_t> (integrated_blocks_[static_cast<std::size_t> (i)]);
       kernel (*blocks_[id], frame, id * static_cast<std::uint32_t> (kBlockVoxels), observed);
+      // Safe in parallel: each apron entry has one source block, and the kernel writes
+      // only a block's own voxels' distances, never its apron.
+      copyToLowerAprons (id);
     }
   });
 }

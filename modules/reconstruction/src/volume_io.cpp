@@ -123,11 +123,13 @@ TSDFVolume::load (const std::string& path)
       throw Error (path, "volume file has a corrupt block record " + std::to_string (i));
     if (volume.findBlock (b) != VoxelBlockHash::kNone)
       throw Error (path, "volume file lists block " + std::to_string (i) + " twice");
-    VoxelBlock& block = *volume.blocks_[static_cast<std::size_t> (volume.allocateBlock (b))];
-    in.read (reinterpret_cast<char*> (block.voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
+    const auto id = static_cast<std::size_t> (volume.allocateBlock (b));
+    in.read (reinterpret_cast<char*> (volume.blocks_[id]->voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
     if (!in)
       throw Error (path, "volume file is truncated in block " + std::to_string (i));
-    block.refreshDistances ();
+    // Its distances, and their copies in the aprons of the blocks below it read so far
+    // (those read later take theirs from it when allocated).
+    volume.refreshDistances (id);
   }
   return volume;
 }

@@ -27,8 +27,8 @@ public:
     {
       block_index_ = b;
       valid_ = true;
-      block_id_ = volume_.findBlock (b);
-      block_ = block_id_ >= 0 ? volume_.blocks ()[static_cast<std::size_t> (block_id_)].get () : nullptr;
+      const std::int32_t id = volume_.findBlock (b);
+      block_ = id >= 0 ? volume_.blocks ()[static_cast<std::size_t> (id)].get () : nullptr;
     }
     return block_;
   }
@@ -52,72 +52,31 @@ public:
     return blk != nullptr ? &blk->voxels[i] : nullptr;
   }
 
-  /** \brief The compact distance of voxel \a v, or nullptr when its block is unallocated. */
-  inline const std::int16_t*
-  distance (const Eigen::Vector3i& v)
-  {
-    std::size_t i;
-    const VoxelBlock* blk = locate (v, i);
-    return blk != nullptr ? &blk->distances[i] : nullptr;
-  }
-
   /** \brief Raw compact distances (sdf · kDistanceScale, as floats) of the cell with lower
     * corner \a v, corner i at offset (i&1, (i>>1)&1, (i>>2)&1); false when any is
-    * unallocated or unobserved. Callers scale the blended result once instead of every
+    * unallocated or unobserved. All eight lie in the distance layer of \a v's block, apron
+    * included (see VoxelBlock). Callers scale the blended result once instead of every
     * corner (a division per corner was a tenth of the ray caster's time).
     */
   __attribute__ ((always_inline)) inline bool
   cell (const Eigen::Vector3i& v, std::array<float, 8>& values)
   {
-    const Eigen::Vector3i l = v - blockOfVoxel (v) * kBlockSide;
-    if (l.x () < kBlockSide - 1 && l.y () < kBlockSide - 1 && l.z () < kBlockSide - 1)
-    {
-      // The whole cell lies in one block: one lookup, then fixed strides.
-      const std::int16_t* base = distance (v);
-      return base != nullptr && cellInBlock (base, values.data (), 1);
-    }
-    return cellAcrossBlocks (v.x (), v.y (), v.z (), values);
-  }
-
-  /** \brief cell () for a cell straddling blocks. Out of line, and taking the corner by
-    * value: called with a Vector3i just stored lane by lane, the non-inlined cell () spent a
-    * seventh of its time on the failed store forwarding of that argument.
-    */
-  __attribute__ ((noinline)) bool
-  cellAcrossBlocks (int vx, int vy, int vz, std::array<float, 8>& values)
-  {
-    const Eigen::Vector3i v (vx, vy, vz);
-    const Eigen::Vector3i l = v - blockOfVoxel (v) * kBlockSide;
-    // The cell straddles two, four or eight blocks (a third of all cells): the lower
-    // corner's block lists its upper neighbours (TSDFVolume::upperNeighbours) instead of
-    // one hash lookup per further block (cuefusion_bench_raycast 7-Scenes: −0.2 ms).
-    const int crosses = (l.x () == kBlockSide - 1 ? 1 : 0) | (l.y () == kBlockSide - 1 ? 2 : 0) | (l.z () == kBlockSide - 1 ? 4 : 0);
-    if (block (blockOfVoxel (v)) == nullptr)
+    const Eigen::Vector3i b = blockOfVoxel (v);
+    const VoxelBlock* blk = block (b);
+    if (blk == nullptr)
       return false;
-    const std::array<const VoxelBlock*, 8>& blocks = volume_.upperNeighbours (static_cast<std::size_t> (block_id_));
-    for (int j = crosses; j != 0; j = (j - 1) & crosses)  // the nonzero subsets of the crossed axes
-      if (blocks[static_cast<std::size_t> (j)] == nullptr)
-        return false;
-    for (int i = 0; i < 8; ++i)
-    {
-      const int x = (l.x () + (i & 1)) & (kBlockSide - 1), y = (l.y () + ((i >> 1) & 1)) & (kBlockSide - 1),
-                z = (l.z () + ((i >> 2) & 1)) & (kBlockSide - 1);
-      const std::int16_t d = blocks[static_cast<std::size_t> (i & crosses)]->distances[static_cast<std::size_t> (localVoxelIndex (x, y, z))];
-      if (d == kUnobservedDistance)
-        return false;
-      values[static_cast<std::size_t> (i)] = static_cast<float> (d);
-    }
-    return true;
+    const Eigen::Vector3i l = v - b * kBlockSide;
+    return cellInBlock (blk->distances.data () + distanceIndex (l.x (), l.y (), l.z ()), values.data (), 1);
   }
 
-  /** \brief cell () for a cell inside one block whose lower corner's distance is at \a base:
+  /** \brief The cell whose lower corner's distance is at \a base in a distance layer:
     * corner i goes to values[i · stride]. The corners come in x-pairs, adjacent in the
-    * distance layer: four 32-bit loads.
+    * layer: four 32-bit loads.
     */
   static inline bool
   cellInBlock (const std::int16_t* base, float* values, std::size_t stride)
   {
-    constexpr int dy = kBlockSide, dz = kBlockSide * kBlockSide;
+    constexpr int dy = kDistanceSide, dz = kDistanceSide * kDistanceSide;
     const std::int16_t* rows[4] = {base, base + dy, base + dz, base + dz + dy};
     bool observed = true;
     for (std::size_t p = 0; p < 4; ++p)
@@ -171,7 +130,6 @@ private:
   const TSDFVolume& volume_;
   Eigen::Vector3i block_index_ = Eigen::Vector3i::Zero ();
   const VoxelBlock* block_ = nullptr;
-  std::int32_t block_id_ = -1;
   bool valid_ = false;
 };
 }  // namespace detail
