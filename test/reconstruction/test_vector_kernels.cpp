@@ -112,6 +112,46 @@ TEST (VectorKernels, IntegrationBuildsTheScalarVolume)
   EXPECT_LT (max_sdf_difference, 0.5f);
 }
 
+// A voxel whose nearest pixel lies in the image but whose 2×2 pixel quad does not (the
+// half-pixel border) takes its depth from the nearest pixel alone: the vector kernel reads
+// those pixels separately from the quads, and must update the same voxels there.
+TEST (VectorKernels, IntegrationUsesTheImageBorder)
+{
+  if (!cpuHasAvx2Fma ())
+    GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
+  const PinholeCamera camera (60.0, 60.0, 31.5, 23.5, 64, 48);
+  const cv::Mat depth (camera.height, camera.width, CV_32F, cv::Scalar (1.0f));  // a wall 1 m ahead
+  TSDFVolumeConfig config;
+  config.voxel_size = 0.01;
+  TSDFVolume scalar (config), vector (config);
+  {
+    const KernelChoice choice (false);
+    scalar.integrate (depth, cv::Mat (), camera, Eigen::Isometry3d::Identity ());
+  }
+  {
+    const KernelChoice choice (true);
+    vector.integrate (depth, cv::Mat (), camera, Eigen::Isometry3d::Identity ());
+  }
+  std::size_t border = 0, differs = 0;
+  for (const auto& block : scalar.blocks ())
+    for (int i = 0; i < kBlockVoxels; ++i)
+    {
+      const Eigen::Vector3i g = block->index * kBlockSide + Eigen::Vector3i (i % kBlockSide, (i / kBlockSide) % kBlockSide, i / (kBlockSide * kBlockSide));
+      const TsdfVoxel* other = vector.findVoxel (g);
+      ASSERT_NE (other, nullptr);
+      const float weight = block->voxels[static_cast<std::size_t> (i)].weight;
+      differs += weight != other->weight;
+      const Eigen::Vector3f p = scalar.voxelPosition (g);
+      if (!(weight > 0.f) || !(p.z () > 0.f))
+        continue;
+      const Eigen::Vector2f uv = camera.project (p);
+      border += uv.x () < 0.f || uv.y () < 0.f || uv.x () >= camera.width - 1.f || uv.y () >= camera.height - 1.f;
+    }
+  ASSERT_GT (border, 100u);
+  // Rounding at the image's outer edge may differ for a voxel or two, not for the border.
+  EXPECT_LE (differs, 2u + border / 50);
+}
+
 TEST (VectorKernels, IntegrationLeavesTheLabelLayerAlone)
 {
   // The vector kernel stores whole rows of voxels back: label and label_confidence, which
