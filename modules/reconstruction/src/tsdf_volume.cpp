@@ -344,7 +344,7 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
                                                                   noise_dz))),
                      _mm256_set1_ps (inv_voxel)));
   __m256 z = z_hint, z_result = zero, gx_result = zero, gy_result = zero, gz_result = zero;
-  alignas (32) std::int32_t lx[8], ly[8], lz[8];
+  alignas (32) std::int32_t block_x[8], block_y[8], block_z[8];
   // The cells' corners as read: pairs[p][i] holds lane i's x-pair p (corners 2p and 2p + 1,
   // two int16 distances); lanes not read keep zeros (masked out below).
   alignas (32) std::uint32_t pairs[4][8] = {};
@@ -370,25 +370,32 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
     cell_x = next_x;
     cell_y = next_y;
     cell_z = next_z;
-    _mm256_store_si256 (reinterpret_cast<__m256i*> (lx), next_x);
-    _mm256_store_si256 (reinterpret_cast<__m256i*> (ly), next_y);
-    _mm256_store_si256 (reinterpret_cast<__m256i*> (lz), next_z);
+    // Per lane its cell's block (voxel index / 8) and the lower corner's place in that
+    // block's distance layer, computed for all lanes at once.
+    const __m256i last = _mm256_set1_epi32 (kBlockSide - 1), side = _mm256_set1_epi32 (kDistanceSide);
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (block_x), _mm256_srai_epi32 (next_x, 3));
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (block_y), _mm256_srai_epi32 (next_y, 3));
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (block_z), _mm256_srai_epi32 (next_z, 3));
+    static_assert (kBlockSide == 8, "the block index is the voxel index shifted by 3");
+    alignas (32) std::int32_t layer_index[8];
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (layer_index),
+                        _mm256_add_epi32 (_mm256_and_si256 (next_x, last),
+                                          _mm256_mullo_epi32 (side, _mm256_add_epi32 (_mm256_and_si256 (next_y, last),
+                                                                                      _mm256_mullo_epi32 (side, _mm256_and_si256 (next_z, last))))));
     int read = active;
     for (int m = to_read; m != 0; m &= m - 1)
     {
       const int i = __builtin_ctz (static_cast<unsigned> (m));
-      const int x = lx[i], y = ly[i], z = lz[i];
       // The cell's four x-pairs, copied as they are into the lane's column (through
       // VoxelAccessor::cell and a copy it took ~100 instructions a lane; converting each
       // corner to float here, 8 scalar conversions a lane, was a tenth of this function).
-      constexpr int last = kBlockSide - 1;
-      const VoxelBlock* block = access.block (blockOfVoxel (Eigen::Vector3i (x, y, z)));
+      const VoxelBlock* block = access.block (Eigen::Vector3i (block_x[i], block_y[i], block_z[i]));
       if (block == nullptr)
       {
         read &= ~(1 << i);
         continue;
       }
-      const std::int16_t* base = block->distances.data () + distanceIndex (x & last, y & last, z & last);
+      const std::int16_t* base = block->distances.data () + layer_index[i];
       constexpr int dy = kDistanceSide, dz = kDistanceSide * kDistanceSide;
       std::memcpy (&pairs[0][i], base, sizeof (std::uint32_t));
       std::memcpy (&pairs[1][i], base + dy, sizeof (std::uint32_t));
