@@ -66,15 +66,15 @@ public:
     if (blk == nullptr)
       return false;
     const Eigen::Vector3i l = v - b * kBlockSide;
-    return cellInBlock (blk->distances.data () + distanceIndex (l.x (), l.y (), l.z ()), values.data (), 1);
+    return cellInBlock (blk->distances.data () + distanceIndex (l.x (), l.y (), l.z ()), values.data ());
   }
 
   /** \brief The cell whose lower corner's distance is at \a base in a distance layer:
-    * corner i goes to values[i · stride]. The corners come in x-pairs, adjacent in the
+    * corner i goes to values[i]. The corners come in x-pairs, adjacent in the
     * layer: four 32-bit loads.
     */
   static inline bool
-  cellInBlock (const std::int16_t* base, float* values, std::size_t stride)
+  cellInBlock (const std::int16_t* base, float* values)
   {
     constexpr int dy = kDistanceSide, dz = kDistanceSide * kDistanceSide;
     const std::int16_t* rows[4] = {base, base + dy, base + dz, base + dz + dy};
@@ -86,8 +86,8 @@ public:
       const auto first = static_cast<std::int16_t> (pair & 0xffffu), second = static_cast<std::int16_t> (pair >> 16);
       static_assert (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the pair's first distance is its low half");
       observed &= first != kUnobservedDistance && second != kUnobservedDistance;
-      values[2 * p * stride] = static_cast<float> (first);
-      values[(2 * p + 1) * stride] = static_cast<float> (second);
+      values[2 * p] = static_cast<float> (first);
+      values[2 * p + 1] = static_cast<float> (second);
     }
     return observed;
   }
