@@ -2,7 +2,7 @@
 // generator's detector error model (SimulatedDetector: dilation, jitter, merges of
 // touching objects, misses), so that scripts/bench can score geometry-only, masks-only
 // and fused segmentation on real depth with network-like masks.
-// Usage: cuefusion_bench_osd_masks GT_DIR OUT_DIR [--dilate PX] [--jitter PX] [--merge P] [--miss P] [--seed N]
+// Usage: cuefusion_bench_osd_masks GT_DIR OUT_DIR [--dilate PX] [--jitter PX] [--merge P] [--miss P] [--split P] [--false-positives N] [--seed N]
 // Writes OUT_DIR/<stem>.png (16-bit instance ids) and <stem>.json per GT cloud.
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/simulated_detector.h>
@@ -24,7 +24,7 @@ main (int argc, char** argv)
 {
   if (argc < 3)
   {
-    std::cerr << "usage: cuefusion_bench_osd_masks GT_DIR OUT_DIR [--dilate PX] [--jitter PX] [--merge P] [--miss P] [--seed N]\n";
+    std::cerr << "usage: cuefusion_bench_osd_masks GT_DIR OUT_DIR [--dilate PX] [--jitter PX] [--merge P] [--miss P] [--split P] [--false-positives N] [--seed N]\n";
     return 2;
   }
   io::DetectorErrorConfig errors;
@@ -45,6 +45,10 @@ main (int argc, char** argv)
       errors.merge_probability = value;
     else if (option == "--miss")
       errors.miss_probability = value;
+    else if (option == "--split")
+      errors.split_probability = value;
+    else if (option == "--false-positives")
+      errors.false_positives = value;
     else if (option == "--seed")
       seed = static_cast<std::uint64_t> (value);
     else

@@ -451,7 +451,12 @@ runEval (const std::vector<std::string>& args)
                                        {"class_mean", apJson (ap.class_mean)},
                                        {"per_class", per_class},
                                        {"truth_instances", ap.truth_instances},
-                                       {"predicted_instances", ap.predicted_instances}};
+                                       {"predicted_instances", ap.predicted_instances},
+                                       {"segmentation", {{"truth_instances", ap.counts.truth},
+                                                         {"segments", ap.counts.segments},
+                                                         {"over_segmented", ap.counts.over_segmented},
+                                                         {"extra_segments", ap.counts.extra_segments},
+                                                         {"under_segmented", ap.counts.under_segmented}}}};
     }
   }
   for (nlohmann::json& r : run_reports)

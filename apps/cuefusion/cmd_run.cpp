@@ -78,6 +78,7 @@ segmentsJson (const std::vector<segmentation::SegmentRecord>& segments)
                             {"voxels", s.voxels},
                             {"first_frame", s.first_frame},
                             {"last_frame", s.last_frame},
+                            {"frames_seen", s.frames_seen},
                             {"bounds", {{"min", {s.bounds.min ().x (), s.bounds.min ().y (), s.bounds.min ().z ()}},
                                         {"max", {s.bounds.max ().x (), s.bounds.max ().y (), s.bounds.max ().z ()}}}}};
     const std::string best = s.bestClass ();

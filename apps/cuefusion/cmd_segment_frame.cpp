@@ -277,6 +277,8 @@ runSegmentFrame (const std::vector<std::string>& args)
     ("normal-smoothing", po::value (&pre.integral_smoothing)->default_value (pre.integral_smoothing), "integral-image normal smoothing size (px)")
     ("max-depth-jump", po::value (&pre.max_depth_jump)->default_value (pre.max_depth_jump), "relative depth step treated as an edge by normals and edge assignment")
     ("concavity-threshold", po::value (&geo.concavity.threshold)->default_value (geo.concavity.threshold), "concave edge where Phi < this")
+    ("concavity-noise-slope", po::value (&geo.concavity.noise_slope)->default_value (geo.concavity.noise_slope),
+     "the concavity threshold gives way to the normals' noise: cos of this x sigma_z(z)/z where lower (0 = off)")
     ("convexity-test", po::value (&convexity)->default_value ("divergence"), "when a neighbour is convex: divergence (normals turn apart) or tangent (thesis: below the tangent plane)")
     ("concavity-step", po::value (&geo.concavity.neighbour_step)->default_value (geo.concavity.neighbour_step), "concavity neighbour distance (px)")
     ("noise-factor", po::value (&geo.discontinuity.noise_factor)->default_value (geo.discontinuity.noise_factor), "depth edge where Gamma > k * sigma_d")

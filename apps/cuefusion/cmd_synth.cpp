@@ -34,7 +34,9 @@ runSynth (const std::vector<std::string>& args)
     ("mask-jitter", po::value (&det.boundary_jitter_px)->default_value (det.boundary_jitter_px),
      "simulated detector: random extra boundary change per mask and frame, in [-J, J] pixels")
     ("mask-merge", po::value (&det.merge_probability)->default_value (det.merge_probability),
-     "simulated detector: probability that two touching objects come out as one mask")
+     "simulated detector: probability per frame that two touching objects come out as one mask")
+    ("mask-split", po::value (&det.split_probability)->default_value (det.split_probability),
+     "simulated detector: probability per mask and frame that it comes out as two masks")
     ("mask-miss", po::value (&det.miss_probability)->default_value (det.miss_probability),
      "simulated detector: probability per object and frame of missing it")
     ("mask-false-positives", po::value (&det.false_positives)->default_value (det.false_positives),

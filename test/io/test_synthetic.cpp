@@ -325,6 +325,39 @@ TEST_F (DetectorFixture, MergeMissAndFalsePositives)
   EXPECT_GT (false_positives, 0);
 }
 
+TEST_F (DetectorFixture, MergesAreDrawnPerFrameAndSplitsCutOneObjectInTwo)
+{
+  // Merges per frame: at p = 0.5 the touching boxes come as one mask in some frames and
+  // as two in others, and the draw for a frame is the same whatever was asked before.
+  io::DetectorErrorConfig merge;
+  merge.merge_probability = 0.5;
+  const io::SimulatedDetector merging (scene, merge, 3);
+  const std::uint16_t a = idOf ("cereal_a"), b = idOf ("cereal_b");
+  int merged = 0, separate = 0;
+  for (std::size_t frame = 0; frame < 200; ++frame)
+    (merging.mergesPair (a, b, frame) ? merged : separate) += 1;
+  EXPECT_GT (merged, 60);
+  EXPECT_GT (separate, 60);
+  EXPECT_EQ (merging.mergesPair (a, b, 17), merging.mergesPair (b, a, 17));
+
+  // A split reports one object as two masks that together are its exact mask.
+  io::DetectorErrorConfig split;
+  split.split_probability = 1.0;
+  const RGBDFrame& f = *frames[0];
+  const io::DetectionResult result = io::SimulatedDetector (scene, split, 1).detect (f.instance_mask, 0);
+  const std::uint16_t book = idOf ("book");
+  std::vector<std::uint16_t> pieces;
+  for (const io::Detection& d : result.detections)
+    if (d.gt_instances.size () == 1 && d.gt_instances[0] == book)
+      pieces.push_back (d.id);
+  ASSERT_EQ (pieces.size (), 2u) << result.detections.size () << " detections, book " << book << " visible on "
+                                 << cv::countNonZero (f.instance_mask == book) << " pixels";
+  const cv::Mat union_mask = (result.ids == pieces[0]) | (result.ids == pieces[1]);
+  EXPECT_EQ (cv::countNonZero (union_mask != (f.instance_mask == book)), 0);
+  EXPECT_GT (cv::countNonZero (result.ids == pieces[0]), 0);
+  EXPECT_GT (cv::countNonZero (result.ids == pieces[1]), 0);
+}
+
 TEST_F (DetectorFixture, SeededAndOrderIndependent)
 {
   io::DetectorErrorConfig noisy;

@@ -39,21 +39,52 @@ TEST (LabelEquivalence, MergesResolveOnReadAndCompact)
   EXPECT_EQ (eq.find (9), 1u);
 }
 
-TEST (MergeConfidence, PlusOneWhenSeenMinusOneWhenNotConfirmAtFive)
+TEST (PairEvidence, UnitesAfterFiveFramesTogetherWhileTheyAreTheMajority)
 {
-  MergeConfidence confidence;
+  PairEvidence evidence;
   for (int frame = 0; frame < 4; ++frame)
-    EXPECT_TRUE (confidence.update ({{2, 5}, {5, 2}}).empty ());  // duplicates count once
-  EXPECT_EQ (confidence.confidence (5, 2), 4);
-  confidence.update ({});  // unseen: −1
-  EXPECT_EQ (confidence.confidence (2, 5), 3);
-  confidence.update ({{2, 5}});
-  const auto confirmed = confidence.update ({{2, 5}, {4, 6}});
-  ASSERT_EQ (confirmed.size (), 1u);
-  EXPECT_EQ (confirmed[0], std::make_pair (2u, 5u));
-  EXPECT_EQ (confidence.confidence (4, 6), 1);
-  confidence.update ({});
-  EXPECT_EQ (confidence.trackedPairs (), 0u);  // floor 0: forgotten
+    evidence.add (5, 2, PairVote::Together);
+  EXPECT_EQ (evidence.counts (2, 5).together, 4);
+  EXPECT_FALSE (evidence.united (2, 5));  // four frames: not yet
+  evidence.add (2, 5, PairVote::Together);
+  EXPECT_TRUE (evidence.united (5, 2));
+  // Frames that see the pair apart outvote it: 5 together against 5 apart is no majority.
+  for (int frame = 0; frame < 5; ++frame)
+    evidence.add (2, 5, PairVote::Apart);
+  EXPECT_EQ (evidence.counts (5, 2).apart, 5);
+  EXPECT_FALSE (evidence.united (2, 5));
+  evidence.add (2, 5, PairVote::Together);
+  EXPECT_TRUE (evidence.united (2, 5));
+  // A label never pairs with itself or with 0.
+  evidence.add (3, 3, PairVote::Together);
+  evidence.add (0, 3, PairVote::Together);
+  EXPECT_EQ (evidence.trackedPairs (), 1u);
+  EXPECT_FALSE (evidence.tracked (3, 4));
+
+  SegmentMergingConfig bad;
+  bad.together_share = 1.f;
+  EXPECT_THROW (PairEvidence {bad}, ParameterError);
+}
+
+TEST (GlobalSegmentMap, AWrongMergeIsUndoneWhenLaterFramesSeeThePairApart)
+{
+  // A detector merges two touching objects (labels a, b) in the first six frames, then
+  // separates them; an L's two arms (c, d) are united by every frame.
+  GlobalSegmentMap map;
+  const std::uint32_t a = map.newSegment (0), b = map.newSegment (0), c = map.newSegment (0), d = map.newSegment (0);
+  std::size_t changes = 0;
+  for (int frame = 0; frame < 6; ++frame)
+    changes += map.addEvidence ({{a, b, PairVote::Together}, {c, d, PairVote::Together}});
+  EXPECT_EQ (map.resolve (b), a);
+  EXPECT_EQ (map.resolve (d), c);
+  EXPECT_EQ (changes, 2u);
+  EXPECT_EQ (map.segments ().size (), 2u);
+  for (int frame = 0; frame < 6; ++frame)
+    map.addEvidence ({{a, b, PairVote::Apart}, {c, d, PairVote::Together}});
+  EXPECT_EQ (map.resolve (b), b);  // undone: no voxel was ever rewritten, reads resolve apart again
+  EXPECT_EQ (map.resolve (a), a);
+  EXPECT_EQ (map.resolve (d), c);
+  EXPECT_EQ (map.segments ().size (), 3u);
 }
 
 TEST (GlobalSegmentMap, MergeKeepsTheOlderLabelAndCombinesRecords)
@@ -69,8 +100,8 @@ TEST (GlobalSegmentMap, MergeKeepsTheOlderLabelAndCombinesRecords)
   map.observe (a, 5);
   EXPECT_EQ (map.merge (b, a), a);
   EXPECT_EQ (map.resolve (b), a);
-  const SegmentRecord* record = map.record (b);
-  ASSERT_NE (record, nullptr);
+  const std::optional<SegmentRecord> record = map.record (b);
+  ASSERT_TRUE (record);
   EXPECT_EQ (record->id, a);
   EXPECT_EQ (record->first_frame, 0u);
   EXPECT_EQ (record->last_frame, 6u);
@@ -131,9 +162,9 @@ protected:
     propagation.propagate (vertices, normals, frame_labels_override.empty () ? frameLabels (*frame, i) : frame_labels_override,
                            model.vertices, model.normals, model.labels, map, i, result);
     // CUEFUSION_TEST_VERBOSE=1 lists the merges the map confirms.
-    for (const auto& m : map.updateMerges (result.candidates))
-      if (std::getenv ("CUEFUSION_TEST_VERBOSE"))
-        std::cerr << "frame " << i << " merge " << m.first << " " << m.second << "\n";
+    const std::size_t changed = map.addEvidence (result.votes);
+    if (std::getenv ("CUEFUSION_TEST_VERBOSE") && changed)
+      std::cerr << "frame " << i << ": " << changed << " labels changed object\n";
     writes += updateVoxelLabels (*volume, result.labels, map);
     truth = frame->instance_mask;
     return result.labels;
@@ -194,7 +225,7 @@ TEST_F (PropagationFixture, LabelsStayStableOverAStaticSequence)
   map.refreshStatistics (*volume);
   for (const std::uint32_t label : distinct)
   {
-    ASSERT_NE (map.record (label), nullptr);
+    ASSERT_TRUE (map.record (label));
     EXPECT_GT (map.record (label)->voxels, 20u) << label;
   }
 }
@@ -419,7 +450,7 @@ TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)
   EXPECT_GT (result[0].inherited, 5);
   EXPECT_GT (result[0].fresh, 5);
   EXPECT_EQ (cv::countNonZero (result[0].labels != result[1].labels), 0);
-  EXPECT_EQ (result[0].candidates, result[1].candidates);
+  EXPECT_EQ (result[0].votes, result[1].votes);
   EXPECT_EQ (result[0].inherited, result[1].inherited);
   EXPECT_EQ (result[0].fresh, result[1].fresh);
 

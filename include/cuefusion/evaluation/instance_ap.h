@@ -50,6 +50,21 @@ struct APScores
   double ap25 = 0.0;
 };
 
+/** \brief How the predicted segments cover the truth, stuff (ignored instances) included:
+  * each predicted segment of ≥ min_region_size points counts for the truth instance holding
+  * most of its points.
+  */
+struct SegmentationCounts
+{
+  std::size_t truth = 0;             ///< truth instances of ≥ min_region_size points, stuff included
+  std::size_t segments = 0;          ///< predicted segments of ≥ min_region_size points
+  std::size_t over_segmented = 0;    ///< truth instances with two or more segments counting for them
+  std::size_t extra_segments = 0;    ///< segments beyond the first of each truth instance
+  /** Segments of which a second truth instance (not the majority one) holds at least a
+    * quarter of the points: two objects (or an object and the table) in one segment. */
+  std::size_t under_segmented = 0;
+};
+
 struct InstanceAPResult
 {
   APScores class_agnostic;                 ///< every instance as one class "object"
@@ -57,6 +72,7 @@ struct InstanceAPResult
   APScores class_mean;                     ///< NaN-ignoring mean over per_class (NaN without classes)
   std::size_t truth_instances = 0;         ///< evaluated (not ignored, ≥ min_region_size)
   std::size_t predicted_instances = 0;     ///< ≥ min_region_size points
+  SegmentationCounts counts;
 };
 
 /** \brief 3D instance segmentation AP with the ScanNet benchmark's definition

@@ -20,7 +20,8 @@ struct DetectorErrorConfig
 {
   int boundary_px = 0;              ///< > 0 grows ("leaking" masks, thesis §5.3.2.2), < 0 shrinks masks
   int boundary_jitter_px = 0;       ///< extra per-mask, per-frame change in [−j, j] pixels
-  double merge_probability = 0.0;   ///< chance that a pair of touching objects is reported as one (Fig. 5.19)
+  double merge_probability = 0.0;   ///< chance, per pair of touching objects and frame, that they are reported as one mask (Fig. 5.19)
+  double split_probability = 0.0;   ///< chance, per reported mask and frame, that it comes as two masks (cut by a random line through its centre)
   double miss_probability = 0.0;    ///< chance, per object and frame, that an object is not reported
   double false_positives = 0.0;     ///< mean number of spurious masks per frame (Poisson)
   int min_pixels = 50;              ///< objects with fewer visible pixels are never reported
@@ -49,9 +50,11 @@ struct DetectionResult
 };
 
 /** \brief Turns exact instance masks into the masks a network would give, with the errors
-  * of DetectorErrorConfig. Merge decisions are fixed per object pair for the whole
-  * sequence (a network fails the same way from frame to frame); misses, jitter, scores
-  * and false positives are drawn per frame from a stream seeded by (seed, frame).
+  * of DetectorErrorConfig. Every error is drawn per frame, from streams seeded by (seed,
+  * frame) — merges and splits by (seed, pair or object, frame) — so a frame's masks do not
+  * depend on which frames were made before it. Merges are per frame because that is how
+  * real networks fail on touching objects: in some views, not in all (a network that
+  * merged a pair in every view would be indistinguishable from one object).
   */
 class SimulatedDetector
 {
@@ -60,8 +63,8 @@ public:
 
   DetectionResult detect (const cv::Mat& instance_truth, std::size_t frame_index) const;
 
-  /** \brief Whether objects a and b are reported as one when they touch. */
-  bool mergesPair (std::uint16_t a, std::uint16_t b) const;
+  /** \brief Whether objects a and b are reported as one in frame \a frame_index when they touch. */
+  bool mergesPair (std::uint16_t a, std::uint16_t b, std::size_t frame_index) const;
 
 private:
   SyntheticScene scene_;  // a copy: small, and no lifetime ties to the caller

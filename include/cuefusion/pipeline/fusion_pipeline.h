@@ -14,6 +14,7 @@
 #include <pcl/point_types.h>
 
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace cuefusion
@@ -23,7 +24,7 @@ namespace pipeline
 /** \brief Which cues make the frame segments L_t. */
 enum class SegmentationMode
 {
-  Fused,     ///< geometry grouped by instance masks (InstanceGuidedRegionMerge), the default
+  Fused,     ///< geometry cut and grouped by instance masks (InstanceGuidedRegionMerge::split, grouping in the map), the default
   Geometry,  ///< geometry only: the Tateno et al. 2015 baseline the thesis compares against
   Masks      ///< instance masks only (on pixels with depth)
 };
@@ -75,7 +76,7 @@ struct PipelineFrameReport
   bool had_masks = false;
   int frame_segments = 0;        ///< labelled segments of L^p
   int fresh_segments = 0;
-  std::size_t merges = 0;        ///< confirmed this frame
+  std::size_t merges = 0;        ///< labels whose object changed this frame (merges made or undone)
   std::size_t voxel_writes = 0;
   SegmentationTimings segmentation;
 };
@@ -101,16 +102,21 @@ public:
   const segmentation::GlobalSegmentMap& segmentMap () const { return map_; }
   /** \brief The last frame's L^p (global labels), empty before the first segmented frame. */
   const cv::Mat& frameLabels () const { return frame_labels_; }
-  /** \brief The model's labels seen from the last pose, resolved (CV_32S). */
+  /** \brief The model's labels seen from the last pose, as outputs show them (CV_32S). */
   cv::Mat modelLabels () const;
 
-  /** \brief Surface points (world frame) with colour and resolved segment label. */
+  /** \brief Surface points (world frame) with colour and segment label as outputs show
+    * them: each label resolved to its object, brief fragments settled into the object they
+    * touch (GlobalSegmentMap::settledLabels).
+    */
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr labelledCloud () const;
-  /** \brief Marching-cubes mesh with resolved labels, vertices coloured by segment
-    * (labelColor) when \a color_by_segment, else by the fused colour.
+  /** \brief Marching-cubes mesh with labels as labelledCloud's, vertices coloured by
+    * segment (labelColor) when \a color_by_segment, else by the fused colour.
     */
   pcl::PolygonMesh labelledMesh (bool color_by_segment = true) const;
-  /** \brief Refreshes and returns the segment records (voxel counts, bounds). */
+  /** \brief Refreshes and returns the records of the segments outputs show (voxel counts,
+    * bounds; settled fragments counted with their object).
+    */
   std::vector<segmentation::SegmentRecord> segments ();
 
 private:
@@ -122,6 +128,11 @@ private:
   segmentation::GlobalSegmentMap map_;
   segmentation::SurfacePlanes planes_;
   cv::Mat frame_labels_;
+  /** \brief settledLabels of the map as it is now (computed once per processed frame). */
+  const std::unordered_map<std::uint32_t, std::uint32_t>& settledLabels () const;
+  std::size_t processed_ = 0;  ///< frames given to process()
+  mutable std::size_t settled_at_ = static_cast<std::size_t> (-1);
+  mutable std::unordered_map<std::uint32_t, std::uint32_t> settled_;
 };
 }  // namespace pipeline
 }  // namespace cuefusion

@@ -7,7 +7,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
+#include <tuple>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -20,10 +23,11 @@ class TSDFVolume;
 
 namespace segmentation
 {
-/** \brief Equivalence of global segment labels (union–find). A confirmed merge (§4.2.3)
-  * links two labels here instead of rewriting every voxel that carries one of them; a
-  * label read from the volume is resolved through find(). find() only reads (threads may
-  * share it); compact() points every label at its root, done lazily after merges.
+/** \brief Equivalence of global segment labels (union–find). Objects are groups of map
+  * segments; a label read from the volume is resolved through find(), so grouping never
+  * rewrites a voxel. find() only reads (threads may share it). The grouping follows the
+  * evidence and may change: clear() forgets every link and the map links again the pairs
+  * the evidence unites (GlobalSegmentMap::regroup).
   */
 class LabelEquivalence
 {
@@ -31,52 +35,75 @@ public:
   /** \brief The label \a label stands for now (itself when never merged; 0 stays 0). */
   std::uint32_t find (std::uint32_t label) const;
 
-  /** \brief After this, \a b and everything merged into it resolve to find(a) (the thesis
-    * "l_b becomes l_a"). Returns the surviving label.
+  /** \brief After this, \a b and everything merged into it resolve to the smaller of the
+    * two roots (a segment keeps its first id). Returns the surviving label.
     */
   std::uint32_t unite (std::uint32_t a, std::uint32_t b);
 
   /** \brief Points every label straight at its root. */
   void compact ();
 
+  /** \brief Every label its own root again. */
+  void clear () { parent_.clear (); }
+
 private:
   std::vector<std::uint32_t> parent_;  ///< by label; labels beyond the end are their own root
 };
 
-/** \brief Parameters of segment merging (§4.2.3). */
+/** \brief Parameters of segment grouping (§4.2.3, as evidence). */
 struct SegmentMergingConfig
 {
-  float candidate_overlap = 0.2f;  ///< Π̃(l_i, l_j) above this makes l_i a merge candidate for l_j
-  int confirm_confidence = 5;      ///< Ψ^m at which a merge is confirmed
+  /** Frames that must show a pair as one object before it is united (the thesis confirms
+    * a merge at Ψ^m = 5).
+    */
+  int confirm_confidence = 5;
+  /** A pair stays united only while more than this share of the frames that judged it
+    * saw it as one object.
+    */
+  float together_share = 0.5f;
   void validate () const;
 };
 
-/** \brief The pair confidences Ψ^m(l_a, l_b) of §4.2.3. Each frame every candidate pair
-  * seen gains 1 and every tracked pair not seen loses 1 (floor 0, then forgotten); a pair
-  * that reaches confirm_confidence is returned for merging. The thesis writes the
-  * decrement as part of the same sum as the increment, which would cancel it for seen
-  * pairs; this is the reading that makes the "−1 per frame unseen" of its text work.
+/** \brief What one frame says of a pair of map segments it sees. */
+enum class PairVote
+{
+  Together,  ///< one frame segment holds both, or one instance mask covers both
+  Apart      ///< the masks separate them, or an edge does where no mask speaks
+};
+
+/** \brief Frames for and against each pair of map segments being one object, kept for the
+  * whole run (voxblox++ keeps pairwise counts the same way). The thesis's Ψ^m only counts
+  * frames for a merge and forgets them when the pair is unseen, so a detector that merges
+  * two touching objects in five frames out of fifty merges them for good; here the
+  * frames that see them apart outvote it, and a merge the evidence no longer supports is
+  * undone.
   */
-class MergeConfidence
+class PairEvidence
 {
 public:
-  explicit MergeConfidence (const SegmentMergingConfig& config = SegmentMergingConfig ());
+  struct Counts
+  {
+    int together = 0, apart = 0;
+  };
+  explicit PairEvidence (const SegmentMergingConfig& config = SegmentMergingConfig ());
 
-  /** \brief One frame's candidate pairs (labels already resolved; order inside a pair and
-    * duplicates do not matter). Returns the pairs confirmed by this frame, sorted.
+  /** \brief One vote of the current frame (each pair once per frame: the caller's job). */
+  void add (std::uint32_t a, std::uint32_t b, PairVote vote);
+  Counts counts (std::uint32_t a, std::uint32_t b) const;
+  /** \brief Whether the evidence unites \a a and \a b: at least confirm_confidence frames
+    * together and together > together_share · (together + apart).
     */
-  std::vector<std::pair<std::uint32_t, std::uint32_t>>
-  update (std::vector<std::pair<std::uint32_t, std::uint32_t>> seen);
-
-  int confidence (std::uint32_t a, std::uint32_t b) const;
-  std::size_t trackedPairs () const { return confidence_.size (); }
-
-  /** \brief Re-keys tracked pairs after merges (pairs inside one segment are dropped). */
-  void resolve (const LabelEquivalence& equivalence);
+  bool united (std::uint32_t a, std::uint32_t b) const;
+  bool united (const Counts& counts) const;
+  /** \brief Whether the pair has been voted on at all. */
+  bool tracked (std::uint32_t a, std::uint32_t b) const;
+  std::size_t trackedPairs () const { return counts_.size (); }
+  const SegmentMergingConfig& config () const { return config_; }
+  const std::map<std::pair<std::uint32_t, std::uint32_t>, Counts>& pairs () const { return counts_; }
 
 private:
   SegmentMergingConfig config_;
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> confidence_;
+  std::map<std::pair<std::uint32_t, std::uint32_t>, Counts> counts_;  ///< by (smaller, larger) label
 };
 
 /** \brief What the map knows of one global segment. */
@@ -84,6 +111,9 @@ struct SegmentRecord
 {
   std::uint32_t id = 0;
   std::size_t first_frame = 0, last_frame = 0;
+  /** Frames in which a frame segment carried this label (for an object: the most any of
+    * its labels was seen). */
+  std::size_t frames_seen = 0;
   /** Instance-cue votes: class name → (frames, summed score). The thesis discards the
     * class; it is kept here.
     */
@@ -97,9 +127,11 @@ struct SegmentRecord
   float bestScore () const;
 };
 
-/** \brief The registry of global segments (the GSM of §4.2): label allocation, the label
-  * equivalence of confirmed merges, the merge confidences, and per segment its frames,
-  * class votes, voxel count and bounds.
+/** \brief The registry of global segments (the GSM of §4.2): label allocation, the
+  * evidence for and against grouping pairs of segments into one object, the grouping it
+  * gives (LabelEquivalence), and per segment its frames, class votes, voxel count and
+  * bounds. Records are kept per label as allocated; segments() and record() report each
+  * object (a group) as one record under its smallest label.
   */
 class GlobalSegmentMap
 {
@@ -114,36 +146,57 @@ public:
     */
   void observe (std::uint32_t label, std::size_t frame, const SegmentInstance* info = nullptr);
 
-  /** \brief Feeds one frame's merge candidates to the confidences and merges the pairs
-    * confirmed; returns them (as resolved before the merge).
+  /** \brief One frame's votes on pairs of (unresolved) labels, then the grouping is
+    * recomputed from all the evidence (regroup). Returns how many labels now resolve to
+    * another label than before this frame (merges made plus merges undone).
     */
-  std::vector<std::pair<std::uint32_t, std::uint32_t>>
-  updateMerges (const std::vector<std::pair<std::uint32_t, std::uint32_t>>& candidates);
+  std::size_t addEvidence (const std::vector<std::tuple<std::uint32_t, std::uint32_t, PairVote>>& votes);
 
-  /** \brief Merges \a b into \a a now: equivalence and records only, no voxel is written. */
+  /** \brief Unites \a a and \a b for good, whatever the evidence (a user's correction or
+    * a test); returns the surviving label. No voxel is written.
+    */
   std::uint32_t merge (std::uint32_t a, std::uint32_t b);
 
   std::uint32_t resolve (std::uint32_t label) const { return equivalence_.find (label); }
   const LabelEquivalence& equivalence () const { return equivalence_; }
-  const MergeConfidence& confidences () const { return confidences_; }
+  const PairEvidence& evidence () const { return evidence_; }
   std::size_t labelsAllocated () const { return next_label_ - 1; }
 
   /** \brief Voxel counts and world bounds of every segment from \a volume's label layer
-    * (labels resolved; voxels with no weight or no label are skipped).
+    * (labels as stored; voxels with no weight or no label are skipped).
     */
   void refreshStatistics (const reconstruction::TSDFVolume& volume);
 
-  /** \brief Segments that are their own root, in increasing id. */
-  std::vector<SegmentRecord> segments () const;
-  const SegmentRecord* record (std::uint32_t label) const;
+  /** \brief One record per object (group of labels), under its smallest label, in
+    * increasing id: frames, class votes, voxels and bounds of its labels combined. With
+    * \a settled (from settledLabels), labels count for the object they settle to, and
+    * labels settled to 0 are left out.
+    */
+  std::vector<SegmentRecord> segments (const std::unordered_map<std::uint32_t, std::uint32_t>* settled = nullptr) const;
+
+  /** \brief What each label shows as in outputs: the object it belongs to when that object
+    * was seen in at least confirm_confidence frames, or is still being seen (its last
+    * frame less than confirm_confidence frames before the latest); otherwise (a fragment
+    * seen briefly and no more:
+    * the rim of a surface at the edge of the view, a noise patch) the confirmed object
+    * whose voxels its voxels touch most (6-neighbourhood in \a volume, followed through
+    * other fragments), or 0 when it touches none. Labels not in the result are 0. Reads
+    * the volume; nothing is written, so a fragment confirmed later shows as itself.
+    */
+  std::unordered_map<std::uint32_t, std::uint32_t> settledLabels (const reconstruction::TSDFVolume& volume) const;
+  /** \brief The record of the object \a label belongs to; none for an unknown label. */
+  std::optional<SegmentRecord> record (std::uint32_t label) const;
 
 private:
-  SegmentRecord& recordOf (std::uint32_t root);
+  /** \brief Rebuilds the equivalence from the evidence and the pinned merges. */
+  void regroup ();
 
   std::uint32_t next_label_ = 1;
+  std::size_t latest_frame_ = 0;  ///< the latest frame a segment was seen or made in
   LabelEquivalence equivalence_;
-  MergeConfidence confidences_;
-  std::map<std::uint32_t, SegmentRecord> records_;  ///< by root label
+  PairEvidence evidence_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pinned_;  ///< merge() calls
+  std::map<std::uint32_t, SegmentRecord> records_;  ///< by label as allocated
 };
 }  // namespace segmentation
 }  // namespace cuefusion

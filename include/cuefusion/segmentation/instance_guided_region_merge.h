@@ -16,6 +16,12 @@ namespace segmentation
 struct InstanceGuidedMergeConfig
 {
   float min_overlap = 0.70f;  ///< α(l_s, l_g) must exceed this for l_g to join instance l_s
+  /** A geometric segment is cut along the masks where two or more instances each cover at
+    * least this share of it (and split_min_pixels): the masks see two objects where
+    * geometry saw no edge (touching boxes with coplanar faces).
+    */
+  float split_share = 0.2f;
+  int split_min_pixels = 50;  ///< and at least this many pixels
   void validate () const;
 };
 
@@ -29,6 +35,11 @@ struct SegmentInstance
   std::string class_name;
   float score = 0.f;
   int geometric_segments = 0;  ///< how many segments of L^G it unites
+  /** Share of the segment under the instance that covers most of it (also when below
+    * min_overlap): above min_overlap the masks claim it, below 1 − min_overlap they leave
+    * it out, in between they are unsure.
+    */
+  float coverage = 0.f;
 };
 
 /** \brief Fuses the geometric label map L^G with instance masks into L_t (§4.2.1.3).
@@ -42,10 +53,13 @@ struct SegmentInstance
   * Output labels are 1..M in raster order of each segment's first pixel, so the result
   * depends only on the inputs.
   *
-  * A mask that covers two objects (thesis Fig. 5.19) unites them when each object's
-  * segments lie more than min_overlap inside it: the merge is wrong but kept — later
-  * frames and the map (issue 6) are where it can be undone. A mask that leaks onto the
-  * table does not take the table: the leak is a small part of the table's segment.
+  * Before uniting, segments that two masks share substantially are cut along the masks
+  * (split()): geometry's boundaries are kept, and the masks add the ones geometry cannot
+  * see. A mask that covers two objects (thesis Fig. 5.19) unites them when each object's
+  * segments lie more than min_overlap inside it: one frame cannot tell that from an
+  * object geometry splits (an L, a teddy); over a sequence the map weighs every frame's
+  * word (GlobalSegmentMap). A mask that leaks onto the table does not take the table:
+  * the leak is a small part of the table's segment.
   */
 class InstanceGuidedRegionMerge
 {
@@ -63,6 +77,18 @@ public:
     * Throws cuefusion::Error on a label map that is not CV_32S or masks of another size.
     */
   void merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
+              std::vector<SegmentInstance>* segments = nullptr) const;
+
+  /** \brief The first half of merge(): L^G with every segment that two or more instances
+    * each cover substantially (split_share, split_min_pixels) cut along the masks, no
+    * segments united. Each qualifying instance takes its pixels of the segment; the
+    * segment's other pixels go to the nearest part (4-connected, inside the segment).
+    * Labels 1..N in raster order; \a segments, when given, says for each which instance
+    * covers it (instance ≥ 0 when its coverage exceeds min_overlap) and how much. These
+    * are the pieces FusionPipeline carries into the map, where the masks' grouping is
+    * evidence rather than a verdict (GlobalSegmentMap).
+    */
+  void split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
               std::vector<SegmentInstance>* segments = nullptr) const;
 
 private:

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include <cstdint>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -26,17 +27,26 @@ struct SegmentPropagationConfig
   float normal_agreement = 0.7f;   ///< τ_N: N(u)·N^m(u) must exceed this
   float inherit_overlap = 0.3f;    ///< τ_l: Π̃ above this inherits the model label
   float noise_factor = 1.f;        ///< the distance test is |(V − V^m)·V/|V|| < k·σ_d(u)
-  int min_segment_size = 50;       ///< frame segments with fewer pixels get label 0
-  float candidate_overlap = 0.2f;  ///< §4.2.3: Π̃ above this makes a merge candidate
+  int min_segment_size = 50;       ///< frame segments with fewer pixels get label 0; map segments seen on fewer get no vote
+  /** A map segment counts as seen inside one frame segment when more than this share of
+    * its agreeing pixels lie in it; only such segments get votes (§4.2.3 as evidence).
+    */
+  float placement_share = 0.5f;
+  /** A frame segment whose best instance covers less than this share of it is one the
+    * masks leave out (1 − InstanceGuidedMergeConfig::min_overlap by default).
+    */
+  float uncovered_overlap = 0.3f;
   void validate () const;
 };
 
-/** \brief Result of one propagation: L^p and the frame's merge candidates. */
+/** \brief Result of one propagation: L^p and the frame's votes on pairs of map segments. */
 struct PropagationResult
 {
-  cv::Mat labels;                                                     ///< L^p, CV_32S global labels
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> candidates;    ///< (label given, other model label)
+  cv::Mat labels;  ///< L^p, CV_32S global labels (as allocated, not resolved)
+  /** What this frame says of pairs of map segments it sees (GlobalSegmentMap::addEvidence). */
+  std::vector<std::tuple<std::uint32_t, std::uint32_t, PairVote>> votes;
   int inherited = 0, fresh = 0, dropped = 0;
+  int separated = 0;  ///< frame segments that lost their map label to a segment the masks set apart
 };
 
 /** \brief Carries frame segments over to the map's global labels (§4.2.2).
@@ -45,11 +55,26 @@ struct PropagationResult
   * surfaces agree: |(V(u) − V^m(u))·V(u)/|V(u)|| < k·σ_d(u) (the distance along the
   * viewing ray, σ_d the Kinect noise model at u) and N(u)·N^m(u) > τ_N. With Π̃ = Π / #l_j,
   * l_j inherits the l_i of the largest Π̃ when it exceeds τ_l, else it gets a fresh label
-  * from the map; every other l_i with Π̃ > 0.2 is a merge candidate for the label given
-  * (§4.2.3). Model labels are resolved through the map's equivalence. The cost is one
-  * pass over the image and a table of the pairs seen: it does not depend on the map's size
-  * (§4.2.2.1). Frame labels are handled in increasing order, so fresh labels are
-  * deterministic.
+  * from the map. Labels are the map's labels as allocated (pieces), not resolved: objects
+  * are groups of them, formed from evidence (GlobalSegmentMap).
+  *
+  * With the masks' word on each frame segment (\a segments, from
+  * InstanceGuidedRegionMerge::split: claimed by instance k, left out, or unsure), two
+  * frame segments the masks set apart (different instances, or one claimed and one left
+  * out) never share a map label: the one with the larger Π keeps it, the others take
+  * their next label above τ_l or one fresh label per instance. A label that once covered
+  * two touching objects (a merged mask early on) is split again this way.
+  *
+  * §4.2.3 as evidence: every map segment seen on ≥ min_segment_size agreeing pixels,
+  * more than placement_share of them inside one frame segment, is judged against every
+  * other such segment: Together when one frame segment holds both, or one instance claims
+  * both; Apart when the masks set them apart; Apart also when their frame segments touch
+  * (an edge between them) and no mask speaks for either. Apart votes are kept only for
+  * pairs the map already tracks or whose frame segments touch.
+  *
+  * The cost is one pass over the image and a table of the pairs seen: it does not depend
+  * on the map's size (§4.2.2.1). Frame labels are handled in increasing order, so fresh
+  * labels are deterministic.
   */
 class SegmentPropagation
 {

@@ -18,6 +18,7 @@ namespace cuefusion
 namespace segmentation
 {
 enum class ConvexityTest;
+struct ConcavityEdgeConfig;
 
 /** \brief Points and normals of an organized cloud as six float planes (row-major, NaN =
   * none). The edge operators run over these one neighbour direction at a time, so the
@@ -113,9 +114,11 @@ computeConcavityMap (const SurfacePlanes& planes, int step, ConvexityTest test, 
 void
 computeDiscontinuityMap (const SurfacePlanes& planes, int step, cv::Mat& gamma);
 
-/** \brief Edge mask (CV_8U, 1 = edge) from Φ: Φ < threshold. */
+/** \brief Edge mask (CV_8U, 1 = edge) from Φ: Φ < the threshold of \a config at each
+  * pixel's depth (ConcavityEdgeConfig::noise_slope).
+  */
 void
-concavityEdges (const cv::Mat& phi, float threshold, cv::Mat& edges);
+concavityEdges (const SurfacePlanes& planes, const cv::Mat& phi, const ConcavityEdgeConfig& config, cv::Mat& edges);
 
 /** \brief Edge mask (CV_8U, 1 = edge) from Γ: Γ > k·σ_d(u), σ_d at each pixel's depth
   * and viewing angle; +inf always an edge, NaN never.
@@ -123,11 +126,12 @@ concavityEdges (const cv::Mat& phi, float threshold, cv::Mat& edges);
 void
 discontinuityEdges (const SurfacePlanes& planes, const cv::Mat& gamma, float k, cv::Mat& edges);
 /** \brief Both edge masks of §4.2.1.1 in one pass over the planes (the operators read
-  * the same points and normals), for one neighbour \a step: concave (Φ < threshold) and
-  * depth discontinuity (Γ > k·σ_d), CV_8U, 1 = edge. Without the Φ and Γ images.
+  * the same points and normals), both at \a concavity's neighbour step: concave (as
+  * concavityEdges) and depth discontinuity (Γ > k·σ_d), CV_8U, 1 = edge. Without the Φ
+  * and Γ images.
   */
 void
-computeEdgeMasks (const SurfacePlanes& planes, int step, ConvexityTest test, float concavity_threshold, float noise_factor,
-                  cv::Mat& concave, cv::Mat& depth_edges);
+computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeConfig& concavity, float noise_factor, cv::Mat& concave,
+                  cv::Mat& depth_edges);
 }  // namespace segmentation
 }  // namespace cuefusion

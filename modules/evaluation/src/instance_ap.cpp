@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <set>
 #include <unordered_map>
@@ -274,6 +275,35 @@ evaluateInstanceAP (const InstanceEvaluationInput& input, const InstanceAPConfig
     ap25.push_back (s.ap25);
   }
   result.class_mean = {nanMean (ap), nanMean (ap50), nanMean (ap25)};
+
+  SegmentationCounts& counts = result.counts;
+  for (const auto& [t, n] : o.truth_size)
+    counts.truth += n >= config.min_region_size ? 1 : 0;
+  std::map<std::uint32_t, std::size_t> segments_of;  // truth → segments counting for it
+  for (const std::uint32_t p : preds)
+  {
+    ++counts.segments;
+    std::uint32_t majority = 0;
+    std::size_t most = 0, second = 0;
+    for (const auto& [t, inter] : o.pred_truth.at (p))
+      if (inter > most)
+      {
+        second = most;
+        most = inter;
+        majority = t;
+      }
+      else
+        second = std::max (second, inter);
+    if (majority)
+      ++segments_of[majority];
+    if (4 * second >= o.pred_size.at (p))
+      ++counts.under_segmented;
+  }
+  for (const auto& [t, n] : segments_of)
+  {
+    counts.over_segmented += n >= 2 ? 1 : 0;
+    counts.extra_segments += n - 1;
+  }
   return result;
 }
 }  // namespace evaluation

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <numeric>
 #include <random>
@@ -24,6 +25,7 @@ DetectorErrorConfig::validate () const
   };
   probability (merge_probability, "--mask-merge");
   probability (miss_probability, "--mask-miss");
+  probability (split_probability, "--mask-split");
   if (!(false_positives >= 0.0 && false_positives <= 100.0))
     throw ParameterError ("--mask-false-positives", "must lie in [0, 100] per frame");
   if (std::abs (boundary_px) > 100)
@@ -45,14 +47,23 @@ SimulatedDetector::SimulatedDetector (const SyntheticScene& scene, const Detecto
     detectable_[o.id] = o.detectable;
 }
 
+namespace
+{
+/** \brief A uniform draw in [0, 1) from (seed, key): the same for the same arguments. */
+double
+hashedUniform (std::uint64_t seed, std::uint64_t key)
+{
+  return static_cast<double> (mixSeed (seed, key) >> 11) * 0x1.0p-53;
+}
+}  // namespace
+
 bool
-SimulatedDetector::mergesPair (std::uint16_t a, std::uint16_t b) const
+SimulatedDetector::mergesPair (std::uint16_t a, std::uint16_t b, std::size_t frame_index) const
 {
   if (config_.merge_probability <= 0.0)
     return false;
-  const std::uint64_t key = (static_cast<std::uint64_t> (std::min (a, b)) << 16) | std::max (a, b);
-  const double u = static_cast<double> (mixSeed (seed_ ^ 0x6d65726765ULL, key) >> 11) * 0x1.0p-53;
-  return u < config_.merge_probability;
+  const std::uint64_t key = (static_cast<std::uint64_t> (frame_index) << 32) | (static_cast<std::uint64_t> (std::min (a, b)) << 16) | std::max (a, b);
+  return hashedUniform (seed_ ^ 0x6d65726765ULL, key) < config_.merge_probability;
 }
 
 namespace
@@ -119,7 +130,7 @@ SimulatedDetector::detect (const cv::Mat& truth, std::size_t frame_index) const
         }
       }
     for (const auto& [a, b] : touching)
-      if (mergesPair (a, b))
+      if (mergesPair (a, b, frame_index))
         parent[findRoot (parent, a)] = findRoot (parent, b);
   }
   std::map<std::uint16_t, std::vector<std::uint16_t>> groups;
@@ -164,6 +175,28 @@ SimulatedDetector::detect (const cv::Mat& truth, std::size_t frame_index) const
     c.detection.class_name = o->class_name;
     c.detection.score = static_cast<float> (config_.min_score + (config_.max_score - config_.min_score) * score_draw);
     c.detection.gt_instances = members;
+    // A split: the mask cut in two by a line through its centre at a random angle, each
+    // half its own detection (hashed draws: the stream above is not shifted).
+    const std::uint64_t split_key = (static_cast<std::uint64_t> (frame_index) << 16) | root;
+    if (config_.split_probability > 0.0 && hashedUniform (seed_ ^ 0x73706c6974ULL, split_key) < config_.split_probability)
+    {
+      const cv::Moments m = cv::moments (mask, true);
+      const double angle = 2.0 * M_PI * hashedUniform (seed_ ^ 0x616e676c65ULL, split_key);
+      const double cx = m.m10 / m.m00, cy = m.m01 / m.m00, nx = std::cos (angle), ny = std::sin (angle);
+      Candidate other = c;
+      // A new buffer: assigning Mat::zeros to a header would zero the buffer c shares.
+      other.mask = cv::Mat (mask.size (), CV_8U, cv::Scalar (0));
+      for (int v = 0; v < mask.rows; ++v)
+        for (int u = 0; u < mask.cols; ++u)
+          if (mask.at<std::uint8_t> (v, u) && (u - cx) * nx + (v - cy) * ny > 0.0)
+          {
+            other.mask.at<std::uint8_t> (v, u) = 255;
+            c.mask.at<std::uint8_t> (v, u) = 0;
+          }
+      other.detection.score = static_cast<float> (config_.min_score + (config_.max_score - config_.min_score) *
+                                                  hashedUniform (seed_ ^ 0x73636f7265ULL, split_key));
+      candidates.push_back (other);
+    }
     candidates.push_back (c);
   }
 

@@ -87,6 +87,7 @@ PipelineFrameReport
 FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* instances)
 {
   PipelineFrameReport report;
+  ++processed_;
   report.reconstruction = reconstruction_.process (frame);
   if (!report.reconstruction.tracked)
     return report;
@@ -119,7 +120,9 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   if (config_.mode == SegmentationMode::Geometry || (config_.mode == SegmentationMode::Fused && !instances))
     frame_segments = geometry_.getLabelImage ();
   else if (config_.mode == SegmentationMode::Fused)
-    instance_merge_.merge (geometry_.getLabelImage (), *instances, frame_segments, &info);
+    // Pieces: geometry cut where the masks see two objects; which pieces form one object
+    // is the map's decision over frames (the masks' grouping goes in as evidence).
+    instance_merge_.split (geometry_.getLabelImage (), *instances, frame_segments, &info);
   else
     segmentation::masksAsSegments (instances ? *instances : std::vector<Instance> (), planes_, frame_segments, &info);
   report.segmentation.instances_ms = watch.getTime ();
@@ -136,9 +139,9 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   report.frame_segments = propagated.inherited + propagated.fresh;
   report.segmentation.propagation_ms = watch.getTime ();
 
-  // Merges confirmed over frames (§4.2.3), then the voxel labels (§4.2.4).
+  // Grouping from the evidence of all frames so far (§4.2.3), then the voxel labels (§4.2.4).
   watch.reset ();
-  report.merges = map_.updateMerges (propagated.candidates).size ();
+  report.merges = map_.addEvidence (propagated.votes);
   report.segmentation.merging_ms = watch.getTime ();
   watch.reset ();
   report.voxel_writes = segmentation::updateVoxelLabels (reconstruction_.volume (), propagated.labels, map_, config_.update);
@@ -146,11 +149,42 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   return report;
 }
 
+const std::unordered_map<std::uint32_t, std::uint32_t>&
+FusionPipeline::settledLabels () const
+{
+  if (settled_at_ != processed_)
+  {
+    settled_ = map_.settledLabels (reconstruction_.volume ());
+    settled_at_ = processed_;
+  }
+  return settled_;
+}
+
+namespace
+{
+std::uint32_t
+lookup (const std::unordered_map<std::uint32_t, std::uint32_t>& settled, std::uint32_t label)
+{
+  const auto it = settled.find (label);
+  return it == settled.end () ? 0 : it->second;
+}
+}  // namespace
+
 cv::Mat
 FusionPipeline::modelLabels () const
 {
   const cv::Mat& labels = reconstruction_.model ().labels;
-  return labels.empty () ? cv::Mat () : segmentation::resolveLabels (labels, map_);
+  if (labels.empty ())
+    return cv::Mat ();
+  const auto& settled = settledLabels ();
+  cv::Mat out (labels.size (), CV_32S);
+  for (int y = 0; y < labels.rows; ++y)
+    for (int x = 0; x < labels.cols; ++x)
+    {
+      const std::int32_t l = labels.at<std::int32_t> (y, x);
+      out.at<std::int32_t> (y, x) = l > 0 ? static_cast<std::int32_t> (lookup (settled, static_cast<std::uint32_t> (l))) : 0;
+    }
+  return out;
 }
 
 pcl::PointCloud<pcl::PointXYZRGBL>::Ptr
@@ -158,8 +192,9 @@ FusionPipeline::labelledCloud () const
 {
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZRGBL>);
   reconstruction_.volume ().extractPointCloud (*cloud);
+  const auto& settled = settledLabels ();
   for (auto& p : cloud->points)
-    p.label = map_.resolve (p.label);
+    p.label = lookup (settled, p.label);
   return cloud;
 }
 
@@ -177,13 +212,14 @@ FusionPipeline::labelledMesh (bool color_by_segment) const
   }
   if (label_offset < 0)
     return mesh;
+  const auto& settled = settledLabels ();
   const std::size_t points = static_cast<std::size_t> (mesh.cloud.width) * mesh.cloud.height;
   for (std::size_t i = 0; i < points; ++i)
   {
     std::uint8_t* point = mesh.cloud.data.data () + i * mesh.cloud.point_step;
     std::uint32_t label;
     std::memcpy (&label, point + label_offset, sizeof label);
-    label = map_.resolve (label);
+    label = lookup (settled, label);
     std::memcpy (point + label_offset, &label, sizeof label);
     if (color_by_segment && color_offset >= 0)
     {
@@ -199,7 +235,7 @@ std::vector<segmentation::SegmentRecord>
 FusionPipeline::segments ()
 {
   map_.refreshStatistics (reconstruction_.volume ());
-  std::vector<segmentation::SegmentRecord> all = map_.segments (), kept;
+  std::vector<segmentation::SegmentRecord> all = map_.segments (&settledLabels ()), kept;
   for (auto& s : all)
     if (s.voxels > 0)
       kept.push_back (std::move (s));

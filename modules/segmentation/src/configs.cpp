@@ -27,6 +27,8 @@ ConcavityEdgeConfig::validate () const
   require (std::isfinite (threshold) && threshold > -1.f && threshold <= 1.f, "--concavity-threshold",
            "must lie in (-1, 1] (it compares a cosine)");
   require (neighbour_step >= 1 && neighbour_step <= 16, "--concavity-step", "must be 1..16 pixels");
+  require (std::isfinite (noise_slope) && noise_slope >= 0.f && noise_slope <= 1000.f, "ConcavityEdgeConfig::noise_slope",
+           "must lie in [0, 1000]");
 }
 
 void

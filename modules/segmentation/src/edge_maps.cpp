@@ -109,12 +109,21 @@ edgeRow (const SurfacePlanes& planes, int y, int step, ConvexityTest test, float
   }
 }
 
-/** Φ < threshold. */
-void
-concavityEdgeRow (const float* phi, int w, float threshold, std::uint8_t* out)
+/** Φ < the threshold at each pixel's depth: the configured one, lowered where the
+  * normals' noise exceeds it (ConcavityEdgeConfig::noise_slope): with θ = s·σ_z(z)/z,
+  * 1 − θ²/2 (the cosine to second order, so the loop vectorises).
+  */
+__attribute__ ((target_clones ("avx2", "default"))) void
+concavityEdgeRow (const float* __restrict phi, const float* __restrict z, int w, float threshold, float noise_slope,
+                  std::uint8_t* __restrict out)
 {
   for (int x = 0; x < w; ++x)
-    out[x] = phi[x] < threshold ? 1 : 0;  // NaN compares false: no edge
+  {
+    const float dz = z[x] - 0.4f;  // σ_z at normal incidence (axialNoiseLowerBound)
+    const float theta = noise_slope * (0.0012f + 0.0019f * dz * dz) / z[x];
+    const float t = std::min (threshold, 1.f - 0.5f * theta * theta);
+    out[x] = phi[x] < t ? 1 : 0;  // NaN compares false: no edge
+  }
 }
 
 /** Γ > k·σ_d, +inf always, NaN never. */
@@ -229,10 +238,13 @@ computeDiscontinuityMap (const SurfacePlanes& planes, int step, cv::Mat& gamma)
 }
 
 void
-concavityEdges (const cv::Mat& phi, float threshold, cv::Mat& edges)
+concavityEdges (const SurfacePlanes& planes, const cv::Mat& phi, const ConcavityEdgeConfig& config, cv::Mat& edges)
 {
   edges.create (phi.size (), CV_8U);
-  parallelFor (phi.rows, [&] (int y) { concavityEdgeRow (phi.ptr<float> (y), phi.cols, threshold, edges.ptr<std::uint8_t> (y)); });
+  parallelFor (phi.rows, [&] (int y) {
+    concavityEdgeRow (phi.ptr<float> (y), planes.z.data () + static_cast<std::size_t> (y) * planes.width, phi.cols,
+                      config.threshold, config.noise_slope, edges.ptr<std::uint8_t> (y));
+  });
 }
 
 void
@@ -245,8 +257,8 @@ discontinuityEdges (const SurfacePlanes& planes, const cv::Mat& gamma, float k, 
 }
 
 void
-computeEdgeMasks (const SurfacePlanes& planes, int step, ConvexityTest test, float concavity_threshold, float noise_factor,
-                  cv::Mat& concave, cv::Mat& depth_edges)
+computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeConfig& concavity, float noise_factor, cv::Mat& concave,
+                  cv::Mat& depth_edges)
 {
   concave.create (planes.height, planes.width, CV_8U);
   depth_edges.create (planes.height, planes.width, CV_8U);
@@ -254,8 +266,9 @@ computeEdgeMasks (const SurfacePlanes& planes, int step, ConvexityTest test, flo
     std::vector<float> phi (static_cast<std::size_t> (planes.width)), gamma (phi.size ());
     for (int y = rows.start; y < rows.end; ++y)
     {
-      edgeRow<kPhi | kGamma> (planes, y, step, test, phi.data (), gamma.data ());
-      concavityEdgeRow (phi.data (), planes.width, concavity_threshold, concave.ptr<std::uint8_t> (y));
+      edgeRow<kPhi | kGamma> (planes, y, concavity.neighbour_step, concavity.convexity_test, phi.data (), gamma.data ());
+      concavityEdgeRow (phi.data (), planes.z.data () + static_cast<std::size_t> (y) * planes.width, planes.width,
+                        concavity.threshold, concavity.noise_slope, concave.ptr<std::uint8_t> (y));
       discontinuityEdgeRow (planes, y, gamma.data (), noise_factor, depth_edges.ptr<std::uint8_t> (y));
     }
   });

@@ -27,10 +27,12 @@ LabelEquivalence::compact ()
 std::uint32_t
 LabelEquivalence::unite (std::uint32_t a, std::uint32_t b)
 {
-  const std::uint32_t ra = find (a), rb = find (b);
+  std::uint32_t ra = find (a), rb = find (b);
   if (ra == rb || ra == 0 || rb == 0)
     return ra;
-  const std::size_t needed = static_cast<std::size_t> (std::max (ra, rb)) + 1;
+  if (rb < ra)
+    std::swap (ra, rb);
+  const std::size_t needed = static_cast<std::size_t> (rb) + 1;
   for (std::size_t i = parent_.size (); i < needed; ++i)
     parent_.push_back (static_cast<std::uint32_t> (i));
   parent_[rb] = ra;
@@ -40,60 +42,47 @@ LabelEquivalence::unite (std::uint32_t a, std::uint32_t b)
 void
 SegmentMergingConfig::validate () const
 {
-  if (!(candidate_overlap >= 0.f && candidate_overlap < 1.f))
-    throw ParameterError ("--merge-overlap", "must lie in [0, 1)");
   if (confirm_confidence < 1 || confirm_confidence > 1000)
-    throw ParameterError ("--merge-confidence", "must lie in [1, 1000]");
+    throw ParameterError ("SegmentMergingConfig::confirm_confidence", "must lie in [1, 1000]");
+  if (!(together_share >= 0.f && together_share < 1.f))
+    throw ParameterError ("SegmentMergingConfig::together_share", "must lie in [0, 1)");
 }
 
-MergeConfidence::MergeConfidence (const SegmentMergingConfig& config) : config_ (config) { config_.validate (); }
-
-std::vector<std::pair<std::uint32_t, std::uint32_t>>
-MergeConfidence::update (std::vector<std::pair<std::uint32_t, std::uint32_t>> seen)
-{
-  for (auto& p : seen)
-    if (p.first > p.second)
-      std::swap (p.first, p.second);
-  std::sort (seen.begin (), seen.end ());
-  seen.erase (std::unique (seen.begin (), seen.end ()), seen.end ());
-  // −1 for every tracked pair not seen this frame, forgotten at 0.
-  for (auto it = confidence_.begin (); it != confidence_.end ();)
-    if (!std::binary_search (seen.begin (), seen.end (), it->first) && --it->second <= 0)
-      it = confidence_.erase (it);
-    else
-      ++it;
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> confirmed;
-  for (const auto& p : seen)
-    if (p.first != p.second && p.first != 0 && ++confidence_[p] >= config_.confirm_confidence)
-    {
-      confirmed.push_back (p);
-      confidence_.erase (p);
-    }
-  return confirmed;
-}
-
-int
-MergeConfidence::confidence (std::uint32_t a, std::uint32_t b) const
-{
-  const auto it = confidence_.find ({std::min (a, b), std::max (a, b)});
-  return it == confidence_.end () ? 0 : it->second;
-}
+PairEvidence::PairEvidence (const SegmentMergingConfig& config) : config_ (config) { config_.validate (); }
 
 void
-MergeConfidence::resolve (const LabelEquivalence& equivalence)
+PairEvidence::add (std::uint32_t a, std::uint32_t b, PairVote vote)
 {
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> resolved;
-  for (const auto& [pair, value] : confidence_)
-  {
-    std::uint32_t a = equivalence.find (pair.first), b = equivalence.find (pair.second);
-    if (a == b)
-      continue;
-    if (a > b)
-      std::swap (a, b);
-    int& slot = resolved[{a, b}];
-    slot = std::max (slot, value);
-  }
-  confidence_.swap (resolved);
+  if (a == b || a == 0 || b == 0)
+    return;
+  Counts& c = counts_[{std::min (a, b), std::max (a, b)}];
+  ++(vote == PairVote::Together ? c.together : c.apart);
+}
+
+PairEvidence::Counts
+PairEvidence::counts (std::uint32_t a, std::uint32_t b) const
+{
+  const auto it = counts_.find ({std::min (a, b), std::max (a, b)});
+  return it == counts_.end () ? Counts () : it->second;
+}
+
+bool
+PairEvidence::united (const Counts& c) const
+{
+  return c.together >= config_.confirm_confidence &&
+         static_cast<float> (c.together) > config_.together_share * static_cast<float> (c.together + c.apart);
+}
+
+bool
+PairEvidence::united (std::uint32_t a, std::uint32_t b) const
+{
+  return united (counts (a, b));
+}
+
+bool
+PairEvidence::tracked (std::uint32_t a, std::uint32_t b) const
+{
+  return counts_.count ({std::min (a, b), std::max (a, b)}) != 0;
 }
 
 std::string
@@ -117,33 +106,30 @@ SegmentRecord::bestScore () const
   return it == class_votes.end () || it->second.first == 0 ? 0.f : it->second.second / static_cast<float> (it->second.first);
 }
 
-GlobalSegmentMap::GlobalSegmentMap (const SegmentMergingConfig& merging) : confidences_ (merging) {}
-
-SegmentRecord&
-GlobalSegmentMap::recordOf (std::uint32_t root)
-{
-  SegmentRecord& record = records_[root];
-  record.id = root;
-  return record;
-}
+GlobalSegmentMap::GlobalSegmentMap (const SegmentMergingConfig& merging) : evidence_ (merging) {}
 
 std::uint32_t
 GlobalSegmentMap::newSegment (std::size_t frame)
 {
   const std::uint32_t label = next_label_++;
-  SegmentRecord& record = recordOf (label);
+  SegmentRecord& record = records_[label];
+  record.id = label;
   record.first_frame = record.last_frame = frame;
+  latest_frame_ = std::max (latest_frame_, frame);
   return label;
 }
 
 void
 GlobalSegmentMap::observe (std::uint32_t label, std::size_t frame, const SegmentInstance* info)
 {
-  const std::uint32_t root = resolve (label);
-  if (root == 0)
+  const auto it = records_.find (label);
+  if (it == records_.end ())
     return;
-  SegmentRecord& record = recordOf (root);
+  SegmentRecord& record = it->second;
+  if (record.frames_seen == 0 || frame != record.last_frame)
+    ++record.frames_seen;
   record.last_frame = std::max (record.last_frame, frame);
+  latest_frame_ = std::max (latest_frame_, frame);
   if (info && info->instance >= 0 && !info->class_name.empty ())
   {
     auto& vote = record.class_votes[info->class_name];
@@ -152,50 +138,55 @@ GlobalSegmentMap::observe (std::uint32_t label, std::size_t frame, const Segment
   }
 }
 
+void
+GlobalSegmentMap::regroup ()
+{
+  equivalence_.clear ();
+  for (const auto& [pair, counts] : evidence_.pairs ())
+    if (evidence_.united (counts))
+      equivalence_.unite (pair.first, pair.second);
+  for (const auto& [a, b] : pinned_)
+    equivalence_.unite (a, b);
+  equivalence_.compact ();
+}
+
+std::size_t
+GlobalSegmentMap::addEvidence (const std::vector<std::tuple<std::uint32_t, std::uint32_t, PairVote>>& votes)
+{
+  if (votes.empty ())
+    return 0;
+  // Only labels in a pair that changed its verdict can change their root.
+  std::vector<std::uint32_t> touched;
+  for (const auto& [a, b, vote] : votes)
+  {
+    const bool before = evidence_.united (a, b);
+    evidence_.add (a, b, vote);
+    if (evidence_.united (a, b) != before)
+    {
+      touched.push_back (a);
+      touched.push_back (b);
+    }
+  }
+  if (touched.empty ())
+    return 0;
+  std::vector<std::uint32_t> roots_before (next_label_);
+  for (std::uint32_t l = 0; l < next_label_; ++l)
+    roots_before[l] = resolve (l);
+  regroup ();
+  std::size_t changed = 0;
+  for (std::uint32_t l = 1; l < next_label_; ++l)
+    changed += resolve (l) != roots_before[l] ? 1 : 0;
+  return changed;
+}
+
 std::uint32_t
 GlobalSegmentMap::merge (std::uint32_t a, std::uint32_t b)
 {
-  const std::uint32_t ra = resolve (a), rb = resolve (b);
-  if (ra == rb || ra == 0 || rb == 0)
-    return ra;
-  // The older (smaller) label survives, so a segment keeps its first id.
-  const std::uint32_t keep = std::min (ra, rb), gone = std::max (ra, rb);
-  equivalence_.unite (keep, gone);
-  SegmentRecord& target = recordOf (keep);
-  const auto it = records_.find (gone);
-  if (it != records_.end ())
-  {
-    const SegmentRecord& source = it->second;
-    target.first_frame = std::min (target.first_frame, source.first_frame);
-    target.last_frame = std::max (target.last_frame, source.last_frame);
-    for (const auto& [name, vote] : source.class_votes)
-    {
-      auto& v = target.class_votes[name];
-      v.first += vote.first;
-      v.second += vote.second;
-    }
-    target.voxels += source.voxels;
-    target.bounds.extend (source.bounds);
-    records_.erase (it);
-  }
-  return keep;
-}
-
-std::vector<std::pair<std::uint32_t, std::uint32_t>>
-GlobalSegmentMap::updateMerges (const std::vector<std::pair<std::uint32_t, std::uint32_t>>& candidates)
-{
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> resolved;
-  for (const auto& [a, b] : candidates)
-    resolved.emplace_back (resolve (a), resolve (b));
-  const auto confirmed = confidences_.update (resolved);
-  for (const auto& [a, b] : confirmed)
-    merge (a, b);
-  if (!confirmed.empty ())
-  {
-    equivalence_.compact ();
-    confidences_.resolve (equivalence_);
-  }
-  return confirmed;
+  if (a == 0 || b == 0)
+    return resolve (a);
+  pinned_.emplace_back (a, b);
+  regroup ();
+  return resolve (a);
 }
 
 void
@@ -216,7 +207,7 @@ GlobalSegmentMap::refreshStatistics (const reconstruction::TSDFVolume& volume)
             block->voxels[static_cast<std::size_t> (reconstruction::localVoxelIndex (x, y, z))];
           if (voxel.weight <= 0.f || voxel.label == 0)
             continue;
-          const auto it = records_.find (resolve (voxel.label));
+          const auto it = records_.find (voxel.label);
           if (it == records_.end ())
             continue;
           ++it->second.voxels;
@@ -224,20 +215,136 @@ GlobalSegmentMap::refreshStatistics (const reconstruction::TSDFVolume& volume)
         }
 }
 
-std::vector<SegmentRecord>
-GlobalSegmentMap::segments () const
+namespace
 {
-  std::vector<SegmentRecord> out;
+/** \brief \a source's frames, class votes, voxels and bounds added to \a target. */
+void
+combine (SegmentRecord& target, const SegmentRecord& source)
+{
+  target.first_frame = std::min (target.first_frame, source.first_frame);
+  target.last_frame = std::max (target.last_frame, source.last_frame);
+  target.frames_seen = std::max (target.frames_seen, source.frames_seen);
+  for (const auto& [name, vote] : source.class_votes)
+  {
+    auto& v = target.class_votes[name];
+    v.first += vote.first;
+    v.second += vote.second;
+  }
+  target.voxels += source.voxels;
+  target.bounds.extend (source.bounds);
+}
+}  // namespace
+
+std::vector<SegmentRecord>
+GlobalSegmentMap::segments (const std::unordered_map<std::uint32_t, std::uint32_t>* settled) const
+{
+  std::map<std::uint32_t, SegmentRecord> objects;  // by the object's label
   for (const auto& [label, record] : records_)
-    out.push_back (record);
+  {
+    std::uint32_t target = resolve (label);
+    if (settled)
+    {
+      const auto it = settled->find (label);
+      target = it == settled->end () ? 0 : it->second;
+      if (target == 0)
+        continue;
+    }
+    const auto it = objects.find (target);
+    if (it == objects.end ())
+    {
+      SegmentRecord& r = objects[target];
+      r = record;
+      r.id = target;
+    }
+    else
+      combine (it->second, record);
+  }
+  std::vector<SegmentRecord> out;
+  for (auto& [id, record] : objects)
+    out.push_back (std::move (record));
   return out;
 }
 
-const SegmentRecord*
+std::unordered_map<std::uint32_t, std::uint32_t>
+GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
+{
+  // Objects and how often they were seen (the most any of their labels was).
+  const auto confirm = static_cast<std::size_t> (evidence_.config ().confirm_confidence);
+  std::unordered_map<std::uint32_t, bool> kept;  // object → confirmed or still being seen
+  for (const auto& [label, record] : records_)
+  {
+    bool& k = kept[resolve (label)];
+    k = k || record.frames_seen >= confirm || latest_frame_ - record.last_frame < confirm;
+  }
+  std::unordered_map<std::uint32_t, std::uint32_t> target;  // object → what it shows as (fragments: once settled)
+  for (const auto& [object, keep] : kept)
+    if (keep)
+      target[object] = object;
+  // Fragments take the settled object their voxels touch most; rounds follow chains of
+  // fragments (a fragment touching only another fragment settles once that one has).
+  constexpr int kRounds = 4;
+  const Eigen::Vector3i steps[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (int round = 0; round < kRounds; ++round)
+  {
+    std::map<std::uint32_t, std::map<std::uint32_t, std::size_t>> contacts;  // fragment → settled object → voxel faces
+    for (const auto& block : volume.blocks ())
+      for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
+      {
+        const reconstruction::TsdfVoxel& voxel = block->voxels[static_cast<std::size_t> (i)];
+        if (voxel.weight <= 0.f || voxel.label == 0)
+          continue;
+        const std::uint32_t object = resolve (voxel.label);
+        if (target.count (object))
+          continue;
+        const Eigen::Vector3i v = block->index * reconstruction::kBlockSide +
+                                  Eigen::Vector3i (i % reconstruction::kBlockSide, (i / reconstruction::kBlockSide) % reconstruction::kBlockSide,
+                                                   i / (reconstruction::kBlockSide * reconstruction::kBlockSide));
+        for (const Eigen::Vector3i& step : steps)
+        {
+          const reconstruction::TsdfVoxel* other = volume.findVoxel (v + step);
+          if (!other || other->weight <= 0.f || other->label == 0)
+            continue;
+          const auto settled = target.find (resolve (other->label));
+          if (settled != target.end () && settled->second != 0)
+            ++contacts[object][settled->second];
+        }
+      }
+    if (contacts.empty ())
+      break;
+    for (const auto& [fragment, counts] : contacts)
+      target[fragment] = std::max_element (counts.begin (), counts.end (), [] (const auto& a, const auto& b) {
+                           return a.second < b.second || (a.second == b.second && a.first > b.first);
+                         })->first;
+  }
+  std::unordered_map<std::uint32_t, std::uint32_t> out;
+  for (const auto& [label, record] : records_)
+  {
+    const auto it = target.find (resolve (label));
+    if (it != target.end () && it->second != 0)
+      out[label] = it->second;
+  }
+  return out;
+}
+
+std::optional<SegmentRecord>
 GlobalSegmentMap::record (std::uint32_t label) const
 {
-  const auto it = records_.find (resolve (label));
-  return it == records_.end () ? nullptr : &it->second;
+  if (records_.find (label) == records_.end ())
+    return std::nullopt;
+  const std::uint32_t root = resolve (label);
+  std::optional<SegmentRecord> out;
+  for (const auto& [l, r] : records_)
+    if (resolve (l) == root)
+    {
+      if (!out)
+      {
+        out = r;
+        out->id = root;
+      }
+      else
+        combine (*out, r);
+    }
+  return out;
 }
 }  // namespace segmentation
 }  // namespace cuefusion

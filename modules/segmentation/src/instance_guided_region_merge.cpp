@@ -14,7 +14,11 @@ void
 InstanceGuidedMergeConfig::validate () const
 {
   if (!(std::isfinite (min_overlap) && min_overlap >= 0.f && min_overlap < 1.f))
-    throw ParameterError ("--min-overlap", "must lie in [0, 1)");
+    throw ParameterError ("InstanceGuidedMergeConfig::min_overlap", "must lie in [0, 1)");
+  if (!(std::isfinite (split_share) && split_share > 0.f && split_share <= 0.5f))
+    throw ParameterError ("InstanceGuidedMergeConfig::split_share", "must lie in (0, 0.5]");
+  if (split_min_pixels < 1)
+    throw ParameterError ("InstanceGuidedMergeConfig::split_min_pixels", "must be at least 1");
 }
 
 InstanceGuidedRegionMerge::InstanceGuidedRegionMerge (const InstanceGuidedMergeConfig& config) { setConfig (config); }
@@ -26,36 +30,52 @@ InstanceGuidedRegionMerge::setConfig (const InstanceGuidedMergeConfig& config)
   config_ = config;
 }
 
-void
-InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
-                                  std::vector<SegmentInstance>* segments) const
+namespace
 {
-  if (geometric.type () != CV_32S || geometric.empty ())
-    throw Error ("InstanceGuidedRegionMerge", "L^G must be a non-empty CV_32S label image");
-  for (const Instance& instance : instances)
-    if (instance.mask.size () != geometric.size () || instance.mask.type () != CV_8U)
-      throw Error ("InstanceGuidedRegionMerge", "instance mask is not CV_8U of L^G's size " +
-                                                  std::to_string (geometric.cols) + "x" + std::to_string (geometric.rows));
-  const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
+/** \brief Per label of \a labels (CV_32S, 1..max): its pixel count and a short list of
+  * (instance id of \a ids, pixels) — a segment meets a handful of masks.
+  */
+struct SegmentOverlaps
+{
+  std::vector<int> size;
+  std::vector<std::vector<std::pair<int, int>>> overlap;
 
-  // |l_g| and |l_g ∩ l_s|: per geometric segment a short list of (instance id, pixels).
-  double max_label = 0.0;
-  cv::minMaxLoc (geometric, nullptr, &max_label);
-  const std::size_t labels = static_cast<std::size_t> (std::max (0.0, max_label)) + 1;
-  std::vector<int> size (labels, 0);
-  std::vector<std::vector<std::pair<int, int>>> overlap (labels);
-  for (int y = 0; y < geometric.rows; ++y)
+  /** \brief The instance id covering most of label \a l (the lower id on a tie), 0 if none. */
+  std::pair<int, int>
+  best (std::size_t l) const
   {
-    const std::int32_t* g = geometric.ptr<std::int32_t> (y);
+    int id = 0, count = 0;
+    for (const auto& [i, c] : overlap[l])
+      if (c > count || (c == count && i < id))
+      {
+        id = i;
+        count = c;
+      }
+    return {id, count};
+  }
+};
+
+SegmentOverlaps
+countOverlaps (const cv::Mat& labels, const cv::Mat& ids)
+{
+  double max_label = 0.0;
+  cv::minMaxLoc (labels, nullptr, &max_label);
+  const std::size_t n = static_cast<std::size_t> (std::max (0.0, max_label)) + 1;
+  SegmentOverlaps out;
+  out.size.assign (n, 0);
+  out.overlap.resize (n);
+  for (int y = 0; y < labels.rows; ++y)
+  {
+    const std::int32_t* g = labels.ptr<std::int32_t> (y);
     const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
-    for (int x = 0; x < geometric.cols; ++x)
+    for (int x = 0; x < labels.cols; ++x)
     {
       if (g[x] <= 0)
         continue;
-      ++size[static_cast<std::size_t> (g[x])];
+      ++out.size[static_cast<std::size_t> (g[x])];
       if (s[x] == 0)
         continue;
-      auto& list = overlap[static_cast<std::size_t> (g[x])];
+      auto& list = out.overlap[static_cast<std::size_t> (g[x])];
       auto it = std::find_if (list.begin (), list.end (), [&] (const std::pair<int, int>& e) { return e.first == s[x]; });
       if (it == list.end ())
         list.emplace_back (s[x], 1);
@@ -63,67 +83,196 @@ InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<In
         ++it->second;
     }
   }
-  // Best instance per geometric segment (the lower id on a tie); joined when α > min.
-  std::vector<int> joined (labels, 0);  // instance id, 0 = stays geometric
+  return out;
+}
+
+void
+checkInputs (const cv::Mat& geometric, const std::vector<Instance>& instances)
+{
+  if (geometric.type () != CV_32S || geometric.empty ())
+    throw Error ("InstanceGuidedRegionMerge", "L^G must be a non-empty CV_32S label image");
+  for (const Instance& instance : instances)
+    if (instance.mask.size () != geometric.size () || instance.mask.type () != CV_8U)
+      throw Error ("InstanceGuidedRegionMerge", "instance mask is not CV_8U of L^G's size " +
+                                                  std::to_string (geometric.cols) + "x" + std::to_string (geometric.rows));
+}
+
+SegmentInstance
+describe (const std::vector<Instance>& instances, int id)
+{
+  SegmentInstance info;
+  if (id > 0)
+  {
+    const Instance& source = instances[static_cast<std::size_t> (id - 1)];
+    info.instance = id - 1;
+    info.class_id = source.class_id;
+    info.class_name = source.class_name;
+    info.score = source.score;
+  }
+  return info;
+}
+}  // namespace
+
+void
+InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
+                                  std::vector<SegmentInstance>* segments) const
+{
+  checkInputs (geometric, instances);
+  const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
+  const SegmentOverlaps overlaps = countOverlaps (geometric, ids);
+  const std::size_t labels = overlaps.size.size ();
+
+  // The instances that each hold a substantial part of a segment; two or more cut it.
+  std::vector<std::vector<std::pair<int, int>>> parts (labels);
+  bool any_split = false;
   for (std::size_t g = 1; g < labels; ++g)
   {
-    int best = 0, best_count = 0;
-    for (const auto& [id, count] : overlap[g])
-      if (count > best_count || (count == best_count && id < best))
-      {
-        best = id;
-        best_count = count;
-      }
-    if (best && static_cast<float> (best_count) > config_.min_overlap * static_cast<float> (size[g]))
-      joined[g] = best;
+    const float needed = std::max (static_cast<float> (config_.split_min_pixels), config_.split_share * static_cast<float> (overlaps.size[g]));
+    for (const auto& [id, count] : overlaps.overlap[g])
+      if (static_cast<float> (count) >= needed)
+        parts[g].emplace_back (id, count);
+    if (parts[g].size () < 2)
+      parts[g].clear ();
+    any_split = any_split || !parts[g].empty ();
   }
 
-  // Output labels in raster order of first pixels; keys: instance id (joined) or −g.
-  fused.create (geometric.size (), CV_32S);
-  std::map<int, std::int32_t> output;
-  if (segments)
-    segments->assign (1, SegmentInstance ());
+  // part: the instance id whose piece a pixel of a cut segment joins (0: segment whole).
+  const int cols = geometric.cols;
+  cv::Mat part (geometric.size (), CV_32S, cv::Scalar (0));
+  if (any_split)
+  {
+    std::vector<int> queue;
+    for (int y = 0; y < geometric.rows; ++y)
+    {
+      const std::int32_t* g = geometric.ptr<std::int32_t> (y);
+      const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
+      std::int32_t* p = part.ptr<std::int32_t> (y);
+      for (int x = 0; x < cols; ++x)
+      {
+        if (g[x] <= 0 || parts[static_cast<std::size_t> (g[x])].empty ())
+          continue;
+        const auto& list = parts[static_cast<std::size_t> (g[x])];
+        const bool owned = s[x] && std::any_of (list.begin (), list.end (), [&] (const std::pair<int, int>& e) { return e.first == s[x]; });
+        p[x] = owned ? s[x] : -1;
+        if (owned)
+          queue.push_back (y * cols + x);
+      }
+    }
+    // Pixels of a cut segment that no qualifying mask holds join the nearest piece
+    // (breadth-first, 4-connected, inside the segment); any left unreached join the
+    // largest piece.
+    auto* p = part.ptr<std::int32_t> ();
+    const auto* g = geometric.ptr<std::int32_t> ();
+    for (std::size_t k = 0; k < queue.size (); ++k)
+    {
+      const int i = queue[k], x = i % cols, y = i / cols;
+      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < geometric.rows ? i + cols : -1})
+        if (j >= 0 && p[j] == -1 && g[j] == g[i])
+        {
+          p[j] = p[i];
+          queue.push_back (j);
+        }
+    }
+    const int total = geometric.rows * cols;
+    for (int i = 0; i < total; ++i)
+      if (p[i] == -1)
+      {
+        const auto& list = parts[static_cast<std::size_t> (g[i])];
+        p[i] = std::max_element (list.begin (), list.end (), [] (const auto& a, const auto& b) { return a.second < b.second; })->first;
+      }
+  }
+
+  // Pieces numbered in raster order of their first pixel.
+  pieces.create (geometric.size (), CV_32S);
+  std::map<std::pair<int, int>, std::int32_t> numbering;
   for (int y = 0; y < geometric.rows; ++y)
   {
     const std::int32_t* g = geometric.ptr<std::int32_t> (y);
-    std::int32_t* out = fused.ptr<std::int32_t> (y);
-    for (int x = 0; x < geometric.cols; ++x)
+    const std::int32_t* p = part.ptr<std::int32_t> (y);
+    std::int32_t* out = pieces.ptr<std::int32_t> (y);
+    for (int x = 0; x < cols; ++x)
     {
       if (g[x] <= 0)
       {
         out[x] = 0;
         continue;
       }
-      const int instance = joined[static_cast<std::size_t> (g[x])];
-      const int key = instance ? instance : -g[x];
+      out[x] = numbering.emplace (std::make_pair (g[x], p[x]), static_cast<std::int32_t> (numbering.size () + 1)).first->second;
+    }
+  }
+  if (!segments)
+    return;
+  const SegmentOverlaps covered = countOverlaps (pieces, ids);
+  segments->assign (numbering.size () + 1, SegmentInstance ());
+  for (std::size_t l = 1; l < covered.size.size (); ++l)
+  {
+    const auto [id, count] = covered.best (l);
+    const float coverage = covered.size[l] > 0 ? static_cast<float> (count) / static_cast<float> (covered.size[l]) : 0.f;
+    SegmentInstance& info = (*segments)[l];
+    if (id && coverage > config_.min_overlap)
+      info = describe (instances, id);
+    info.coverage = coverage;
+    info.geometric_segments = 1;
+  }
+}
+
+void
+InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
+                                  std::vector<SegmentInstance>* segments) const
+{
+  // Cut where the masks see two objects, then unite the pieces each instance covers.
+  cv::Mat pieces;
+  std::vector<SegmentInstance> piece_info;
+  split (geometric, instances, pieces, &piece_info);
+
+  // Output labels in raster order of first pixels; keys: instance id + 1 (joined) or −piece.
+  fused.create (geometric.size (), CV_32S);
+  std::map<int, std::int32_t> output;
+  std::vector<int> size, covered;
+  if (segments)
+    segments->assign (1, SegmentInstance ());
+  for (int y = 0; y < pieces.rows; ++y)
+  {
+    const std::int32_t* g = pieces.ptr<std::int32_t> (y);
+    std::int32_t* out = fused.ptr<std::int32_t> (y);
+    for (int x = 0; x < pieces.cols; ++x)
+    {
+      if (g[x] <= 0)
+      {
+        out[x] = 0;
+        continue;
+      }
+      const int instance = piece_info[static_cast<std::size_t> (g[x])].instance;
+      const int key = instance >= 0 ? instance + 1 : -g[x];
       auto it = output.find (key);
       if (it == output.end ())
       {
         it = output.emplace (key, static_cast<std::int32_t> (output.size () + 1)).first;
         if (segments)
-        {
-          SegmentInstance info;
-          if (instance)
-          {
-            const Instance& source = instances[static_cast<std::size_t> (instance - 1)];
-            info.instance = instance - 1;
-            info.class_id = source.class_id;
-            info.class_name = source.class_name;
-            info.score = source.score;
-          }
-          segments->push_back (info);
-        }
+          segments->push_back (describe (instances, instance >= 0 ? instance + 1 : 0));
       }
       out[x] = it->second;
     }
   }
-  if (segments)
-    for (std::size_t g = 1; g < labels; ++g)
-      if (size[g] > 0)
-      {
-        const int key = joined[g] ? joined[g] : -static_cast<int> (g);
-        ++(*segments)[static_cast<std::size_t> (output.at (key))].geometric_segments;
-      }
+  if (!segments)
+    return;
+  // Per output segment: how many pieces it unites (each piece lies in one segment of L^G)
+  // and the share of it its instance covers.
+  std::vector<float> pixels (segments->size (), 0.f), under (segments->size (), 0.f);
+  const SegmentOverlaps overlaps = countOverlaps (pieces, instancesToIdImage (instances, geometric.size ()));
+  for (std::size_t l = 1; l < piece_info.size (); ++l)
+  {
+    if (overlaps.size[l] == 0)
+      continue;
+    const int instance = piece_info[l].instance;
+    const std::size_t target = static_cast<std::size_t> (output.at (instance >= 0 ? instance + 1 : -static_cast<int> (l)));
+    SegmentInstance& info = (*segments)[target];
+    ++info.geometric_segments;
+    pixels[target] += static_cast<float> (overlaps.size[l]);
+    under[target] += piece_info[l].coverage * static_cast<float> (overlaps.size[l]);
+  }
+  for (std::size_t l = 1; l < segments->size (); ++l)
+    (*segments)[l].coverage = pixels[l] > 0.f ? under[l] / pixels[l] : 0.f;
 }
 
 void

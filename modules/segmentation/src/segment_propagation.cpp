@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <map>
+#include <set>
 
 
 namespace cuefusion
@@ -117,6 +119,18 @@ agreeingPixels8 (const float* v, const float* n, const float* vm, const float* n
 }
 #endif
 
+/** \brief L^p: every pixel of frame segment j gets the label given to j. */
+void
+finishLabels (const cv::Mat& frame_labels, const std::vector<std::uint32_t>& given, PropagationResult& result)
+{
+  result.labels.create (frame_labels.size (), CV_32S);
+  parallelFor (frame_labels.rows, [&] (int y) {
+    const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
+    std::int32_t* out = result.labels.ptr<std::int32_t> (y);
+    for (int x = 0; x < frame_labels.cols; ++x)
+      out[x] = lj[x] > 0 ? static_cast<std::int32_t> (given[static_cast<std::size_t> (lj[x])]) : 0;
+  });
+}
 }  // namespace
 
 void
@@ -124,8 +138,12 @@ SegmentPropagationConfig::validate () const
 {
   if (!(normal_agreement >= -1.f && normal_agreement <= 1.f))
     throw ParameterError ("--propagation-normal", "must lie in [-1, 1]");
-  if (!(inherit_overlap >= 0.f && inherit_overlap < 1.f) || !(candidate_overlap >= 0.f && candidate_overlap < 1.f))
-    throw ParameterError ("--propagation-overlap", "must lie in [0, 1)");
+  if (!(inherit_overlap >= 0.f && inherit_overlap < 1.f))
+    throw ParameterError ("SegmentPropagationConfig::inherit_overlap", "must lie in [0, 1)");
+  if (!(placement_share >= 0.5f && placement_share < 1.f))
+    throw ParameterError ("SegmentPropagationConfig::placement_share", "must lie in [0.5, 1)");
+  if (!(uncovered_overlap >= 0.f && uncovered_overlap < 1.f))
+    throw ParameterError ("SegmentPropagationConfig::uncovered_overlap", "must lie in [0, 1)");
   if (!(noise_factor > 0.f && std::isfinite (noise_factor)))
     throw ParameterError ("--propagation-noise-factor", "must be positive");
   if (min_segment_size < 1)
@@ -189,7 +207,7 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
         if (model != last_model)
         {
           last_model = model;
-          last_global = map.resolve (model);
+          last_global = model;  // labels as allocated: objects are groups of them
         }
         addOverlap (overlaps[static_cast<std::size_t> (lj[x])], last_global, 1);
       };
@@ -239,56 +257,179 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
         addOverlap (by_frame_label[j], global, count);
     }
 
-  // §4.2.2.4: inherit, fresh label, or drop; candidates of §4.2.3.
+  // What the masks say of each frame segment: claimed by instance k (k ≥ 0), left out
+  // (kLeftOut), or nothing (kUnsure: unsure, or no masks at all).
+  constexpr int kUnsure = -1, kLeftOut = -2;
+  std::vector<int> identity (labels, kUnsure);
+  if (segments)
+    for (std::size_t j = 1; j < labels && j < segments->size (); ++j)
+    {
+      const SegmentInstance& info = (*segments)[j];
+      identity[j] = info.instance >= 0 ? info.instance : (info.coverage < config_.uncovered_overlap ? kLeftOut : kUnsure);
+    }
+
+  // §4.2.2.4: each segment's best model label (inherit), none (fresh), or drop.
   result = PropagationResult ();
   std::vector<std::uint32_t> given (labels, 0);
+  std::vector<std::uint32_t> wanted (labels, 0);
   for (std::size_t j = 1; j < labels; ++j)
   {
     const int count = frame_count[j];
     if (count == 0)
       continue;
-    std::uint32_t label = 0;
     if (count < config_.min_segment_size)
+    {
       ++result.dropped;
+      continue;
+    }
+    auto& list = by_frame_label[j];
+    std::sort (list.begin (), list.end ());
+    int best_count = 0;
+    for (const auto& [li, c] : list)
+      if (c > best_count)
+      {
+        wanted[j] = li;
+        best_count = c;
+      }
+    if (!(static_cast<float> (best_count) > config_.inherit_overlap * static_cast<float> (count)))
+      wanted[j] = 0;
+  }
+  // Segments the masks set apart do not share a label: per wanted label, the identity
+  // with the largest Π keeps it (unsure segments side with anyone).
+  std::map<std::uint32_t, std::map<int, int>> claims;  // label → identity → Π
+  for (std::size_t j = 1; j < labels; ++j)
+    if (wanted[j] && identity[j] != kUnsure)
+      for (const auto& [li, c] : by_frame_label[j])
+        if (li == wanted[j])
+          claims[wanted[j]][identity[j]] += c;
+  std::map<std::pair<std::uint32_t, int>, std::uint32_t> fresh_for;  // (lost label, identity) → its fresh label
+  for (std::size_t j = 1; j < labels; ++j)
+  {
+    if (frame_count[j] < config_.min_segment_size)
+      continue;
+    std::uint32_t label = wanted[j];
+    if (label && identity[j] != kUnsure)
+    {
+      const auto& by_identity = claims[label];
+      int winner = kUnsure, winner_pi = -1;
+      for (const auto& [id, pi] : by_identity)
+        if (pi > winner_pi)
+        {
+          winner = id;
+          winner_pi = pi;
+        }
+      if (winner != identity[j])
+      {
+        ++result.separated;
+        // The next model label above τ_l that no other identity holds, else a fresh one
+        // shared by this identity's segments.
+        std::uint32_t next = 0;
+        int next_count = 0;
+        for (const auto& [li, c] : by_frame_label[j])
+          if (li != label && c > next_count && static_cast<float> (c) > config_.inherit_overlap * static_cast<float> (frame_count[j]))
+          {
+            const auto other = claims.find (li);
+            if (other == claims.end () || other->second.count (identity[j]) || other->second.empty ())
+            {
+              next = li;
+              next_count = c;
+            }
+          }
+        if (next)
+          label = next;
+        else
+        {
+          auto it = fresh_for.find ({label, identity[j]});
+          if (it == fresh_for.end ())
+          {
+            it = fresh_for.emplace (std::make_pair (label, identity[j]), map.newSegment (frame)).first;
+            ++result.fresh;
+          }
+          label = it->second;
+          given[j] = label;
+          map.observe (label, frame, segments && j < segments->size () ? &(*segments)[j] : nullptr);
+          continue;
+        }
+      }
+    }
+    if (label)
+      ++result.inherited;
     else
     {
-      auto& list = by_frame_label[j];
-      std::sort (list.begin (), list.end ());
-      std::uint32_t best = 0;
-      int best_count = 0;
-      for (const auto& [li, c] : list)
-        if (c > best_count)
-        {
-          best = li;
-          best_count = c;
-        }
-      if (best && static_cast<float> (best_count) > config_.inherit_overlap * static_cast<float> (count))
-      {
-        label = best;
-        ++result.inherited;
-      }
-      else
-      {
-        label = map.newSegment (frame);
-        ++result.fresh;
-      }
-      for (const auto& [li, c] : list)
-        if (li != label && static_cast<float> (c) > config_.candidate_overlap * static_cast<float> (count))
-          result.candidates.emplace_back (label, li);
-      const SegmentInstance* info =
-        segments && j < segments->size () ? &(*segments)[j] : nullptr;
-      map.observe (label, frame, info);
+      label = map.newSegment (frame);
+      ++result.fresh;
     }
     given[j] = label;
+    map.observe (label, frame, segments && j < segments->size () ? &(*segments)[j] : nullptr);
   }
-  result.labels.create (size, CV_32S);
-  parallelFor (size.height, [&] (int y) {
-    const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
-    std::int32_t* out = result.labels.ptr<std::int32_t> (y);
+
+  // §4.2.3 as evidence. Each map segment seen well enough is placed in the frame segment
+  // holding most of its agreeing pixels.
+  std::map<std::uint32_t, std::pair<int, int>> seen;  // model label → (visible pixels, best Π)
+  std::map<std::uint32_t, std::size_t> placed_in;     // model label → frame segment
+  for (std::size_t j = 1; j < labels; ++j)
+    for (const auto& [li, c] : by_frame_label[j])
+    {
+      auto& entry = seen[li];
+      entry.first += c;
+      if (c > entry.second)
+      {
+        entry.second = c;
+        placed_in[li] = j;
+      }
+    }
+  std::vector<std::pair<std::uint32_t, std::size_t>> placed;  // (model label, frame segment), by label
+  for (const auto& [li, entry] : seen)
+    if (li != 0 && entry.first >= config_.min_segment_size &&
+        static_cast<float> (entry.second) > config_.placement_share * static_cast<float> (entry.first))
+      placed.emplace_back (li, placed_in[li]);
+  if (placed.size () < 2)
+    return finishLabels (frame_labels, given, result);
+  // Frame segments that touch (within 2 pixels along a row or a column): an edge, or a
+  // mask's cut, lies between them.
+  std::set<std::pair<std::size_t, std::size_t>> touching;
+  for (int y = 0; y < size.height; ++y)
+  {
+    const std::int32_t* row = frame_labels.ptr<std::int32_t> (y);
+    const std::int32_t* below[2] = {y + 1 < size.height ? frame_labels.ptr<std::int32_t> (y + 1) : nullptr,
+                                    y + 2 < size.height ? frame_labels.ptr<std::int32_t> (y + 2) : nullptr};
     for (int x = 0; x < size.width; ++x)
-      out[x] = lj[x] > 0 ? static_cast<std::int32_t> (given[static_cast<std::size_t> (lj[x])]) : 0;
-  });
+    {
+      const std::int32_t a = row[x];
+      if (a <= 0)
+        continue;
+      const std::int32_t others[4] = {x + 1 < size.width ? row[x + 1] : 0, x + 2 < size.width ? row[x + 2] : 0,
+                                      below[0] ? below[0][x] : 0, below[1] ? below[1][x] : 0};
+      for (const std::int32_t b : others)
+        if (b > 0 && b != a)
+          touching.emplace (static_cast<std::size_t> (std::min (a, b)), static_cast<std::size_t> (std::max (a, b)));
+    }
+  }
+  for (std::size_t p = 0; p < placed.size (); ++p)
+    for (std::size_t q = p + 1; q < placed.size (); ++q)
+    {
+      const auto [a, ja] = placed[p];
+      const auto [b, jb] = placed[q];
+      if (ja == jb)
+      {
+        result.votes.emplace_back (a, b, PairVote::Together);
+        continue;
+      }
+      const int ia = identity[ja], ib = identity[jb];
+      const bool adjacent = touching.count ({std::min (ja, jb), std::max (ja, jb)}) != 0;
+      if (ia >= 0 && ia == ib)
+        result.votes.emplace_back (a, b, PairVote::Together);
+      else if ((ia >= 0 && ib >= 0) || (ia >= 0 && ib == kLeftOut) || (ia == kLeftOut && ib >= 0))
+      {
+        if (adjacent || map.evidence ().tracked (a, b))
+          result.votes.emplace_back (a, b, PairVote::Apart);
+      }
+      else if (adjacent && ia < 0 && ib < 0)
+        result.votes.emplace_back (a, b, PairVote::Apart);
+    }
+  finishLabels (frame_labels, given, result);
 }
+
 
 namespace
 {

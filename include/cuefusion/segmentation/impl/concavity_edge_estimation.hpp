@@ -18,7 +18,7 @@ ConcavityEdgeEstimation<PointT, PointNT>::compute (pcl::PointCloud<pcl::Label>& 
   this->toPlanes ("ConcavityEdgeEstimation", planes);
   cv::Mat values, mask;
   computeConcavityMap (planes, this->config_.neighbour_step, this->config_.convexity_test, values);
-  concavityEdges (values, this->config_.threshold, mask);
+  concavityEdges (planes, values, this->config_, mask);
   detail::copyToCloud (mask, edges);
   if (phi)
     detail::copyToCloud (values, *phi);

@@ -39,9 +39,7 @@ GeometricSegmentation<PointT, PointNT>::segment (const SurfacePlanes& planes)
   pcl::StopWatch watch;
   const bool both = config.use_concavity_edges && config.use_discontinuity_edges;
   if (both && config.concavity.neighbour_step == config.discontinuity.neighbour_step)
-    computeEdgeMasks (planes, config.concavity.neighbour_step, config.concavity.convexity_test,
-                      config.concavity.threshold, config.discontinuity.noise_factor, concavity_edges_,
-                      discontinuity_edges_);
+    computeEdgeMasks (planes, config.concavity, config.discontinuity.noise_factor, concavity_edges_, discontinuity_edges_);
   else
   {
     cv::Mat values;
@@ -49,7 +47,7 @@ GeometricSegmentation<PointT, PointNT>::segment (const SurfacePlanes& planes)
     if (config.use_concavity_edges)
     {
       computeConcavityMap (planes, config.concavity.neighbour_step, config.concavity.convexity_test, values);
-      concavityEdges (values, config.concavity.threshold, concavity_edges_);
+      concavityEdges (planes, values, config.concavity, concavity_edges_);
     }
     discontinuity_edges_ = cv::Mat::zeros (h, w, CV_8U);
     if (config.use_discontinuity_edges)
