@@ -1,13 +1,17 @@
 #!/usr/bin/python3
 """Segmentation-quality benchmark on generated sequences (no real data needed).
 
-For each seed and each error level of the simulated detector, `cuefusion synth` renders
-the tabletop scene (640x480, Kinect depth noise on), `cuefusion run` maps it in the
+For each scene, seed and error level of the simulated detector, `cuefusion synth`
+renders the scene (640x480, Kinect depth noise on), `cuefusion run` maps it in the
 geometry, masks and fused modes with its own tracking (ICP), and `cuefusion eval`
 scores every run against the exact truth: mean per-frame object IoU (final map seen from
 the estimated poses, Hungarian matching), 3D instance AP / AP50 / AP25 (ScanNet
-definition, class-agnostic), ATE. Geometry mode does not read masks, so it runs once per
-seed. Prints Markdown for docs/benchmarks.md: medians over seeds, with min-max.
+definition, class-agnostic), ATE, and how the map's segments cover the truth (segments of
+>= 100 voxels in segments.json against the scene's objects and stuff surfaces, objects
+over-segmented, segments holding two objects). Geometry mode does not read masks, so it
+runs once per scene and seed. `--compare-binary OLD` also runs the fused mode with another
+build on the same sequences (scored by this build's eval). Prints Markdown for
+docs/benchmarks.md: medians over seeds, with min-max.
 """
 import argparse
 import datetime
@@ -21,12 +25,18 @@ import tempfile
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_reconstruction import machine  # noqa: E402
 
-# Simulated detector settings (cuefusion synth --mask-* options).
+SCENES = ["tabletop", "clutter"]
+# Simulated detector settings (cuefusion synth --mask-* options). Merges and splits are
+# drawn per pair/mask and frame, as real networks fail in some views and not in others.
 LEVELS = [
     ("perfect", []),
-    ("moderate", ["--mask-jitter", "2", "--mask-miss", "0.1", "--mask-false-positives", "0.3"]),
+    ("typical", ["--mask-boundary", "2", "--mask-jitter", "2", "--mask-merge", "0.1", "--mask-miss", "0.05",
+                 "--mask-false-positives", "0.2"]),
+    ("merging", ["--mask-boundary", "1", "--mask-jitter", "1", "--mask-merge", "0.3", "--mask-miss", "0.05"]),
+    ("leaky", ["--mask-boundary", "6", "--mask-jitter", "2", "--mask-false-positives", "0.5"]),
+    ("splitting", ["--mask-boundary", "-3", "--mask-jitter", "1", "--mask-split", "0.2", "--mask-miss", "0.1"]),
     ("harsh", ["--mask-boundary", "3", "--mask-jitter", "4", "--mask-merge", "0.3", "--mask-miss", "0.25",
-               "--mask-false-positives", "1"]),
+               "--mask-false-positives", "1", "--mask-split", "0.1"]),
 ]
 MODES = ["geometry", "masks", "fused"]
 
@@ -39,9 +49,14 @@ def evaluate(binary, seq, run_dir, report_dir):
     run([binary, "eval", "--run", run_dir, "--gt", seq, "--out", report_dir, "--no-plots"])
     with open(os.path.join(report_dir, "report.json")) as f:
         r = json.load(f)["runs"][0]
+    with open(os.path.join(run_dir, "segments.json")) as f:
+        segments = json.load(f)["segments"]
     ap = r["instance_ap"]["class_agnostic"]
+    counts = r["instance_ap"].get("segmentation", {})
     return {"iou": r["object_iou"]["mean"] or 0.0, "ap": ap["ap"], "ap50": ap["ap50"], "ap25": ap["ap25"],
-            "ate": r["tracking"]["ate"]["rmse"] if r["tracking"] else float("nan")}
+            "ate": r["tracking"]["ate"]["rmse"] if r["tracking"] else float("nan"),
+            "segments": sum(1 for s in segments if s["voxels"] >= 100),
+            "over": counts.get("over_segmented", float("nan")), "under": counts.get("under_segmented", float("nan"))}
 
 
 def cell(values, fmt="{:.2f}"):
@@ -49,55 +64,88 @@ def cell(values, fmt="{:.2f}"):
     if not values:
         return "n/a"
     med = statistics.median(values)
-    if len(values) == 1:
+    if len(values) == 1 or min(values) == max(values):
         return fmt.format(med)
     return (fmt + " ({}–{})").format(med, fmt.format(min(values)), fmt.format(max(values)))
+
+
+def scene_objects(seq):
+    with open(os.path.join(seq, "scene.json")) as f:
+        return len(json.load(f)["instances"])
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--binary", default="build/apps/cuefusion")
+    parser.add_argument("--compare-binary", help="another build whose fused mode runs on the same sequences")
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--scenes", default=",".join(SCENES))
+    parser.add_argument("--levels", default=",".join(name for name, _ in LEVELS))
     args = parser.parse_args()
-    results = {}  # (level, mode) -> list of score dicts
+    scenes = args.scenes.split(",")
+    levels = [(n, o) for n, o in LEVELS if n in args.levels.split(",")]
+    modes = MODES + (["fused (before)"] if args.compare_binary else [])
+    results = {}  # (scene, level, mode) -> list of score dicts
+    objects = {}
     with tempfile.TemporaryDirectory(prefix="cuefusion-quality-") as tmp:
-        for seed in range(1, args.seeds + 1):
-            geometry = None
-            for level, options in LEVELS:
-                seq = os.path.join(tmp, f"seq-{seed}-{level}")
-                run([args.binary, "synth", "--scene", "tabletop", "--frames", str(args.frames), "--layout", "redwood",
-                     "--noise", "--seed", str(seed), "--out", seq] + options)
-                for mode in MODES:
-                    if mode == "geometry" and geometry is not None:
-                        results.setdefault((level, mode), []).append(geometry)
-                        continue
-                    out = os.path.join(tmp, f"run-{seed}-{level}-{mode}")
-                    cmd = [args.binary, "run", seq, "--out", out, "--mode", mode]
-                    if mode != "geometry":
-                        cmd += ["--masks", os.path.join(seq, "detections")]
-                    run(cmd)
-                    scores = evaluate(args.binary, seq, out, out + "-report")
-                    if mode == "geometry":
-                        geometry = scores
-                    results.setdefault((level, mode), []).append(scores)
-                    print(f"seed {seed} {level:8s} {mode:8s} IoU {scores['iou']:.3f} AP50 {scores['ap50']:.3f} "
-                          f"AP25 {scores['ap25']:.3f} ATE {scores['ate']*100:.2f} cm", file=sys.stderr)
+        for scene in scenes:
+            for seed in range(1, args.seeds + 1):
+                geometry = None
+                for level, options in levels:
+                    seq = os.path.join(tmp, f"seq-{scene}-{seed}-{level}")
+                    run([args.binary, "synth", "--scene", scene, "--frames", str(args.frames), "--layout", "redwood",
+                         "--noise", "--seed", str(seed), "--out", seq] + options)
+                    objects[scene] = scene_objects(seq)
+                    for mode in modes:
+                        if mode == "geometry" and geometry is not None:
+                            results.setdefault((scene, level, mode), []).append(geometry)
+                            continue
+                        out = os.path.join(tmp, f"run-{scene}-{seed}-{level}-{mode.split()[0]}{'-before' if 'before' in mode else ''}")
+                        binary = args.compare_binary if "before" in mode else args.binary
+                        cmd = [binary, "run", seq, "--out", out, "--mode", mode.split()[0]]
+                        if mode != "geometry":
+                            cmd += ["--masks", os.path.join(seq, "detections")]
+                        run(cmd)
+                        scores = evaluate(args.binary, seq, out, out + "-report")
+                        if mode == "geometry":
+                            geometry = scores
+                        results.setdefault((scene, level, mode), []).append(scores)
+                        print(f"{scene} seed {seed} {level:9s} {mode:14s} IoU {scores['iou']:.3f} AP50 {scores['ap50']:.3f} "
+                              f"AP25 {scores['ap25']:.3f} segments {scores['segments']} over {scores['over']} "
+                              f"under {scores['under']} ATE {scores['ate']*100:.2f} cm", file=sys.stderr)
+                    subprocess.run(["rm", "-rf", seq] + [os.path.join(tmp, d) for d in os.listdir(tmp) if d.startswith("run-")])
     print("### Segmentation quality on generated sequences\n")
-    print(f"Command: `scripts/bench quality` ({datetime.date.today()}, {machine()}). "
-          f"Tabletop scene, {args.frames} frames at 640×480 with Kinect depth noise, camera tracked by ICP; "
-          f"seeds 1–{args.seeds} (noise and detector errors; the scene is the same). "
-          "Scores: mean per-frame object IoU of the final map seen from the estimated poses, and class-agnostic "
-          "3D instance AP of map.pcd against gt_cloud.pcd (ScanNet definition); medians over seeds (min–max).\n")
-    print("| detector | mode | mean object IoU | AP50 | AP25 | AP | ATE (cm) |")
-    print("|---|---|---|---|---|---|---|")
-    for level, options in LEVELS:
-        for mode in MODES:
-            s = results[(level, mode)]
-            label = level + (" (" + " ".join(options) + ")" if options else "")
-            print(f"| {label if mode == 'geometry' else ''} | {mode} | {cell([x['iou'] for x in s])} | "
-                  f"{cell([x['ap50'] for x in s])} | {cell([x['ap25'] for x in s])} | {cell([x['ap'] for x in s])} | "
-                  f"{cell([x['ate'] * 100 for x in s], '{:.2f}')} |")
+    print(f"Command: `scripts/bench quality {args.seeds}` ({datetime.date.today()}, {machine()}). "
+          f"Scenes {', '.join(scenes)}; {args.frames} frames at 640×480 with Kinect depth noise, camera tracked by ICP; "
+          f"seeds 1–{args.seeds} (noise and detector errors). "
+          "Scores: mean per-frame object IoU of the final map seen from the estimated poses; class-agnostic "
+          "3D instance AP of map.pcd against gt_cloud.pcd (ScanNet definition); segments of ≥ 100 voxels in "
+          "segments.json against the scene's objects and stuff surfaces; objects over-segmented and segments "
+          "holding two objects (under) on gt_cloud.pcd; medians over seeds (min–max).\n")
+    print("Detector levels (`cuefusion synth` options):\n")
+    for level, options in levels:
+        print(f"- {level}: `{' '.join(options) if options else '(none)'}`")
+    for scene in scenes:
+        print(f"\n#### {scene} ({objects[scene]} objects and stuff surfaces)\n")
+        print("| detector | mode | mean object IoU | AP50 | AP25 | AP | segments ≥ 100 voxels | over | under | ATE (cm) |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        for level, _ in levels:
+            for mode in modes:
+                s = results[(scene, level, mode)]
+                print(f"| {level if mode == 'geometry' else ''} | {mode} | {cell([x['iou'] for x in s])} | "
+                      f"{cell([x['ap50'] for x in s])} | {cell([x['ap25'] for x in s])} | {cell([x['ap'] for x in s])} | "
+                      f"{cell([x['segments'] for x in s], '{:.0f}')} | {cell([x['over'] for x in s], '{:.0f}')} | "
+                      f"{cell([x['under'] for x in s], '{:.0f}')} | {cell([x['ate'] * 100 for x in s], '{:.2f}')} |")
+    print("\nFused against geometry and masks alone (medians over seeds; ✓ = fused ≥ both):\n")
+    print("| scene | detector | IoU fused / geometry / masks | AP50 fused / geometry / masks | |")
+    print("|---|---|---|---|---|")
+    for scene in scenes:
+        for level, _ in levels:
+            med = {m: {k: statistics.median(x[k] for x in results[(scene, level, m)]) for k in ("iou", "ap50")} for m in MODES}
+            ok = all(med["fused"][k] >= med[m][k] for k in ("iou", "ap50") for m in ("geometry", "masks"))
+            print(f"| {scene} | {level} | {med['fused']['iou']:.2f} / {med['geometry']['iou']:.2f} / {med['masks']['iou']:.2f} | "
+                  f"{med['fused']['ap50']:.2f} / {med['geometry']['ap50']:.2f} / {med['masks']['ap50']:.2f} | {'✓' if ok else '✗'} |")
 
 
 if __name__ == "__main__":

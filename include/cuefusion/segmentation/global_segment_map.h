@@ -157,6 +157,14 @@ public:
     */
   std::uint32_t merge (std::uint32_t a, std::uint32_t b);
 
+  /** \brief The labels made for frame segments that the masks set apart from the ones
+    * keeping \a label (SegmentPropagation), oldest first: while the voxels still carry
+    * \a label, the same objects get the same labels frame after frame.
+    */
+  const std::vector<std::uint32_t>& successors (std::uint32_t label) const;
+  /** \brief A fresh label, first seen at \a frame, recorded as a successor of \a label. */
+  std::uint32_t newSuccessor (std::uint32_t label, std::size_t frame);
+
   std::uint32_t resolve (std::uint32_t label) const { return equivalence_.find (label); }
   const LabelEquivalence& equivalence () const { return equivalence_; }
   const PairEvidence& evidence () const { return evidence_; }
@@ -196,6 +204,7 @@ private:
   LabelEquivalence equivalence_;
   PairEvidence evidence_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pinned_;  ///< merge() calls
+  std::map<std::uint32_t, std::vector<std::uint32_t>> successors_;
   std::map<std::uint32_t, SegmentRecord> records_;  ///< by label as allocated
 };
 }  // namespace segmentation

@@ -119,6 +119,22 @@ GlobalSegmentMap::newSegment (std::size_t frame)
   return label;
 }
 
+const std::vector<std::uint32_t>&
+GlobalSegmentMap::successors (std::uint32_t label) const
+{
+  static const std::vector<std::uint32_t> none;
+  const auto it = successors_.find (label);
+  return it == successors_.end () ? none : it->second;
+}
+
+std::uint32_t
+GlobalSegmentMap::newSuccessor (std::uint32_t label, std::size_t frame)
+{
+  const std::uint32_t fresh = newSegment (frame);
+  successors_[label].push_back (fresh);
+  return fresh;
+}
+
 void
 GlobalSegmentMap::observe (std::uint32_t label, std::size_t frame, const SegmentInstance* info)
 {

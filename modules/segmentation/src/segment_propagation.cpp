@@ -339,11 +339,30 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
           label = next;
         else
         {
+          // One label per identity that lost \a label: the label's successors in the
+          // order they were made (the same objects keep the same labels while the
+          // voxels still carry the old one), a fresh successor when they run out.
           auto it = fresh_for.find ({label, identity[j]});
           if (it == fresh_for.end ())
           {
-            it = fresh_for.emplace (std::make_pair (label, identity[j]), map.newSegment (frame)).first;
-            ++result.fresh;
+            std::uint32_t successor = 0;
+            for (const std::uint32_t s : map.successors (label))
+            {
+              bool taken = false;
+              for (const auto& [key, given_label] : fresh_for)
+                taken = taken || (key.first == label && given_label == s);
+              if (!taken)
+              {
+                successor = s;
+                break;
+              }
+            }
+            if (!successor)
+            {
+              successor = map.newSuccessor (label, frame);
+              ++result.fresh;
+            }
+            it = fresh_for.emplace (std::make_pair (label, identity[j]), successor).first;
           }
           label = it->second;
           given[j] = label;
