@@ -160,13 +160,14 @@ colorImage (const Cloud& cloud)
   return image;
 }
 
-/** L_t = InstanceGuidedRegionMerge (L^G, masks). */
+/** L_t = InstanceGuidedRegionMerge (L^G, masks), the masks completing rims on \a planes' points. */
 cv::Mat
 fuseWithMasks (const segmentation::InstanceGuidedRegionMerge& merger, const cv::Mat& geometric,
-               const std::vector<Instance>& instances, std::vector<segmentation::SegmentInstance>& segments)
+               const std::vector<Instance>& instances, const segmentation::SurfacePlanes& planes,
+               std::vector<segmentation::SegmentInstance>& segments)
 {
   cv::Mat fused;
-  merger.merge (geometric, instances, fused, &segments);
+  merger.merge (geometric, instances, fused, &segments, segmentation::pointMask (planes));
   return fused;
 }
 
@@ -422,7 +423,7 @@ runSegmentFrame (const std::vector<std::string>& args)
         warned_missing = true;
       }
       if (have_masks)
-        label_image = mode == "fused" ? fuseWithMasks (merger, label_image, instances, segments)
+        label_image = mode == "fused" ? fuseWithMasks (merger, label_image, instances, planes, segments)
                                       : masksOnlyLabels (instances, planes, segments);
       t.masks_ms = watch.getTime ();
     }

@@ -77,7 +77,7 @@ public:
     * Throws cuefusion::Error on a label map that is not CV_32S or masks of another size.
     */
   void merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
-              std::vector<SegmentInstance>* segments = nullptr) const;
+              std::vector<SegmentInstance>* segments = nullptr, const cv::Mat& points = cv::Mat ()) const;
 
   /** \brief The first half of merge(): L^G with every segment that two or more instances
     * each cover substantially (split_share, split_min_pixels) cut along the masks, no
@@ -87,9 +87,15 @@ public:
     * covers it (instance ≥ 0 when its coverage exceeds min_overlap) and how much. These
     * are the pieces FusionPipeline carries into the map, where the masks' grouping is
     * evidence rather than a verdict (GlobalSegmentMap).
+    *
+    * With \a points (CV_8U, non-zero where the frame has a point), pixels L^G leaves 0
+    * although they have a point (the edge band that edge assignment did not give back)
+    * join a piece its instance claims when they lie inside that instance's mask and
+    * connect to the piece through such pixels (breadth-first): the masks complete an
+    * object's rim; they still draw no boundary through a segment of L^G.
     */
   void split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
-              std::vector<SegmentInstance>* segments = nullptr) const;
+              std::vector<SegmentInstance>* segments = nullptr, const cv::Mat& points = cv::Mat ()) const;
 
 private:
   InstanceGuidedMergeConfig config_;
@@ -101,5 +107,8 @@ private:
 void
 masksAsSegments (const std::vector<Instance>& instances, const SurfacePlanes& planes, cv::Mat& labels,
                  std::vector<SegmentInstance>* segments = nullptr);
+/** \brief CV_8U, 255 where \a planes has a point (finite z). */
+cv::Mat
+pointMask (const SurfacePlanes& planes);
 }  // namespace segmentation
 }  // namespace cuefusion

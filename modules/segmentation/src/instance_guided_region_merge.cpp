@@ -115,9 +115,11 @@ describe (const std::vector<Instance>& instances, int id)
 
 void
 InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
-                                  std::vector<SegmentInstance>* segments) const
+                                  std::vector<SegmentInstance>* segments, const cv::Mat& points) const
 {
   checkInputs (geometric, instances);
+  if (!points.empty () && (points.size () != geometric.size () || points.type () != CV_8U))
+    throw Error ("InstanceGuidedRegionMerge", "the point mask must be CV_8U of L^G's size");
   const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
   const SegmentOverlaps overlaps = countOverlaps (geometric, ids);
   const std::size_t labels = overlaps.size.size ();
@@ -200,30 +202,55 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
       out[x] = numbering.emplace (std::make_pair (g[x], p[x]), static_cast<std::int32_t> (numbering.size () + 1)).first->second;
     }
   }
-  if (!segments)
+  if (!segments && points.empty ())
     return;
   const SegmentOverlaps covered = countOverlaps (pieces, ids);
-  segments->assign (numbering.size () + 1, SegmentInstance ());
+  std::vector<SegmentInstance> info (numbering.size () + 1);
   for (std::size_t l = 1; l < covered.size.size (); ++l)
   {
     const auto [id, count] = covered.best (l);
     const float coverage = covered.size[l] > 0 ? static_cast<float> (count) / static_cast<float> (covered.size[l]) : 0.f;
-    SegmentInstance& info = (*segments)[l];
     if (id && coverage > config_.min_overlap)
-      info = describe (instances, id);
-    info.coverage = coverage;
-    info.geometric_segments = 1;
+      info[l] = describe (instances, id);
+    info[l].coverage = coverage;
+    info[l].geometric_segments = 1;
   }
+  if (!points.empty ())
+  {
+    // The rim: 0-pixels with a point inside the mask of the instance claiming a piece
+    // they connect to.
+    auto* out = pieces.ptr<std::int32_t> ();
+    const auto* id = ids.ptr<std::uint16_t> ();
+    const auto* point = points.ptr<std::uint8_t> ();
+    const int rows = geometric.rows, total = rows * cols;
+    std::vector<int> queue;
+    for (int i = 0; i < total; ++i)
+      if (out[i] > 0 && info[static_cast<std::size_t> (out[i])].instance >= 0)
+        queue.push_back (i);
+    for (std::size_t k = 0; k < queue.size (); ++k)
+    {
+      const int i = queue[k], x = i % cols, y = i / cols;
+      const int claimed = info[static_cast<std::size_t> (out[i])].instance + 1;
+      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
+        if (j >= 0 && out[j] == 0 && point[j] && id[j] == claimed)
+        {
+          out[j] = out[i];
+          queue.push_back (j);
+        }
+    }
+  }
+  if (segments)
+    segments->swap (info);
 }
 
 void
 InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
-                                  std::vector<SegmentInstance>* segments) const
+                                  std::vector<SegmentInstance>* segments, const cv::Mat& points) const
 {
   // Cut where the masks see two objects, then unite the pieces each instance covers.
   cv::Mat pieces;
   std::vector<SegmentInstance> piece_info;
-  split (geometric, instances, pieces, &piece_info);
+  split (geometric, instances, pieces, &piece_info, points);
 
   // Output labels in raster order of first pixels; keys: instance id + 1 (joined) or −piece.
   fused.create (geometric.size (), CV_32S);
@@ -297,6 +324,19 @@ masksAsSegments (const std::vector<Instance>& instances, const SurfacePlanes& pl
     info.score = instances[i].score;
     segments->push_back (info);
   }
+}
+cv::Mat
+pointMask (const SurfacePlanes& planes)
+{
+  cv::Mat mask (planes.height, planes.width, CV_8U);
+  for (int y = 0; y < planes.height; ++y)
+  {
+    const float* z = planes.z.data () + static_cast<std::size_t> (y) * planes.width;
+    std::uint8_t* m = mask.ptr<std::uint8_t> (y);
+    for (int x = 0; x < planes.width; ++x)
+      m[x] = std::isfinite (z[x]) ? 255 : 0;
+  }
+  return mask;
 }
 }  // namespace segmentation
 }  // namespace cuefusion
