@@ -167,7 +167,7 @@ fuseWithMasks (const segmentation::InstanceGuidedRegionMerge& merger, const cv::
                std::vector<segmentation::SegmentInstance>& segments)
 {
   cv::Mat fused;
-  merger.merge (geometric, instances, fused, &segments, segmentation::pointMask (planes));
+  merger.merge (geometric, instances, fused, &segments, &planes);
   return fused;
 }
 

@@ -109,3 +109,69 @@ TEST (InstanceGuidedRegionMerge, NoMasksLeaveGeometryAndLabelsAreDeterministic)
   config.min_overlap = 1.5f;
   EXPECT_THROW (InstanceGuidedRegionMerge bad (config), ParameterError);
 }
+
+
+TEST (InstanceGuidedRegionMerge, ASegmentTwoMasksShareIsCutAlongThem)
+{
+  // Two boxes touching with flush front and top faces: geometry sees no seam, the masks
+  // see two objects.
+  const std::string flush = kTable +
+                            "object box_a class=box color=220,120,30\n"
+                            "  box center=-0.07,0,0.82 size=0.14,0.08,0.16\n"
+                            "object box_b class=box color=30,170,190\n"
+                            "  box center=0.07,0,0.82 size=0.14,0.08,0.16\n";
+  const auto view = segmentScene (flush, kEye, kTarget, true);  // with noise no seam shows
+  ASSERT_EQ (scoreObject (view, 2).best_label, scoreObject (view, 3).best_label);  // the precondition
+  std::vector<SegmentInstance> info;
+  const auto fused = fuse (view, test::simulatedInstances (flush, view, io::DetectorErrorConfig ()), &info);
+  const auto a = scoreObject (fused, 2), b = scoreObject (fused, 3);
+  EXPECT_NE (a.best_label, b.best_label);
+  EXPECT_GE (a.best_iou, 0.8);
+  EXPECT_GE (b.best_iou, 0.8);
+  EXPECT_EQ (info[static_cast<std::size_t> (a.best_label)].class_name, "box");
+}
+
+TEST (InstanceGuidedRegionMerge, PiecesOfOneMaskMeetingAlongADepthJumpStayApartWithThePoints)
+{
+  // Hand-built: an upper piece (label 1) above a lower piece (label 2), one mask over both,
+  // a plane of points; the lower piece stands \a jump metres nearer than the upper one.
+  const auto run = [] (float jump, int lower_rows, bool with_points) {
+    const int w = 40, h = 40;
+    cv::Mat geometric (h, w, CV_32S, cv::Scalar (0));
+    segmentation::SurfacePlanes planes;
+    planes.width = w;
+    planes.height = h;
+    for (std::vector<float>* plane : {&planes.x, &planes.y, &planes.z, &planes.nx, &planes.ny, &planes.nz})
+      plane->assign (static_cast<std::size_t> (w * h), 0.f);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+      {
+        const bool lower = y >= h - lower_rows;
+        geometric.at<std::int32_t> (y, x) = lower ? 2 : 1;
+        planes.z[static_cast<std::size_t> (y * w + x)] = lower ? 1.f - jump : 1.f;
+      }
+    Instance both;
+    both.mask = cv::Mat (h, w, CV_8U, cv::Scalar (255));
+    both.score = 0.9f;
+    cv::Mat fused;
+    InstanceGuidedRegionMerge ().merge (geometric, {both}, fused, nullptr, with_points ? &planes : nullptr);
+    return fused.at<std::int32_t> (0, 0) != fused.at<std::int32_t> (h - 1, 0);  // apart?
+  };
+  EXPECT_TRUE (run (0.10f, 20, true));    // one in front of the other: two objects
+  EXPECT_FALSE (run (0.10f, 20, false));  // without the points the mask unites them (thesis)
+  EXPECT_FALSE (run (0.f, 20, true));     // a crease, no jump: one object
+  EXPECT_FALSE (run (0.10f, 6, true));    // a small part on a larger one (15 %): one object
+  EXPECT_TRUE (run (0.10f, 12, true));    // 30 %: both sizeable
+}
+
+TEST (InstanceGuidedRegionMerge, WithThePointsTheSteppedLStaysWholeAndItsRimIsCompleted)
+{
+  const auto l_view = segmentScene (kSteppedL, kEye, kTarget, false);
+  segmentation::SurfacePlanes l_planes;
+  l_planes.assignPoints (*l_view.smoothed);
+  test::SegmentedView l_fused = l_view;
+  const auto l_instances = test::simulatedInstances (kSteppedL, l_view, io::DetectorErrorConfig ());
+  InstanceGuidedRegionMerge ().merge (l_view.labels, l_instances, l_fused.labels, nullptr, &l_planes);
+  EXPECT_EQ (scoreObject (l_fused, 2).segments, 1);
+  EXPECT_GE (scoreObject (l_fused, 2).best_iou, scoreObject (fuse (l_view, l_instances), 2).best_iou);
+}

@@ -22,6 +22,13 @@ struct InstanceGuidedMergeConfig
     */
   float split_share = 0.2f;
   int split_min_pixels = 50;  ///< and at least this many pixels
+  /** merge() with the frame's points: pieces one mask covers that meet mostly along a
+    * depth jump (one in front of the other) are kept apart when both hold at least this
+    * share of the mask's pieces — two objects the network reported as one; a small part
+    * hanging on a larger one (an ear, a bottle's neck) and pieces meeting at a crease are
+    * still united. Above 0.5 it never applies.
+    */
+  float occlusion_split_share = 0.25f;
   void validate () const;
 };
 
@@ -74,10 +81,13 @@ public:
     *            relabelled in raster order, which leaves OpenCV-numbered L^G unchanged)
     * \param[out] fused L_t, CV_32S
     * \param[out] segments when given: entry l describes label l of L_t (entry 0 unused)
+    * \param[in] planes the frame's points, when at hand: the masks complete rims (see
+    *            split()) and pieces meeting along depth jumps may stay apart
+    *            (occlusion_split_share)
     * Throws cuefusion::Error on a label map that is not CV_32S or masks of another size.
     */
   void merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
-              std::vector<SegmentInstance>* segments = nullptr, const cv::Mat& points = cv::Mat ()) const;
+              std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr) const;
 
   /** \brief The first half of merge(): L^G with every segment that two or more instances
     * each cover substantially (split_share, split_min_pixels) cut along the masks, no
@@ -88,14 +98,15 @@ public:
     * are the pieces FusionPipeline carries into the map, where the masks' grouping is
     * evidence rather than a verdict (GlobalSegmentMap).
     *
-    * With \a points (CV_8U, non-zero where the frame has a point), pixels L^G leaves 0
-    * although they have a point (the edge band that edge assignment did not give back)
-    * join a piece its instance claims when they lie inside that instance's mask and
-    * connect to the piece through such pixels (breadth-first): the masks complete an
-    * object's rim; they still draw no boundary through a segment of L^G.
+    * With the frame's points (\a planes), pixels L^G leaves 0 although they have a point
+    * (the edge band that edge assignment did not give back) join a piece its instance
+    * claims when they lie inside that instance's mask and connect to the piece through
+    * such pixels without a depth jump (> 2 % of the depth, the rule the normals use),
+    * breadth-first: the masks complete an object's rim on the side it continues in depth;
+    * they still draw no boundary through a segment of L^G.
     */
   void split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
-              std::vector<SegmentInstance>* segments = nullptr, const cv::Mat& points = cv::Mat ()) const;
+              std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr) const;
 
 private:
   InstanceGuidedMergeConfig config_;
@@ -107,8 +118,6 @@ private:
 void
 masksAsSegments (const std::vector<Instance>& instances, const SurfacePlanes& planes, cv::Mat& labels,
                  std::vector<SegmentInstance>* segments = nullptr);
-/** \brief CV_8U, 255 where \a planes has a point (finite z). */
-cv::Mat
-pointMask (const SurfacePlanes& planes);
+
 }  // namespace segmentation
 }  // namespace cuefusion

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 #include <utility>
 
 namespace cuefusion
@@ -19,6 +20,8 @@ InstanceGuidedMergeConfig::validate () const
     throw ParameterError ("InstanceGuidedMergeConfig::split_share", "must lie in (0, 0.5]");
   if (split_min_pixels < 1)
     throw ParameterError ("InstanceGuidedMergeConfig::split_min_pixels", "must be at least 1");
+  if (!(std::isfinite (occlusion_split_share) && occlusion_split_share >= 0.f))
+    throw ParameterError ("InstanceGuidedMergeConfig::occlusion_split_share", "must be a share >= 0 (above 0.5: never)");
 }
 
 InstanceGuidedRegionMerge::InstanceGuidedRegionMerge (const InstanceGuidedMergeConfig& config) { setConfig (config); }
@@ -115,11 +118,11 @@ describe (const std::vector<Instance>& instances, int id)
 
 void
 InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
-                                  std::vector<SegmentInstance>* segments, const cv::Mat& points) const
+                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes) const
 {
   checkInputs (geometric, instances);
-  if (!points.empty () && (points.size () != geometric.size () || points.type () != CV_8U))
-    throw Error ("InstanceGuidedRegionMerge", "the point mask must be CV_8U of L^G's size");
+  if (planes && (planes->width != geometric.cols || planes->height != geometric.rows))
+    throw Error ("InstanceGuidedRegionMerge", "the surface planes must be of L^G's size");
   const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
   const SegmentOverlaps overlaps = countOverlaps (geometric, ids);
   const std::size_t labels = overlaps.size.size ();
@@ -202,7 +205,7 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
       out[x] = numbering.emplace (std::make_pair (g[x], p[x]), static_cast<std::int32_t> (numbering.size () + 1)).first->second;
     }
   }
-  if (!segments && points.empty ())
+  if (!segments && !planes)
     return;
   const SegmentOverlaps covered = countOverlaps (pieces, ids);
   std::vector<SegmentInstance> info (numbering.size () + 1);
@@ -215,13 +218,13 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
     info[l].coverage = coverage;
     info[l].geometric_segments = 1;
   }
-  if (!points.empty ())
+  if (planes)
   {
     // The rim: 0-pixels with a point inside the mask of the instance claiming a piece
-    // they connect to.
+    // they continue in depth.
     auto* out = pieces.ptr<std::int32_t> ();
     const auto* id = ids.ptr<std::uint16_t> ();
-    const auto* point = points.ptr<std::uint8_t> ();
+    const float* z = planes->z.data ();
     const int rows = geometric.rows, total = rows * cols;
     std::vector<int> queue;
     for (int i = 0; i < total; ++i)
@@ -232,7 +235,7 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
       const int i = queue[k], x = i % cols, y = i / cols;
       const int claimed = info[static_cast<std::size_t> (out[i])].instance + 1;
       for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
-        if (j >= 0 && out[j] == 0 && point[j] && id[j] == claimed)
+        if (j >= 0 && out[j] == 0 && id[j] == claimed && std::isfinite (z[j]) && std::abs (z[j] - z[i]) <= 0.02f * std::min (z[i], z[j]))
         {
           out[j] = out[i];
           queue.push_back (j);
@@ -243,19 +246,106 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
     segments->swap (info);
 }
 
+namespace
+{
+/** \brief For merge(): per piece, the piece standing for its group among the pieces its
+  * instance claims. All of an instance's pieces form one group, unless two of them, each
+  * holding at least \a share of the instance's pieces, touch mostly along depth jumps
+  * (> 2 % of the depth between pixels 1–2 apart, the rule the normals use): then groups
+  * are the instance's pieces connected by contacts that are not such jumps.
+  */
+std::vector<std::size_t>
+groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& info, const SurfacePlanes& planes, float share)
+{
+  const std::size_t n = info.size ();
+  std::vector<std::size_t> group (n);
+  std::vector<int> size (n, 0);
+  std::map<std::pair<std::size_t, std::size_t>, std::pair<int, int>> contacts;  // (p, q) → (contacts, jumps)
+  const int rows = pieces.rows, cols = pieces.cols;
+  for (int y = 0; y < rows; ++y)
+  {
+    const std::int32_t* row = pieces.ptr<std::int32_t> (y);
+    const float* z = planes.z.data () + static_cast<std::size_t> (y) * cols;
+    for (int x = 0; x < cols; ++x)
+    {
+      const auto p = static_cast<std::size_t> (std::max (0, row[x]));
+      if (p == 0)
+        continue;
+      ++size[p];
+      if (info[p].instance < 0)
+        continue;
+      for (const auto& [dx, dy] : {std::pair<int, int> (1, 0), {2, 0}, {0, 1}, {0, 2}})
+      {
+        if (x + dx >= cols || y + dy >= rows)
+          continue;
+        const int other = pieces.ptr<std::int32_t> (y + dy)[x + dx];
+        const auto q = static_cast<std::size_t> (std::max (0, other));
+        if (q == 0 || q == p || info[q].instance != info[p].instance)
+          continue;
+        const float z0 = z[x], z1 = planes.z[static_cast<std::size_t> (y + dy) * cols + x + dx];
+        auto& c = contacts[{std::min (p, q), std::max (p, q)}];
+        ++c.first;
+        c.second += std::abs (z0 - z1) > 0.02f * std::min (z0, z1) ? 1 : 0;
+      }
+    }
+  }
+  std::map<int, int> claimed;  // instance → pixels of its pieces
+  for (std::size_t l = 1; l < n; ++l)
+    if (info[l].instance >= 0)
+      claimed[info[l].instance] += size[l];
+  const auto apart = [&] (std::size_t p, std::size_t q, const std::pair<int, int>& c) {
+    const float needed = share * static_cast<float> (claimed[info[p].instance]);
+    return 2 * c.second >= c.first && static_cast<float> (std::min (size[p], size[q])) >= needed;
+  };
+  std::set<int> divided;
+  for (const auto& [pair, c] : contacts)
+    if (apart (pair.first, pair.second, c))
+      divided.insert (info[pair.first].instance);
+  // Union–find over the pieces: whole instances, or crease-connected parts of divided ones.
+  for (std::size_t l = 0; l < n; ++l)
+    group[l] = l;
+  const auto find = [&] (std::size_t l) {
+    while (group[l] != l)
+      l = group[l] = group[group[l]];
+    return l;
+  };
+  std::map<int, std::size_t> first_piece;
+  for (std::size_t l = 1; l < n; ++l)
+    if (info[l].instance >= 0 && !divided.count (info[l].instance))
+    {
+      const auto it = first_piece.emplace (info[l].instance, l).first;
+      group[find (l)] = find (it->second);
+    }
+  for (const auto& [pair, c] : contacts)
+    if (divided.count (info[pair.first].instance) && !apart (pair.first, pair.second, c) && 2 * c.second < c.first)
+      group[find (pair.second)] = find (pair.first);
+  for (std::size_t l = 0; l < n; ++l)
+    group[l] = find (l);
+  return group;
+}
+}  // namespace
+
 void
 InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
-                                  std::vector<SegmentInstance>* segments, const cv::Mat& points) const
+                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes) const
 {
+  if (planes && (planes->width != geometric.cols || planes->height != geometric.rows))
+    throw Error ("InstanceGuidedRegionMerge", "the surface planes must be of L^G's size");
   // Cut where the masks see two objects, then unite the pieces each instance covers.
   cv::Mat pieces;
   std::vector<SegmentInstance> piece_info;
-  split (geometric, instances, pieces, &piece_info, points);
-
-  // Output labels in raster order of first pixels; keys: instance id + 1 (joined) or −piece.
+  split (geometric, instances, pieces, &piece_info, planes);
+  std::vector<std::size_t> group (piece_info.size ());
+  if (planes && config_.occlusion_split_share <= 0.5f)
+    group = groupsAlongCreases (pieces, piece_info, *planes, config_.occlusion_split_share);
+  else
+    for (std::size_t l = 0; l < group.size (); ++l)
+      group[l] = piece_info[l].instance >= 0 ? static_cast<std::size_t> (piece_info[l].instance) + piece_info.size () : l;
+  // Output labels in raster order of first pixels; keys: a claimed piece's group, or the
+  // piece itself.
+  const auto keyOf = [&] (std::size_t piece) -> std::size_t { return piece_info[piece].instance >= 0 ? group[piece] : piece; };
   fused.create (geometric.size (), CV_32S);
-  std::map<int, std::int32_t> output;
-  std::vector<int> size, covered;
+  std::map<std::size_t, std::int32_t> output;
   if (segments)
     segments->assign (1, SegmentInstance ());
   for (int y = 0; y < pieces.rows; ++y)
@@ -269,30 +359,30 @@ InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<In
         out[x] = 0;
         continue;
       }
-      const int instance = piece_info[static_cast<std::size_t> (g[x])].instance;
-      const int key = instance >= 0 ? instance + 1 : -g[x];
-      auto it = output.find (key);
+      const auto piece = static_cast<std::size_t> (g[x]);
+      auto it = output.find (keyOf (piece));
       if (it == output.end ())
       {
-        it = output.emplace (key, static_cast<std::int32_t> (output.size () + 1)).first;
+        it = output.emplace (keyOf (piece), static_cast<std::int32_t> (output.size () + 1)).first;
         if (segments)
+        {
+          const int instance = piece_info[piece].instance;
           segments->push_back (describe (instances, instance >= 0 ? instance + 1 : 0));
+        }
       }
       out[x] = it->second;
     }
   }
   if (!segments)
     return;
-  // Per output segment: how many pieces it unites (each piece lies in one segment of L^G)
-  // and the share of it its instance covers.
+  // Per output segment: how many pieces it unites and the share of it its instance covers.
   std::vector<float> pixels (segments->size (), 0.f), under (segments->size (), 0.f);
   const SegmentOverlaps overlaps = countOverlaps (pieces, instancesToIdImage (instances, geometric.size ()));
   for (std::size_t l = 1; l < piece_info.size (); ++l)
   {
     if (overlaps.size[l] == 0)
       continue;
-    const int instance = piece_info[l].instance;
-    const std::size_t target = static_cast<std::size_t> (output.at (instance >= 0 ? instance + 1 : -static_cast<int> (l)));
+    const std::size_t target = static_cast<std::size_t> (output.at (keyOf (l)));
     SegmentInstance& info = (*segments)[target];
     ++info.geometric_segments;
     pixels[target] += static_cast<float> (overlaps.size[l]);
@@ -324,19 +414,6 @@ masksAsSegments (const std::vector<Instance>& instances, const SurfacePlanes& pl
     info.score = instances[i].score;
     segments->push_back (info);
   }
-}
-cv::Mat
-pointMask (const SurfacePlanes& planes)
-{
-  cv::Mat mask (planes.height, planes.width, CV_8U);
-  for (int y = 0; y < planes.height; ++y)
-  {
-    const float* z = planes.z.data () + static_cast<std::size_t> (y) * planes.width;
-    std::uint8_t* m = mask.ptr<std::uint8_t> (y);
-    for (int x = 0; x < planes.width; ++x)
-      m[x] = std::isfinite (z[x]) ? 255 : 0;
-  }
-  return mask;
 }
 }  // namespace segmentation
 }  // namespace cuefusion

@@ -406,24 +406,40 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
     return finishLabels (frame_labels, given, result);
   // Frame segments that touch (within 2 pixels along a row or a column): an edge, or a
   // mask's cut, lies between them.
-  std::set<std::pair<std::size_t, std::size_t>> touching;
-  for (int y = 0; y < size.height; ++y)
-  {
-    const std::int32_t* row = frame_labels.ptr<std::int32_t> (y);
-    const std::int32_t* below[2] = {y + 1 < size.height ? frame_labels.ptr<std::int32_t> (y + 1) : nullptr,
-                                    y + 2 < size.height ? frame_labels.ptr<std::int32_t> (y + 2) : nullptr};
-    for (int x = 0; x < size.width; ++x)
+  // Pairs are gathered per row chunk (a repeat of the last pair is skipped: boundaries
+  // run along rows and columns), then sorted and made unique.
+  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> chunk_touching (static_cast<std::size_t> (chunks));
+  parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
+    auto& found = chunk_touching[static_cast<std::size_t> (k)];
+    std::pair<std::size_t, std::size_t> last (0, 0);
+    for (int y = begin; y < end; ++y)
     {
-      const std::int32_t a = row[x];
-      if (a <= 0)
-        continue;
-      const std::int32_t others[4] = {x + 1 < size.width ? row[x + 1] : 0, x + 2 < size.width ? row[x + 2] : 0,
-                                      below[0] ? below[0][x] : 0, below[1] ? below[1][x] : 0};
-      for (const std::int32_t b : others)
-        if (b > 0 && b != a)
-          touching.emplace (static_cast<std::size_t> (std::min (a, b)), static_cast<std::size_t> (std::max (a, b)));
+      const std::int32_t* row = frame_labels.ptr<std::int32_t> (y);
+      const std::int32_t* below[2] = {y + 1 < size.height ? frame_labels.ptr<std::int32_t> (y + 1) : nullptr,
+                                      y + 2 < size.height ? frame_labels.ptr<std::int32_t> (y + 2) : nullptr};
+      for (int x = 0; x < size.width; ++x)
+      {
+        const std::int32_t a = row[x];
+        if (a <= 0)
+          continue;
+        const std::int32_t others[4] = {x + 1 < size.width ? row[x + 1] : 0, x + 2 < size.width ? row[x + 2] : 0,
+                                        below[0] ? below[0][x] : 0, below[1] ? below[1][x] : 0};
+        for (const std::int32_t b : others)
+          if (b > 0 && b != a)
+          {
+            const std::pair<std::size_t, std::size_t> pair (static_cast<std::size_t> (std::min (a, b)),
+                                                            static_cast<std::size_t> (std::max (a, b)));
+            if (pair != last)
+              found.push_back (last = pair);
+          }
+      }
     }
-  }
+  });
+  std::vector<std::pair<std::size_t, std::size_t>> touching;
+  for (const auto& found : chunk_touching)
+    touching.insert (touching.end (), found.begin (), found.end ());
+  std::sort (touching.begin (), touching.end ());
+  touching.erase (std::unique (touching.begin (), touching.end ()), touching.end ());
   for (std::size_t p = 0; p < placed.size (); ++p)
     for (std::size_t q = p + 1; q < placed.size (); ++q)
     {
@@ -435,7 +451,7 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
         continue;
       }
       const int ia = identity[ja], ib = identity[jb];
-      const bool adjacent = touching.count ({std::min (ja, jb), std::max (ja, jb)}) != 0;
+      const bool adjacent = std::binary_search (touching.begin (), touching.end (), std::make_pair (std::min (ja, jb), std::max (ja, jb)));
       if (ia >= 0 && ia == ib)
         result.votes.emplace_back (a, b, PairVote::Together);
       else if ((ia >= 0 && ib >= 0) || (ia >= 0 && ib == kLeftOut) || (ia == kLeftOut && ib >= 0))
