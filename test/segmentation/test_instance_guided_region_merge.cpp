@@ -32,6 +32,7 @@ test::SegmentedView
 fuse (const test::SegmentedView& view, const std::vector<Instance>& instances, std::vector<SegmentInstance>* info = nullptr)
 {
   test::SegmentedView fused = view;
+  fused.labels = cv::Mat ();  // a buffer of its own: merge() would write into view.labels' otherwise
   InstanceGuidedRegionMerge ().merge (view.labels, instances, fused.labels, info);
   return fused;
 }
@@ -164,12 +165,42 @@ TEST (InstanceGuidedRegionMerge, PiecesOfOneMaskMeetingAlongADepthJumpStayApartW
   EXPECT_TRUE (run (0.10f, 12, true));    // 30 %: both sizeable
 }
 
+TEST (InstanceGuidedRegionMerge, AMaskOverABoxBeforeAnotherKeepsThemApartWithThePoints)
+{
+  // Rendered: a box in front of a taller one, touching, seen level with the front box's
+  // top, so the front box occludes the back one along a depth jump. A network reports
+  // them as one mask: without the points they are united (the thesis rule), with them
+  // they stay apart.
+  const std::string scene = kTable +
+                            "object front class=box color=220,120,30\n"
+                            "  box center=0,-0.05,0.79 size=0.16,0.10,0.10\n"
+                            "object back class=box color=30,170,190\n"
+                            "  box center=0,0.05,0.84 size=0.16,0.10,0.20\n";
+  io::DetectorErrorConfig merging;
+  merging.merge_probability = 1.0;
+  const auto view = segmentScene (scene, Eigen::Vector3d (0.15, -1.0, 0.80), kTarget, false);
+  ASSERT_NE (scoreObject (view, 2).best_label, scoreObject (view, 3).best_label);
+  const auto instances = test::simulatedInstances (scene, view, merging);
+  ASSERT_EQ (instances.size (), 1u);
+  const auto united = fuse (view, instances);
+  EXPECT_EQ (scoreObject (united, 2).best_label, scoreObject (united, 3).best_label);
+  segmentation::SurfacePlanes planes;
+  planes.assignPoints (*view.smoothed);
+  test::SegmentedView fused = view;
+  fused.labels = cv::Mat ();
+  InstanceGuidedRegionMerge ().merge (view.labels, instances, fused.labels, nullptr, &planes);
+  EXPECT_NE (scoreObject (fused, 2).best_label, scoreObject (fused, 3).best_label);
+  EXPECT_GE (scoreObject (fused, 2).best_iou, 0.85);
+  EXPECT_GE (scoreObject (fused, 3).best_iou, 0.85);
+}
+
 TEST (InstanceGuidedRegionMerge, WithThePointsTheSteppedLStaysWholeAndItsRimIsCompleted)
 {
   const auto l_view = segmentScene (kSteppedL, kEye, kTarget, false);
   segmentation::SurfacePlanes l_planes;
   l_planes.assignPoints (*l_view.smoothed);
   test::SegmentedView l_fused = l_view;
+  l_fused.labels = cv::Mat ();
   const auto l_instances = test::simulatedInstances (kSteppedL, l_view, io::DetectorErrorConfig ());
   InstanceGuidedRegionMerge ().merge (l_view.labels, l_instances, l_fused.labels, nullptr, &l_planes);
   EXPECT_EQ (scoreObject (l_fused, 2).segments, 1);
