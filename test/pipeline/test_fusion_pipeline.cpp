@@ -18,14 +18,21 @@ using namespace cuefusion;
 
 namespace
 {
-/** Runs the pipeline over a 320×240 tabletop orbit with the sequence's poses. */
+/** A pipeline in \a mode that integrates with the sequence's poses. */
 pipeline::FusionPipeline
-runSequence (pipeline::SegmentationMode mode, const io::SyntheticSequence& sequence)
+withReferencePoses (pipeline::SegmentationMode mode)
 {
   pipeline::FusionPipelineConfig config;
   config.mode = mode;
   config.reconstruction.use_reference_poses = true;
-  pipeline::FusionPipeline fusion (config);
+  return pipeline::FusionPipeline (config);
+}
+
+/** Runs the pipeline over \a sequence with its poses and its simulated detector's masks. */
+pipeline::FusionPipeline
+runSequence (pipeline::SegmentationMode mode, const io::SyntheticSequence& sequence)
+{
+  pipeline::FusionPipeline fusion = withReferencePoses (mode);
   for (std::size_t i = 0; i < sequence.size (); ++i)
   {
     const RGBDFrame::Ptr frame = sequence.frame (i);
@@ -75,6 +82,36 @@ objectIoU (const pcl::PointCloud<pcl::PointXYZRGBL>& map, const pcl::PointCloud<
     best[key.first] = std::max (best[key.first], iou);
   }
   return best;
+}
+
+/** What a geometry-only run did: merges made, and whether object \a id was seen under two
+  * or more labels of L^p in the first frame. */
+struct SplitRun
+{
+  std::size_t merges = 0;
+  bool split_at_first = false;
+};
+
+/** Runs \a fusion (geometry only) over \a sequence from its start, frame by frame. */
+SplitRun
+runGeometrySplitAtFirst (const io::SyntheticSequence& sequence, std::uint16_t id, pipeline::FusionPipeline& fusion)
+{
+  SplitRun run;
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    run.merges += fusion.process (*frame, nullptr).merges;
+    if (i != 0)
+      continue;
+    std::set<std::int32_t> labels;
+    const cv::Mat& lp = fusion.frameLabels ();
+    for (int y = 0; y < lp.rows; ++y)
+      for (int x = 0; x < lp.cols; ++x)
+        if (frame->instance_mask.at<std::uint16_t> (y, x) == id && lp.at<std::int32_t> (y, x) > 0)
+          labels.insert (lp.at<std::int32_t> (y, x));
+    run.split_at_first = labels.size () >= 2;
+  }
+  return run;
 }
 }  // namespace
 
@@ -139,30 +176,10 @@ TEST (FusionPipeline, AnObjectSeenInTwoPartsIsMergedOnceRevealed)
   io::SyntheticSequenceConfig config;
   config.frames = 30;
   const io::SyntheticSequence sequence (io::SyntheticScene::parse (text, "occluder scene"), config);
-  pipeline::FusionPipelineConfig pipeline_config;
-  pipeline_config.mode = pipeline::SegmentationMode::Geometry;
-  pipeline_config.reconstruction.use_reference_poses = true;
-  pipeline::FusionPipeline fusion (pipeline_config);
-  std::size_t merges = 0;
-  bool split_at_first = false;
-  for (std::size_t i = 0; i < sequence.size (); ++i)
-  {
-    const RGBDFrame::Ptr frame = sequence.frame (i);
-    merges += fusion.process (*frame, nullptr).merges;
-    if (i == 0)
-    {
-      // The precondition: the box is seen in two parts with two labels.
-      std::set<std::int32_t> labels;
-      const cv::Mat& lp = fusion.frameLabels ();
-      for (int y = 0; y < lp.rows; ++y)
-        for (int x = 0; x < lp.cols; ++x)
-          if (frame->instance_mask.at<std::uint16_t> (y, x) == 3 && lp.at<std::int32_t> (y, x) > 0)
-            labels.insert (lp.at<std::int32_t> (y, x));
-      split_at_first = labels.size () >= 2;
-    }
-  }
-  ASSERT_TRUE (split_at_first);
-  EXPECT_GE (merges, 1u);
+  pipeline::FusionPipeline fusion = withReferencePoses (pipeline::SegmentationMode::Geometry);
+  const SplitRun run = runGeometrySplitAtFirst (sequence, 3, fusion);
+  ASSERT_TRUE (run.split_at_first);  // the precondition: the box is seen in two parts with two labels
+  EXPECT_GE (run.merges, 1u);
   const auto iou = objectIoU (*fusion.labelledCloud (), sequence.groundTruthCloud ());
   ASSERT_TRUE (iou.count (3));
   EXPECT_GE (iou.at (3), 0.8);  // one segment for the whole box
@@ -203,9 +220,7 @@ pipeline::FusionPipeline
 runFused (const io::SyntheticSequence& sequence, const std::function<std::vector<Instance> (const RGBDFrame&)>& masks,
           const std::function<void (std::size_t, const pipeline::FusionPipeline&)>& after = nullptr)
 {
-  pipeline::FusionPipelineConfig config;
-  config.reconstruction.use_reference_poses = true;
-  pipeline::FusionPipeline fusion (config);
+  pipeline::FusionPipeline fusion = withReferencePoses (pipeline::SegmentationMode::Fused);
   for (std::size_t i = 0; i < sequence.size (); ++i)
   {
     const RGBDFrame::Ptr frame = sequence.frame (i);
@@ -376,27 +391,8 @@ TEST (FusionPipeline, AWallSeenInTwoPiecesBecomesOneSegment)
   io::SyntheticSequenceConfig config;
   config.frames = 30;
   const io::SyntheticSequence sequence (io::SyntheticScene::parse (text, "wall scene"), config);
-  pipeline::FusionPipelineConfig pipeline_config;
-  pipeline_config.mode = pipeline::SegmentationMode::Geometry;
-  pipeline_config.reconstruction.use_reference_poses = true;
-  pipeline::FusionPipeline fusion (pipeline_config);
-  bool split_at_first = false;
-  for (std::size_t i = 0; i < sequence.size (); ++i)
-  {
-    const RGBDFrame::Ptr frame = sequence.frame (i);
-    fusion.process (*frame, nullptr);
-    if (i == 0)
-    {
-      std::set<std::int32_t> labels;
-      const cv::Mat& lp = fusion.frameLabels ();
-      for (int y = 0; y < lp.rows; ++y)
-        for (int x = 0; x < lp.cols; ++x)
-          if (frame->instance_mask.at<std::uint16_t> (y, x) == 2 && lp.at<std::int32_t> (y, x) > 0)
-            labels.insert (lp.at<std::int32_t> (y, x));
-      split_at_first = labels.size () >= 2;
-    }
-  }
-  ASSERT_TRUE (split_at_first);
+  pipeline::FusionPipeline fusion = withReferencePoses (pipeline::SegmentationMode::Geometry);
+  ASSERT_TRUE (runGeometrySplitAtFirst (sequence, 2, fusion).split_at_first);
   const auto iou = objectIoU (*fusion.labelledCloud (), sequence.groundTruthCloud ());
   ASSERT_TRUE (iou.count (2));
   EXPECT_GE (iou.at (2), 0.8);  // one segment for the whole wall
