@@ -64,6 +64,10 @@ def run_ours(binary, data, out, extra, timings):
 MASK_SETTINGS = [
     ("perfect masks", ["--dilate", "0", "--jitter", "0", "--merge", "0", "--miss", "0"]),
     ("typical network (dilate 2 px ± 1, merge 0.2, miss 0.1)", []),
+    ("issue 18's typical detector (boundary +1…+5 px, merge 0.1, miss 0.05, 0.2 false positives)",
+     ["--dilate", "3", "--jitter", "2", "--merge", "0.1", "--miss", "0.05", "--false-positives", "0.2"]),
+    ("shrinking and splitting (erode 3 px ± 1, split 0.2, miss 0.1)",
+     ["--dilate", "-3", "--jitter", "1", "--merge", "0", "--miss", "0.1", "--split", "0.2"]),
     ("leaky masks (dilate 6 px ± 2)", ["--dilate", "6", "--jitter", "2", "--merge", "0", "--miss", "0"]),
     ("merging network (every touching pair merged)", ["--dilate", "2", "--jitter", "1", "--merge", "1", "--miss", "0"]),
     ("missing network (miss 0.5)", ["--dilate", "2", "--jitter", "1", "--merge", "0", "--miss", "0.5"]),

@@ -128,10 +128,17 @@ private:
   segmentation::GlobalSegmentMap map_;
   segmentation::SurfacePlanes planes_;
   cv::Mat frame_labels_;
-  /** \brief settledLabels of the map as it is now (computed once per processed frame). */
-  const std::unordered_map<std::uint32_t, std::uint32_t>& settledLabels () const;
+  /** \brief The output label of \a label (GlobalSegmentMap::settledLabels). Exact for
+    * the written outputs; for per-frame views (\a exact false) the table may be up to
+    * kViewSettleFrames frames old (it scans the whole volume), and labels made since show
+    * as their object.
+    */
+  std::uint32_t settledLabel (std::uint32_t label, bool exact) const;
+  void refreshSettled (bool exact) const;
+  static constexpr std::size_t kViewSettleFrames = 30;
   std::size_t processed_ = 0;  ///< frames given to process()
   mutable std::size_t settled_at_ = static_cast<std::size_t> (-1);
+  mutable std::uint32_t settled_end_ = 0;  ///< labels below this existed when settled_ was made
   mutable std::unordered_map<std::uint32_t, std::uint32_t> settled_;
 };
 }  // namespace pipeline

@@ -149,26 +149,28 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   return report;
 }
 
-const std::unordered_map<std::uint32_t, std::uint32_t>&
-FusionPipeline::settledLabels () const
+void
+FusionPipeline::refreshSettled (bool exact) const
 {
-  if (settled_at_ != processed_)
-  {
-    settled_ = map_.settledLabels (reconstruction_.volume ());
-    settled_at_ = processed_;
-  }
-  return settled_;
+  const bool stale = settled_at_ == static_cast<std::size_t> (-1) ||
+                     (exact ? settled_at_ != processed_ : processed_ - settled_at_ >= kViewSettleFrames);
+  if (!stale)
+    return;
+  settled_ = map_.settledLabels (reconstruction_.volume ());
+  settled_at_ = processed_;
+  settled_end_ = static_cast<std::uint32_t> (map_.labelsAllocated () + 1);
 }
 
-namespace
-{
 std::uint32_t
-lookup (const std::unordered_map<std::uint32_t, std::uint32_t>& settled, std::uint32_t label)
+FusionPipeline::settledLabel (std::uint32_t label, bool exact) const
 {
-  const auto it = settled.find (label);
-  return it == settled.end () ? 0 : it->second;
+  if (label == 0)
+    return 0;
+  if (!exact && label >= settled_end_)
+    return map_.resolve (label);
+  const auto it = settled_.find (label);
+  return it == settled_.end () ? 0 : it->second;
 }
-}  // namespace
 
 cv::Mat
 FusionPipeline::modelLabels () const
@@ -176,13 +178,13 @@ FusionPipeline::modelLabels () const
   const cv::Mat& labels = reconstruction_.model ().labels;
   if (labels.empty ())
     return cv::Mat ();
-  const auto& settled = settledLabels ();
+  refreshSettled (false);
   cv::Mat out (labels.size (), CV_32S);
   for (int y = 0; y < labels.rows; ++y)
     for (int x = 0; x < labels.cols; ++x)
     {
       const std::int32_t l = labels.at<std::int32_t> (y, x);
-      out.at<std::int32_t> (y, x) = l > 0 ? static_cast<std::int32_t> (lookup (settled, static_cast<std::uint32_t> (l))) : 0;
+      out.at<std::int32_t> (y, x) = l > 0 ? static_cast<std::int32_t> (settledLabel (static_cast<std::uint32_t> (l), false)) : 0;
     }
   return out;
 }
@@ -192,9 +194,9 @@ FusionPipeline::labelledCloud () const
 {
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZRGBL>);
   reconstruction_.volume ().extractPointCloud (*cloud);
-  const auto& settled = settledLabels ();
+  refreshSettled (true);
   for (auto& p : cloud->points)
-    p.label = lookup (settled, p.label);
+    p.label = settledLabel (p.label, true);
   return cloud;
 }
 
@@ -212,14 +214,14 @@ FusionPipeline::labelledMesh (bool color_by_segment) const
   }
   if (label_offset < 0)
     return mesh;
-  const auto& settled = settledLabels ();
+  refreshSettled (true);
   const std::size_t points = static_cast<std::size_t> (mesh.cloud.width) * mesh.cloud.height;
   for (std::size_t i = 0; i < points; ++i)
   {
     std::uint8_t* point = mesh.cloud.data.data () + i * mesh.cloud.point_step;
     std::uint32_t label;
     std::memcpy (&label, point + label_offset, sizeof label);
-    label = lookup (settled, label);
+    label = settledLabel (label, true);
     std::memcpy (point + label_offset, &label, sizeof label);
     if (color_by_segment && color_offset >= 0)
     {
@@ -235,7 +237,8 @@ std::vector<segmentation::SegmentRecord>
 FusionPipeline::segments ()
 {
   map_.refreshStatistics (reconstruction_.volume ());
-  std::vector<segmentation::SegmentRecord> all = map_.segments (&settledLabels ()), kept;
+  refreshSettled (true);
+  std::vector<segmentation::SegmentRecord> all = map_.segments (&settled_), kept;
   for (auto& s : all)
     if (s.voxels > 0)
       kept.push_back (std::move (s));
