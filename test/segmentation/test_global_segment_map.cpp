@@ -66,6 +66,26 @@ TEST (PairEvidence, UnitesAfterFiveFramesTogetherWhileTheyAreTheMajority)
   EXPECT_THROW (PairEvidence {bad}, ParameterError);
 }
 
+TEST (GlobalSegmentMap, AClassNeedsVotesInAQuarterOfTheFramesSeen)
+{
+  GlobalSegmentMap map;
+  const std::uint32_t floor = map.newSegment (0);
+  SegmentInstance teddy;
+  teddy.instance = 0;
+  teddy.class_name = "teddy bear";
+  teddy.score = 0.9f;
+  map.observe (floor, 0, &teddy);  // one stray mask
+  for (std::size_t frame = 1; frame < 20; ++frame)
+    map.observe (floor, frame);
+  EXPECT_EQ (map.record (floor)->frames_seen, 20u);
+  EXPECT_EQ (map.record (floor)->bestClass (), "");
+  for (std::size_t frame = 20; frame < 25; ++frame)
+    map.observe (floor, frame, &teddy);  // 6 of 25 frames: still below a quarter
+  EXPECT_EQ (map.record (floor)->bestClass (), "");
+  map.observe (floor, 25, &teddy);  // 7 of 26
+  EXPECT_EQ (map.record (floor)->bestClass (), "teddy bear");
+}
+
 TEST (GlobalSegmentMap, AWrongMergeIsUndoneWhenLaterFramesSeeThePairApart)
 {
   // A detector merges two touching objects (labels a, b) in the first six frames, then

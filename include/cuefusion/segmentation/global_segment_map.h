@@ -121,7 +121,10 @@ struct SegmentRecord
   std::size_t voxels = 0;                ///< from refreshStatistics
   Eigen::AlignedBox3f bounds;            ///< world frame, from refreshStatistics
 
-  /** \brief The class with the most votes (higher summed score on a tie), "" if none. */
+  /** \brief The class with the most votes (higher summed score on a tie), "" if none or
+    * if it was voted in fewer than a quarter of the frames the segment was seen (a floor
+    * that one stray mask claimed once is no teddy bear).
+    */
   std::string bestClass () const;
   /** \brief Mean score of the best class over the frames that voted for it. */
   float bestScore () const;

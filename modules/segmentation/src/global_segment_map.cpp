@@ -96,7 +96,7 @@ SegmentRecord::bestClass () const
       best = name;
       best_vote = vote;
     }
-  return best;
+  return 4 * static_cast<std::size_t> (best_vote.first) >= frames_seen ? best : std::string ();
 }
 
 float
