@@ -63,7 +63,15 @@ main (int argc, char** argv)
   }
   catch (const cuefusion::ParameterError& e)
   {
-    std::cerr << "cuefusion " << command << ": " << e.what () << " (see 'cuefusion " << command << " --help')\n";
+    // The library names config fields; the user typed options.
+    static const std::map<std::string, std::string> options = {
+      {"InstanceGuidedMergeConfig::min_overlap", "--min-overlap"},
+      {"ConcavityEdgeConfig::noise_slope", "--concavity-noise-slope"},
+    };
+    const auto option = options.find (e.parameter ());
+    std::cerr << "cuefusion " << command << ": "
+              << (option == options.end () ? std::string (e.what ()) : option->second + ": " + e.reason ()) << " (see 'cuefusion "
+              << command << " --help')\n";
     return 2;
   }
   catch (const cuefusion::Error& e)

@@ -162,7 +162,7 @@ TEST_F (SegmentFrame, BadInputIsOneLine)
   EXPECT_EQ (r.code, 2);
   EXPECT_NE (r.err.find ("--intrinsics"), std::string::npos) << r.err;
   for (const char* bad : {"--concavity-threshold 2", "--noise-factor -1", "--closings 99", "--normals sobel",
-                          "--range-sigma 0", "--normal-step 0"})
+                          "--range-sigma 0", "--normal-step 0", "--concavity-noise-slope -1", "--min-overlap 1.5"})
   {
     r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "o.pcd") + " " + bad, dir);
     EXPECT_EQ (r.code, 2) << bad;

@@ -21,10 +21,21 @@ public:
 
 namespace cuefusion
 {
-/** \brief A parameter outside its valid range (named as its command-line option). */
+/** \brief A parameter outside its valid range, named as its config field
+  * ("Class::field"; older code still names the command-line option): the command line
+  * translates field names into its options.
+  */
 class ParameterError : public Error
 {
 public:
-  ParameterError (const std::string& parameter, const std::string& what) : Error (parameter, what) {}
+  ParameterError (const std::string& parameter, const std::string& what)
+    : Error (parameter, what), parameter_ (parameter), reason_ (what)
+  {
+  }
+  const std::string& parameter () const { return parameter_; }
+  const std::string& reason () const { return reason_; }
+
+private:
+  std::string parameter_, reason_;
 };
 }  // namespace cuefusion
