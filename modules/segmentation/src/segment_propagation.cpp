@@ -10,7 +10,6 @@
 #include <atomic>
 #include <cmath>
 #include <map>
-#include <set>
 
 
 namespace cuefusion
@@ -321,15 +320,15 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
       if (winner != identity[j])
       {
         ++result.separated;
-        // The next model label above τ_l that no other identity holds, else a fresh one
-        // shared by this identity's segments.
+        // The next model label above τ_l that no other identity claims, else one of the
+        // lost label's successors (below), shared by this identity's segments.
         std::uint32_t next = 0;
         int next_count = 0;
         for (const auto& [li, c] : by_frame_label[j])
           if (li != label && c > next_count && static_cast<float> (c) > config_.inherit_overlap * static_cast<float> (frame_count[j]))
           {
             const auto other = claims.find (li);
-            if (other == claims.end () || other->second.count (identity[j]) || other->second.empty ())
+            if (other == claims.end () || other->second.empty () || other->second.count (identity[j]))
             {
               next = li;
               next_count = c;
