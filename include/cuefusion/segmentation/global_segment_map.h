@@ -87,8 +87,10 @@ public:
   };
   explicit PairEvidence (const SegmentMergingConfig& config = SegmentMergingConfig ());
 
-  /** \brief One vote of the current frame (each pair once per frame: the caller's job). */
-  void add (std::uint32_t a, std::uint32_t b, PairVote vote);
+  /** \brief One vote of the current frame (each pair once per frame: the caller's job).
+    * Returns whether it changed the pair's verdict (united()).
+    */
+  bool add (std::uint32_t a, std::uint32_t b, PairVote vote);
   Counts counts (std::uint32_t a, std::uint32_t b) const;
   /** \brief Whether the evidence unites \a a and \a b: at least confirm_confidence frames
     * together and together > together_share · (together + apart).

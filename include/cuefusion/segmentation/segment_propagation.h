@@ -46,7 +46,6 @@ struct PropagationResult
   /** What this frame says of pairs of map segments it sees (GlobalSegmentMap::addEvidence). */
   std::vector<std::tuple<std::uint32_t, std::uint32_t, PairVote>> votes;
   int inherited = 0, fresh = 0, dropped = 0;
-  int separated = 0;  ///< frame segments that lost their map label to a segment the masks set apart
 };
 
 /** \brief Carries frame segments over to the map's global labels (§4.2.2).

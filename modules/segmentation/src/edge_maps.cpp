@@ -119,8 +119,7 @@ concavityEdgeRow (const float* __restrict phi, const float* __restrict z, int w,
 {
   for (int x = 0; x < w; ++x)
   {
-    const float dz = z[x] - 0.4f;  // σ_z at normal incidence (axialNoiseLowerBound)
-    const float theta = noise_slope * (0.0012f + 0.0019f * dz * dz) / z[x];
+    const float theta = noise_slope * axialNoiseLowerBound (z[x]) / z[x];  // σ_z at normal incidence
     const float t = std::min (threshold, 1.f - 0.5f * theta * theta);
     out[x] = phi[x] < t ? 1 : 0;  // NaN compares false: no edge
   }

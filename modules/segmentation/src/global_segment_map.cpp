@@ -50,13 +50,15 @@ SegmentMergingConfig::validate () const
 
 PairEvidence::PairEvidence (const SegmentMergingConfig& config) : config_ (config) { config_.validate (); }
 
-void
+bool
 PairEvidence::add (std::uint32_t a, std::uint32_t b, PairVote vote)
 {
   if (a == b || a == 0 || b == 0)
-    return;
+    return false;
   Counts& c = counts_[{std::min (a, b), std::max (a, b)}];
+  const bool before = united (c);
   ++(vote == PairVote::Together ? c.together : c.apart);
+  return united (c) != before;
 }
 
 PairEvidence::Counts
@@ -171,19 +173,11 @@ GlobalSegmentMap::addEvidence (const std::vector<std::tuple<std::uint32_t, std::
 {
   if (votes.empty ())
     return 0;
-  // Only labels in a pair that changed its verdict can change their root.
-  std::vector<std::uint32_t> touched;
+  // The grouping changes only when some pair's verdict does.
+  bool changed_verdict = false;
   for (const auto& [a, b, vote] : votes)
-  {
-    const bool before = evidence_.united (a, b);
-    evidence_.add (a, b, vote);
-    if (evidence_.united (a, b) != before)
-    {
-      touched.push_back (a);
-      touched.push_back (b);
-    }
-  }
-  if (touched.empty ())
+    changed_verdict = evidence_.add (a, b, vote) || changed_verdict;
+  if (!changed_verdict)
     return 0;
   std::vector<std::uint32_t> roots_before (next_label_);
   for (std::uint32_t l = 0; l < next_label_; ++l)
@@ -284,7 +278,6 @@ GlobalSegmentMap::segments (const std::unordered_map<std::uint32_t, std::uint32_
 std::unordered_map<std::uint32_t, std::uint32_t>
 GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
 {
-  // Objects and how often they were seen (the most any of their labels was).
   const auto confirm = static_cast<std::size_t> (evidence_.config ().confirm_confidence);
   std::unordered_map<std::uint32_t, bool> kept;  // object → confirmed or still being seen
   for (const auto& [label, record] : records_)
@@ -296,6 +289,21 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
   for (const auto& [object, keep] : kept)
     if (keep)
       target[object] = object;
+  // The fragments' voxels, gathered in one pass over the volume.
+  std::vector<std::pair<Eigen::Vector3i, std::uint32_t>> fragment_voxels;  // (voxel, fragment object)
+  for (const auto& block : volume.blocks ())
+    for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
+    {
+      const reconstruction::TsdfVoxel& voxel = block->voxels[static_cast<std::size_t> (i)];
+      if (voxel.weight <= 0.f || voxel.label == 0)
+        continue;
+      const std::uint32_t object = resolve (voxel.label);
+      if (!target.count (object))
+        fragment_voxels.emplace_back (block->index * reconstruction::kBlockSide +
+                                        Eigen::Vector3i (i % reconstruction::kBlockSide, (i / reconstruction::kBlockSide) % reconstruction::kBlockSide,
+                                                         i / (reconstruction::kBlockSide * reconstruction::kBlockSide)),
+                                      object);
+    }
   // Fragments take the settled object their voxels touch most; rounds follow chains of
   // fragments (a fragment touching only another fragment settles once that one has).
   constexpr int kRounds = 4;
@@ -303,28 +311,20 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
   for (int round = 0; round < kRounds; ++round)
   {
     std::map<std::uint32_t, std::map<std::uint32_t, std::size_t>> contacts;  // fragment → settled object → voxel faces
-    for (const auto& block : volume.blocks ())
-      for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
+    for (const auto& [v, object] : fragment_voxels)
+    {
+      if (target.count (object))
+        continue;
+      for (const Eigen::Vector3i& step : steps)
       {
-        const reconstruction::TsdfVoxel& voxel = block->voxels[static_cast<std::size_t> (i)];
-        if (voxel.weight <= 0.f || voxel.label == 0)
+        const reconstruction::TsdfVoxel* other = volume.findVoxel (v + step);
+        if (!other || other->weight <= 0.f || other->label == 0)
           continue;
-        const std::uint32_t object = resolve (voxel.label);
-        if (target.count (object))
-          continue;
-        const Eigen::Vector3i v = block->index * reconstruction::kBlockSide +
-                                  Eigen::Vector3i (i % reconstruction::kBlockSide, (i / reconstruction::kBlockSide) % reconstruction::kBlockSide,
-                                                   i / (reconstruction::kBlockSide * reconstruction::kBlockSide));
-        for (const Eigen::Vector3i& step : steps)
-        {
-          const reconstruction::TsdfVoxel* other = volume.findVoxel (v + step);
-          if (!other || other->weight <= 0.f || other->label == 0)
-            continue;
-          const auto settled = target.find (resolve (other->label));
-          if (settled != target.end () && settled->second != 0)
-            ++contacts[object][settled->second];
-        }
+        const auto settled = target.find (resolve (other->label));
+        if (settled != target.end () && settled->second != 0)
+          ++contacts[object][settled->second];
       }
+    }
     if (contacts.empty ())
       break;
     for (const auto& [fragment, counts] : contacts)

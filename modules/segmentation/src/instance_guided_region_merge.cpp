@@ -329,8 +329,6 @@ void
 InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
                                   std::vector<SegmentInstance>* segments, const SurfacePlanes* planes) const
 {
-  if (planes && (planes->width != geometric.cols || planes->height != geometric.rows))
-    throw Error ("InstanceGuidedRegionMerge", "the surface planes must be of L^G's size");
   // Cut where the masks see two objects, then unite the pieces each instance covers.
   cv::Mat pieces;
   std::vector<SegmentInstance> piece_info;
@@ -376,17 +374,23 @@ InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<In
   if (!segments)
     return;
   // Per output segment: how many pieces it unites and the share of it its instance covers.
-  std::vector<float> pixels (segments->size (), 0.f), under (segments->size (), 0.f);
-  const SegmentOverlaps overlaps = countOverlaps (pieces, instancesToIdImage (instances, geometric.size ()));
+  std::vector<float> pixels (segments->size (), 0.f), under (segments->size (), 0.f), size (piece_info.size (), 0.f);
+  for (int y = 0; y < pieces.rows; ++y)
+  {
+    const std::int32_t* g = pieces.ptr<std::int32_t> (y);
+    for (int x = 0; x < pieces.cols; ++x)
+      if (g[x] > 0)
+        size[static_cast<std::size_t> (g[x])] += 1.f;
+  }
   for (std::size_t l = 1; l < piece_info.size (); ++l)
   {
-    if (overlaps.size[l] == 0)
+    if (size[l] == 0.f)
       continue;
     const std::size_t target = static_cast<std::size_t> (output.at (keyOf (l)));
     SegmentInstance& info = (*segments)[target];
     ++info.geometric_segments;
-    pixels[target] += static_cast<float> (overlaps.size[l]);
-    under[target] += piece_info[l].coverage * static_cast<float> (overlaps.size[l]);
+    pixels[target] += size[l];
+    under[target] += piece_info[l].coverage * size[l];
   }
   for (std::size_t l = 1; l < segments->size (); ++l)
     (*segments)[l].coverage = pixels[l] > 0.f ? under[l] / pixels[l] : 0.f;

@@ -199,16 +199,9 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
       const cv::Vec3f* n_row = normals.ptr<cv::Vec3f> (y);
       const cv::Vec3f* vm_row = model_vertices.ptr<cv::Vec3f> (y);
       const cv::Vec3f* nm_row = model_normals.ptr<cv::Vec3f> (y);
-      // The last model label resolved: runs of pixels share one.
-      std::uint32_t last_model = 0, last_global = 0;
+      // Model labels as allocated, not resolved: objects are groups of them.
       const auto overlap = [&] (int x) {
-        const auto model = static_cast<std::uint32_t> (li[x]);
-        if (model != last_model)
-        {
-          last_model = model;
-          last_global = model;  // labels as allocated: objects are groups of them
-        }
-        addOverlap (overlaps[static_cast<std::size_t> (lj[x])], last_global, 1);
+        addOverlap (overlaps[static_cast<std::size_t> (lj[x])], static_cast<std::uint32_t> (li[x]), 1);
       };
       int x = 0;
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
@@ -307,6 +300,7 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
     if (frame_count[j] < config_.min_segment_size)
       continue;
     std::uint32_t label = wanted[j];
+    bool successor = false;  // a successor of a lost label: neither inherited nor (unless new) fresh
     if (label && identity[j] != kUnsure)
     {
       const auto& by_identity = claims[label];
@@ -319,7 +313,6 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
         }
       if (winner != identity[j])
       {
-        ++result.separated;
         // The next model label above τ_l that no other identity claims, else one of the
         // lost label's successors (below), shared by this identity's segments.
         std::uint32_t next = 0;
@@ -344,7 +337,7 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
           auto it = fresh_for.find ({label, identity[j]});
           if (it == fresh_for.end ())
           {
-            std::uint32_t successor = 0;
+            std::uint32_t unused = 0;
             for (const std::uint32_t s : map.successors (label))
             {
               bool taken = false;
@@ -352,55 +345,57 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
                 taken = taken || (key.first == label && given_label == s);
               if (!taken)
               {
-                successor = s;
+                unused = s;
                 break;
               }
             }
-            if (!successor)
+            if (!unused)
             {
-              successor = map.newSuccessor (label, frame);
+              unused = map.newSuccessor (label, frame);
               ++result.fresh;
             }
-            it = fresh_for.emplace (std::make_pair (label, identity[j]), successor).first;
+            it = fresh_for.emplace (std::make_pair (label, identity[j]), unused).first;
           }
           label = it->second;
-          given[j] = label;
-          map.observe (label, frame, segments && j < segments->size () ? &(*segments)[j] : nullptr);
-          continue;
+          successor = true;
         }
       }
     }
-    if (label)
-      ++result.inherited;
-    else
+    if (!label)
     {
       label = map.newSegment (frame);
       ++result.fresh;
     }
+    else if (!successor)
+      ++result.inherited;
     given[j] = label;
     map.observe (label, frame, segments && j < segments->size () ? &(*segments)[j] : nullptr);
   }
 
   // §4.2.3 as evidence. Each map segment seen well enough is placed in the frame segment
   // holding most of its agreeing pixels.
-  std::map<std::uint32_t, std::pair<int, int>> seen;  // model label → (visible pixels, best Π)
-  std::map<std::uint32_t, std::size_t> placed_in;     // model label → frame segment
+  struct Sighting
+  {
+    int visible = 0, best = 0;  ///< agreeing pixels in all, and in the frame segment holding most
+    std::size_t segment = 0;
+  };
+  std::map<std::uint32_t, Sighting> seen;  // by model label
   for (std::size_t j = 1; j < labels; ++j)
     for (const auto& [li, c] : by_frame_label[j])
     {
-      auto& entry = seen[li];
-      entry.first += c;
-      if (c > entry.second)
+      Sighting& s = seen[li];
+      s.visible += c;
+      if (c > s.best)
       {
-        entry.second = c;
-        placed_in[li] = j;
+        s.best = c;
+        s.segment = j;
       }
     }
   std::vector<std::pair<std::uint32_t, std::size_t>> placed;  // (model label, frame segment), by label
-  for (const auto& [li, entry] : seen)
-    if (li != 0 && entry.first >= config_.min_segment_size &&
-        static_cast<float> (entry.second) > config_.placement_share * static_cast<float> (entry.first))
-      placed.emplace_back (li, placed_in[li]);
+  for (const auto& [li, s] : seen)
+    if (li != 0 && s.visible >= config_.min_segment_size &&
+        static_cast<float> (s.best) > config_.placement_share * static_cast<float> (s.visible))
+      placed.emplace_back (li, s.segment);
   if (placed.size () < 2)
     return finishLabels (frame_labels, given, result);
   // Frame segments that touch (within 2 pixels along a row or a column): an edge, or a
