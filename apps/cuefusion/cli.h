@@ -51,6 +51,7 @@ pipeline::SegmentationMode
 chooseSegmentationMode (const std::string& mode, const std::string& masks, const std::string& model);
 
 int runSynth (const std::vector<std::string>& args);
+int runSynthViews (const std::vector<std::string>& args);
 int runInfo (const std::vector<std::string>& args);
 int runRun (const std::vector<std::string>& args);
 int runSegmentFrame (const std::vector<std::string>& args);

@@ -2,6 +2,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/progress.h>
+#include <cuefusion/io/random_scene.h>
 #include <cuefusion/io/synthetic_sequence.h>
 
 #include <iostream>
@@ -11,6 +12,18 @@ namespace cuefusion
 {
 namespace cli
 {
+namespace
+{
+void
+parseSize (const std::string& size, int& width, int& height)
+{
+  char x = 0;
+  std::istringstream in (size);
+  if (!(in >> width >> x >> height) || x != 'x' || !in.eof () || width < 16 || height < 16 || width > 8192 || height > 8192)
+    throw ParameterError ("--size", "expected WIDTHxHEIGHT between 16x16 and 8192x8192, e.g. 320x240");
+}
+}  // namespace
+
 int
 runSynth (const std::vector<std::string>& args)
 {
@@ -49,12 +62,7 @@ runSynth (const std::vector<std::string>& args)
   if (!parseCommandLine ("synth", "--scene NAME|FILE --out DIR [options]", args, options, positional, vm))
     return 0;
   if (!size.empty ())
-  {
-    char x = 0;
-    std::istringstream in (size);
-    if (!(in >> config.width >> x >> config.height) || x != 'x' || !in.eof ())
-      throw ParameterError ("--size", "expected WIDTHxHEIGHT, e.g. 320x240");
-  }
+    parseSize (size, config.width, config.height);
   const io::DatasetLayout layout = io::parseDatasetLayout (layout_name);
   config.validate ();
   const io::SyntheticScene scene =
@@ -68,6 +76,48 @@ runSynth (const std::vector<std::string>& args)
   const PinholeCamera& c = sequence.camera ();
   std::cout << "wrote " << sequence.size () << " frames of scene '" << scene.name << "' (" << c.width << "x" << c.height
             << ", " << scene.objects.size () << " objects) as " << layout_name << " to " << out << "\n";
+  return 0;
+}
+
+int
+runSynthViews (const std::vector<std::string>& args)
+{
+  std::string out, size = "320x240";
+  std::size_t views = 0;
+  std::uint64_t seed = 1;
+  io::RandomSceneConfig config;
+  po::options_description options ("options");
+  options.add_options ()
+    ("views", po::value (&views)->required (), "number of views to render")
+    ("out", po::value (&out)->required (), "output folder (must not exist or be empty)")
+    ("seed", po::value (&seed)->default_value (seed), "seed of every random choice (view i depends only on seed and i)")
+    ("size", po::value (&size)->default_value (size), "image size WxH")
+    ("views-per-scene", po::value (&config.views_per_scene)->default_value (config.views_per_scene), "camera poses per random scene")
+    ("min-objects", po::value (&config.min_objects)->default_value (config.min_objects), "fewest objects in a scene")
+    ("max-objects", po::value (&config.max_objects)->default_value (config.max_objects), "most objects in a scene")
+    ("touching", po::value (&config.touching_probability)->default_value (config.touching_probability),
+     "probability that an object is placed against another")
+    ("stacking", po::value (&config.stacking_probability)->default_value (config.stacking_probability),
+     "probability that a box, can or ball is put on a box")
+    ("multipart", po::value (&config.multipart_probability)->default_value (config.multipart_probability),
+     "probability of a multi-part object (bottle, L-block, snowman, mug)")
+    ("table", po::value (&config.table_probability)->default_value (config.table_probability),
+     "probability that the objects stand on a table (else on the floor)")
+    ("overwrite", "replace OUT if it exists");
+  po::positional_options_description positional;
+  po::variables_map vm;
+  if (!parseCommandLine ("synth-views", "--views N --out DIR [options]", args, options, positional, vm))
+    return 0;
+  int width = 0, height = 0;
+  parseSize (size, width, height);
+  if (views < 1 || views > 10000000)
+    throw ParameterError ("--views", "must lie in [1, 10000000]");
+  const io::RandomSceneGenerator generator (config, seed);
+  ProgressReporter progress ("synth-views", views);
+  io::writeRandomViews (generator, views, width, height, out, vm.count ("overwrite") > 0,
+                        [&progress] (std::size_t done) { progress.update (done); });
+  progress.finish ();
+  std::cout << "wrote " << views << " random views (" << width << "x" << height << ", seed " << seed << ") to " << out << "\n";
   return 0;
 }
 }  // namespace cli

@@ -16,6 +16,8 @@ const char* kUsage =
   "\n"
   "commands:\n"
   "  synth   render a synthetic RGB-D sequence with exact ground truth\n"
+  "  synth-views\n"
+  "          render random scenes with exact instance masks (training data for a segmenter)\n"
   "  info    describe a sequence: format, frames, resolution, intrinsics, poses, masks\n"
   "  run     process a sequence (folder, openni2[:DEVICE] or .oni file) into a map\n"
   "  segment-frame\n"
@@ -31,7 +33,7 @@ main (int argc, char** argv)
 {
   using namespace cuefusion::cli;
   const std::map<std::string, int (*) (const std::vector<std::string>&)> commands = {
-    {"synth", runSynth}, {"info", runInfo}, {"run", runRun}, {"segment-frame", runSegmentFrame}, {"eval", runEval}, {"render", runRender}};
+    {"synth", runSynth}, {"synth-views", runSynthViews}, {"info", runInfo}, {"run", runRun}, {"segment-frame", runSegmentFrame}, {"eval", runEval}, {"render", runRender}};
   if (argc < 2)
   {
     std::cerr << kUsage;
@@ -67,6 +69,15 @@ main (int argc, char** argv)
     static const std::map<std::string, std::string> options = {
       {"InstanceGuidedMergeConfig::min_overlap", "--min-overlap"},
       {"ConcavityEdgeConfig::noise_slope", "--concavity-noise-slope"},
+      {"OnnxSegmenterConfig::input_size", "--input-size"},
+      {"OnnxSegmenterConfig::score_threshold", "--score-threshold"},
+      {"OnnxSegmenterConfig::boundary_threshold", "--boundary-threshold"},
+      {"RandomSceneConfig::min_objects", "--min-objects/--max-objects"},
+      {"RandomSceneConfig::touching_probability", "--touching"},
+      {"RandomSceneConfig::stacking_probability", "--stacking"},
+      {"RandomSceneConfig::multipart_probability", "--multipart"},
+      {"RandomSceneConfig::table_probability", "--table"},
+      {"RandomSceneConfig::views_per_scene", "--views-per-scene"},
     };
     const auto option = options.find (e.parameter ());
     std::cerr << "cuefusion " << command << ": "

@@ -45,6 +45,14 @@ writeImageAtomic (const std::string& path, const cv::Mat& image, const std::vect
 void
 writeFileAtomic (const std::string& path, const std::function<bool (const std::string& temporary)>& write);
 
+/** \brief Writes a whole folder atomically: \a fill writes into a temporary sibling
+  * folder, which then replaces \a dir (an old \a dir is removed only after the swap). On
+  * any failure the temporary folder is removed and \a dir is untouched. An existing
+  * non-empty \a dir is a cuefusion::Error unless \a overwrite.
+  */
+void
+writeFolderAtomic (const std::string& dir, bool overwrite, const std::function<void (const std::string& staging)>& fill);
+
 /** \brief Writes text atomically (temporary file, then rename). */
 void
 writeTextAtomic (const std::string& path, const std::string& text);

@@ -144,6 +144,46 @@ writeFileAtomic (const std::string& path, const std::function<bool (const std::s
   }
 }
 
+void
+writeFolderAtomic (const std::string& dir, bool overwrite, const std::function<void (const std::string& staging)>& fill)
+{
+  const fs::path target = fs::absolute (dir);
+  boost::system::error_code ec;
+  if (fs::exists (target, ec) && !(fs::is_directory (target, ec) && fs::is_empty (target, ec)) && !overwrite)
+    throw Error (dir, "already exists and is not empty (use --overwrite to replace it)");
+  fs::create_directories (target.parent_path (), ec);
+  const fs::path staging = target.parent_path () / fs::unique_path ("." + target.filename ().string () + ".tmp-%%%%%%");
+  try
+  {
+    if (!fs::create_directory (staging, ec) || ec)
+      throw Error (dir, "cannot create a temporary folder beside it: " + ec.message ());
+    fill (staging.string ());
+  }
+  catch (...)
+  {
+    fs::remove_all (staging, ec);
+    throw;
+  }
+  // Swap in the finished folder; the old one (if any) is removed only afterwards.
+  const fs::path old = target.parent_path () / fs::unique_path ("." + target.filename ().string () + ".old-%%%%%%");
+  const bool had_old = fs::exists (target, ec);
+  ec.clear ();
+  if (had_old)
+    fs::rename (target, old, ec);
+  if (!ec)
+    fs::rename (staging, target, ec);
+  if (ec)
+  {
+    boost::system::error_code ignored;
+    fs::remove_all (staging, ignored);
+    if (had_old)
+      fs::rename (old, target, ignored);
+    throw Error (dir, "cannot move the finished folder into place: " + ec.message ());
+  }
+  if (had_old)
+    fs::remove_all (old, ec);
+}
+
 namespace
 {
 void

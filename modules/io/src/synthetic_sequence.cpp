@@ -129,14 +129,8 @@ void
 writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout, const std::string& dir,
                         bool overwrite, const std::function<void (std::size_t)>& progress)
 {
-  const fs::path target = fs::absolute (dir);
-  if (fs::exists (target) && !(fs::is_directory (target) && fs::is_empty (target)) && !overwrite)
-    throw Error (dir, "already exists and is not empty (use --overwrite to replace it)");
-  boost::system::error_code ec;
-  fs::create_directories (target.parent_path (), ec);
-  const fs::path staging = target.parent_path () / fs::unique_path ("." + target.filename ().string () + ".tmp-%%%%%%");
-  try
-  {
+  writeFolderAtomic (dir, overwrite, [&] (const std::string& staging_dir) {
+    const fs::path staging (staging_dir);
     std::unique_ptr<SequenceWriter> writer = SequenceWriter::create (layout, staging.string (), sequence.camera ());
     fs::create_directories (staging / "detections");
     for (std::size_t i = 0; i < sequence.size (); ++i)
@@ -155,28 +149,7 @@ writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout,
     if (pcl::io::savePCDFileBinaryCompressed ((staging / "gt_cloud.pcd").string (), *cloud) != 0)
       throw Error ((staging / "gt_cloud.pcd").string (), "cannot write point cloud");
     writeTextAtomic ((staging / "scene.json").string (), sceneJson (sequence));
-  }
-  catch (...)
-  {
-    fs::remove_all (staging, ec);
-    throw;
-  }
-  // Swap in the finished folder; the old one (if any) is removed only afterwards.
-  const fs::path old = target.parent_path () / fs::unique_path ("." + target.filename ().string () + ".old-%%%%%%");
-  const bool had_old = fs::exists (target);
-  if (had_old)
-    fs::rename (target, old, ec);
-  if (!ec)
-    fs::rename (staging, target, ec);
-  if (ec)
-  {
-    fs::remove_all (staging);
-    if (had_old)
-      fs::rename (old, target);
-    throw Error (dir, "cannot move the finished sequence into place: " + ec.message ());
-  }
-  if (had_old)
-    fs::remove_all (old, ec);
+  });
 }
 }  // namespace io
 }  // namespace cuefusion

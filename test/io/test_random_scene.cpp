@@ -1,0 +1,156 @@
+// Training views for the instance network (RandomSceneGenerator, synth-views): seeded,
+// with truth that agrees with the depth, and written as a whole folder or not at all.
+#include "test_utils.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/random_scene.h>
+
+#include <boost/filesystem.hpp>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+
+using namespace cuefusion;
+
+TEST (RandomSceneGenerator, ViewsDependOnlyOnSeedAndIndex)
+{
+  const io::RandomSceneGenerator a (io::RandomSceneConfig (), 7), b (io::RandomSceneConfig (), 7), c (io::RandomSceneConfig (), 8);
+  const io::RandomView v3 = a.view (3, 160, 120);
+  const io::RandomView again = b.view (3, 160, 120);  // another generator, no view 0..2 before it
+  EXPECT_EQ (cv::countNonZero (v3.view.depth != again.view.depth), 0);
+  EXPECT_EQ (cv::countNonZero (v3.objects != again.objects), 0);
+  EXPECT_GT (cv::countNonZero (v3.view.depth != c.view (3, 160, 120).view.depth), 0);
+  EXPECT_GT (cv::countNonZero (v3.view.depth != a.view (4, 160, 120).view.depth), 0);
+}
+
+TEST (RandomSceneGenerator, ScenesHoldSupportedObjectsAndTheTruthMatchesTheDepth)
+{
+  io::RandomSceneConfig config;
+  config.min_objects = 4;
+  config.max_objects = 8;
+  const io::RandomSceneGenerator generator (config, 11);
+  int views_with_objects = 0, touching_views = 0;
+  for (std::size_t i = 0; i < 12; ++i)
+  {
+    const io::SyntheticScene scene = generator.scene (i);
+    int objects = 0;
+    for (const io::SceneObject& o : scene.objects)
+    {
+      objects += o.detectable ? 1 : 0;
+      // Nothing floats below the floor; every object has parts.
+      EXPECT_FALSE (o.parts.empty ());
+      for (const io::Primitive& p : o.parts)
+        EXPECT_GE (p.center.z () + p.half_size.z (), -0.02 - 1e-9) << o.name;
+    }
+    EXPECT_LE (objects, config.max_objects);
+    EXPECT_GE (objects, 1);
+
+    const io::RandomView view = generator.view (i * config.views_per_scene, 160, 120);
+    EXPECT_EQ (view.object_count, objects);
+    // objects = instance with stuff removed; only detectable ids; depth wherever an object is
+    // seen, except the Kinect-like dropout (grazing angles), which stays rare.
+    int object_pixels = 0, without_depth = 0;
+    for (int v = 0; v < view.objects.rows; ++v)
+      for (int u = 0; u < view.objects.cols; ++u)
+      {
+        const std::uint16_t id = view.objects.at<std::uint16_t> (v, u);
+        if (!id)
+          continue;
+        EXPECT_EQ (id, view.view.instance.at<std::uint16_t> (v, u));
+        ASSERT_TRUE (scene.objectById (id) && scene.objectById (id)->detectable);
+        ++object_pixels;
+        without_depth += view.view.depth.at<float> (v, u) > 0.f ? 0 : 1;
+      }
+    views_with_objects += object_pixels > 0 ? 1 : 0;
+    EXPECT_LT (without_depth, 0.25 * object_pixels + 1);
+    // Two objects next to each other somewhere in the image (touching or occluding).
+    bool touch = false;
+    for (int v = 0; v + 1 < view.objects.rows && !touch; ++v)
+      for (int u = 0; u + 1 < view.objects.cols && !touch; ++u)
+      {
+        const std::uint16_t id = view.objects.at<std::uint16_t> (v, u);
+        const std::uint16_t right = view.objects.at<std::uint16_t> (v, u + 1), down = view.objects.at<std::uint16_t> (v + 1, u);
+        touch = id && ((right && right != id) || (down && down != id));
+      }
+    touching_views += touch ? 1 : 0;
+  }
+  // The camera looks at the objects: nearly every view sees some, and many see neighbours.
+  EXPECT_GE (views_with_objects, 11);
+  EXPECT_GE (touching_views, 4);
+}
+
+TEST (RandomSceneGenerator, RefusesAbsurdSettings)
+{
+  io::RandomSceneConfig config;
+  config.max_objects = 0;
+  test::expectError ([&] { io::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::min_objects", "min_objects");
+  config = io::RandomSceneConfig ();
+  config.touching_probability = 1.5;
+  EXPECT_THROW (io::RandomSceneGenerator (config, 1), ParameterError);
+  config = io::RandomSceneConfig ();
+  config.min_distance = 3.0;
+  config.max_distance = 1.0;
+  EXPECT_THROW (io::RandomSceneGenerator (config, 1), ParameterError);
+  EXPECT_THROW (io::RandomSceneGenerator (io::RandomSceneConfig (), 1).view (0, 8, 8), ParameterError);
+}
+
+TEST (RandomSceneGenerator, SynthViewsWritesTheWholeFolder)
+{
+  test::TempDir dir;
+  const auto r = test::runCuefusion ("synth-views --views 5 --size 96x72 --seed 4 --out " + (dir / "views"), dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  const nlohmann::json meta = nlohmann::json::parse (test::readFile (dir / "views/views.json"));
+  ASSERT_EQ (meta.at ("views").size (), 5u);
+  EXPECT_EQ (meta.at ("generator").at ("seed"), 4);
+  const io::RandomSceneGenerator generator (io::RandomSceneConfig (), 4);
+  for (int i = 0; i < 5; ++i)
+  {
+    const nlohmann::json& v = meta.at ("views").at (static_cast<std::size_t> (i));
+    const std::string file = v.at ("file");
+    const cv::Mat depth = io::readDepthImage (dir / ("views/depth/" + file), 1000.0);
+    const cv::Mat ids = io::readLabelImage (dir / ("views/instance/" + file));
+    const io::RandomView truth = generator.view (static_cast<std::size_t> (i), 96, 72);
+    EXPECT_EQ (cv::countNonZero (ids != truth.objects), 0);
+    cv::Mat difference;
+    cv::absdiff (depth, truth.view.depth, difference);
+    double worst = 0;
+    cv::minMaxLoc (difference, nullptr, &worst);
+    EXPECT_LE (worst, 0.0005 + 1e-6);  // millimetre PNG
+    EXPECT_DOUBLE_EQ (v.at ("camera").at ("fx").get<double> (), truth.camera.fx);
+    EXPECT_EQ (v.at ("objects").get<int> (), truth.object_count);
+  }
+  // An existing folder is not replaced without --overwrite; bad counts and sizes are refused.
+  EXPECT_EQ (test::runCuefusion ("synth-views --views 2 --out " + (dir / "views"), dir).code, 1);
+  const auto zero = test::runCuefusion ("synth-views --views 0 --out " + (dir / "other"), dir);
+  EXPECT_EQ (zero.code, 2);
+  EXPECT_NE (zero.err.find ("--views"), std::string::npos) << zero.err;
+  const auto tiny = test::runCuefusion ("synth-views --views 1 --size 0x0 --out " + (dir / "other"), dir);
+  EXPECT_EQ (tiny.code, 2);
+  EXPECT_NE (tiny.err.find ("--size"), std::string::npos) << tiny.err;
+  EXPECT_FALSE (boost::filesystem::exists (dir / "other"));
+}
+
+TEST (WriteFolderAtomic, AFailedFillLeavesTheOldFolderAndNoTemporary)
+{
+  test::TempDir dir;
+  const std::string target = dir / "set";
+  io::writeFolderAtomic (target, false, [] (const std::string& staging) { test::writeFile (staging + "/a.txt", "one"); });
+  EXPECT_EQ (test::readFile (target + "/a.txt"), "one");
+  EXPECT_THROW (io::writeFolderAtomic (target, true,
+                                       [] (const std::string& staging) {
+                                         test::writeFile (staging + "/b.txt", "half");
+                                         throw Error ("b.txt", "disk full");
+                                       }),
+                Error);
+  EXPECT_EQ (test::readFile (target + "/a.txt"), "one");
+  EXPECT_FALSE (boost::filesystem::exists (target + "/b.txt"));
+  int entries = 0;
+  for (const auto& e : boost::filesystem::directory_iterator (dir.str ()))
+    entries += e.path ().filename ().string () == "set" ? 0 : 1;
+  EXPECT_EQ (entries, 0);
+  test::expectError ([&] { io::writeFolderAtomic (target, false, [] (const std::string&) {}); }, target, "not empty");
+  io::writeFolderAtomic (target, true, [] (const std::string& staging) { test::writeFile (staging + "/c.txt", "two"); });
+  EXPECT_FALSE (boost::filesystem::exists (target + "/a.txt"));
+  EXPECT_EQ (test::readFile (target + "/c.txt"), "two");
+}
