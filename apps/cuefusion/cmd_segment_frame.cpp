@@ -146,20 +146,6 @@ edgePicture (const cv::Mat& concavity, const cv::Mat& discontinuity, const Cloud
   return picture;
 }
 
-/** BGR image of a cloud's colours (for a network). */
-cv::Mat
-colorImage (const Cloud& cloud)
-{
-  cv::Mat image (static_cast<int> (cloud.height), static_cast<int> (cloud.width), CV_8UC3);
-  for (int y = 0; y < image.rows; ++y)
-    for (int x = 0; x < image.cols; ++x)
-    {
-      const auto& p = cloud (x, y);
-      image.at<cv::Vec3b> (y, x) = cv::Vec3b (p.b, p.g, p.r);
-    }
-  return image;
-}
-
 /** L_t = InstanceGuidedRegionMerge (L^G, masks), the masks completing rims on \a planes' points. */
 cv::Mat
 fuseWithMasks (const segmentation::InstanceGuidedRegionMerge& merger, const cv::Mat& geometric,
@@ -260,10 +246,13 @@ runSegmentFrame (const std::vector<std::string>& args)
     ("png", po::value (&png), "also write a colour-coded label PNG (a folder for folder input)")
     ("edges-png", po::value (&edges_png), "also write the edge maps (red concave, green depth edges, grey no depth; a folder for folder input)")
     ("masks", po::value (&masks), "instance masks: a 16-bit id PNG (+ JSON of the same stem), or for folder input a folder of them matched by file stem")
-    ("model", po::value (&onnx.model_path), "instance masks from a YOLO-seg ONNX model run on the colour image (OpenCV DNN, CPU)")
+    ("model", po::value (&onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
+     "data/models/xyz_instances.onnx, or a YOLO-seg export run on the colour image")
     ("classes", po::value (&onnx.classes_path), "class names of --model, one per line (default data/classes/coco.names)")
     ("input-size", po::value (&onnx.input_size)->default_value (onnx.input_size), "network input size of --model (px)")
     ("score-threshold", po::value (&onnx.score_threshold)->default_value (onnx.score_threshold), "--model detections below are dropped")
+    ("boundary-threshold", po::value (&onnx.boundary_threshold)->default_value (onnx.boundary_threshold),
+     "--model of the xyz layout: instances are cut where the boundary probability reaches this")
     ("mode", po::value (&mode), "geometry (L^G), masks (instance masks only) or fused (InstanceGuidedRegionMerge, the default with --masks/--model)")
     ("min-overlap", po::value (&merge_config.min_overlap)->default_value (merge_config.min_overlap), "fused: share of a geometric segment inside one instance to join it")
     ("drop-support-plane", po::bool_switch (&drop_plane), "label the dominant plane (table, floor) 0")
@@ -411,10 +400,9 @@ runSegmentFrame (const std::vector<std::string>& args)
         instances = recognition::MaskFolderSegmenter::readInstanceMasks (masks, label_image.size ());
       else
       {
-        RGBDFrame frame;
+        RGBDFrame frame = fromOrganizedCloud (*cloud);  // the xyz network needs depth and a camera
         frame.index = static_cast<std::size_t> (&path - inputs.data ());
         frame.name = fs::path (path).stem ().string ();
-        frame.color = colorImage (*cloud);
         have_masks = source->segment (frame, instances);
       }
       if (!have_masks && !warned_missing)

@@ -50,6 +50,15 @@ struct RGBDFrame
 pcl::PointCloud<pcl::PointXYZRGBA>::Ptr
 toPointCloud (const RGBDFrame& frame);
 
+/** \brief The inverse of toPointCloud for an organized cloud whose intrinsics are not
+  * known (a PCD file): depth = z (0 where the point is NaN), colour from the points, and
+  * the pinhole camera fitted by least squares to u = fx·x/z + cx and v = fy·y/z + cy over
+  * the valid points. With fewer than 10 valid points (or a degenerate fit) the camera is
+  * Kinect's, scaled to the cloud's width.
+  */
+RGBDFrame
+fromOrganizedCloud (const pcl::PointCloud<pcl::PointXYZRGBA>& cloud);
+
 /** \brief True for a depth value that marks a measurement. */
 inline bool
 isValidDepth (float z)

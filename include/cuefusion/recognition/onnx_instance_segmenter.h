@@ -15,20 +15,25 @@ namespace recognition
 struct OnnxSegmenterConfig
 {
   std::string model_path;             ///< the user's .onnx file (never downloaded)
-  std::string classes_path;           ///< class names, one per line; "" = data/classes/coco.names
-  int input_size = 640;               ///< square network input (letterboxed)
-  float score_threshold = 0.25f;      ///< detections below are dropped
+  std::string classes_path;           ///< class names, one per line; "" = data/classes/coco.names (YOLO layouts)
+  int input_size = 640;               ///< square network input (letterboxed; YOLO layouts)
+  int dense_width = 320;              ///< xyz layout: the frame is resampled to this width (the training scale)
+  int min_mask_pixels = 100;          ///< xyz layout: smaller instances (frame pixels) are dropped
+  float score_threshold = 0.25f;      ///< detections (xyz layout: instances by mean foreground) below are dropped
   float nms_threshold = 0.45f;        ///< IoU above which the lower-scored box of a class is dropped
-  float mask_threshold = 0.5f;        ///< on sigmoid(coefficients · prototypes)
+  float mask_threshold = 0.5f;        ///< on sigmoid(coefficients · prototypes); xyz layout: on the foreground
+  float boundary_threshold = 0.5f;    ///< xyz layout: instance boundary where its probability is at least this
   int max_detections = 100;
   void validate () const;
 };
 
-/** \brief The two YOLO segmentation export layouts. */
-enum class YoloSegLayout
+/** \brief The model layouts OnnxInstanceSegmenter recognises by their output shapes. */
+enum class OnnxLayout
 {
-  V5,  ///< detections [1, N, 4 + 1 + C + K]: box, objectness, class scores, mask coefficients
-  V8   ///< detections [1, 4 + C + K, N]: box, class scores, mask coefficients (YOLOv8 / YOLO11)
+  V5,   ///< YOLOv5-seg: detections [1, N, 4 + 1 + C + K] (box, objectness, class scores, mask coefficients)
+  V8,   ///< YOLOv8/11-seg: detections [1, 4 + C + K, N] (box, class scores, mask coefficients)
+  Xyz   ///< cuefusion's class-agnostic network: xyz [1, 3, H, W] in, logits [1, 2, H/2, W/2] out
+        ///< (channel 0 foreground, channel 1 instance boundary), tools/train_masks
 };
 
 /** \brief Where a frame sits in the letterboxed network input. */
@@ -39,15 +44,21 @@ struct Letterbox
   cv::Size frame;
 };
 
-/** \brief A YOLO segmentation network (YOLOv5-seg, YOLOv8/11-seg export layouts) run on
-  * the CPU through OpenCV DNN (`cv::dnn::readNetFromONNX`).
+/** \brief An instance segmentation network run on the CPU through OpenCV DNN
+  * (`cv::dnn::readNetFromONNX`): a YOLO-seg export on the colour image, or cuefusion's own
+  * class-agnostic network on the depth (data/models/xyz_instances.onnx).
   *
+  * Xyz layout: depth → camera-frame xyz (0 where depth is missing), resampled (nearest) to
+  * dense_width columns and padded to multiples of 16 → forward → decodeDense. Needs the
+  * frame's depth and camera; every instance has class "object".
+  *
+  * YOLO layouts:
   * Colour → letterbox (aspect kept, grey 114 padding) → RGB blob / 255 → forward →
   * candidates above score_threshold (YOLOv5: objectness × best class score) →
   * class-aware NMS (`cv::dnn::NMSBoxes` on boxes offset per class; OpenCV 4.6 has no
   * batched NMS) → per kept box mask = sigmoid(coefficients · prototypes), cut to the box,
   * scaled to the frame, thresholded. The layout is found from the output shapes and the
-  * number of class names when the model is loaded (a dry run on a blank image); any
+  * number of class names when the model is loaded (a dry run on a blank input); any
   * other layout is a cuefusion::Error naming the shapes found.
   *
   * OpenCV 4.6 (Debian bookworm) loads YOLOv5-seg exported at opset 12; it cannot load the
@@ -62,7 +73,7 @@ public:
   bool segment (const RGBDFrame& frame, std::vector<Instance>& instances) override;
   std::string name () const override;
 
-  YoloSegLayout layout () const { return layout_; }
+  OnnxLayout layout () const { return layout_; }
   const std::vector<std::string>& classNames () const { return class_names_; }
 
   /** \brief Letterbox \a color (BGR) into a square of \a size. */
@@ -73,14 +84,32 @@ public:
     */
   static std::vector<Instance> decode (const std::vector<cv::Mat>& outputs, const Letterbox& box,
                                        const OnnxSegmenterConfig& config,
-                                       const std::vector<std::string>& class_names, YoloSegLayout* layout = nullptr);
+                                       const std::vector<std::string>& class_names, OnnxLayout* layout = nullptr);
+
+  /** \brief Instances from the xyz layout's output [1, 2, h, w] (logits). \a content is
+    * the part of the output (from its top-left corner) that covers the frame, \a frame the
+    * frame's size. Seeds = foreground > mask_threshold and boundary < boundary_threshold;
+    * their 4-connected components are the instances (components smaller than
+    * min_mask_pixels, counted in frame pixels, are dropped); labels then grow into the
+    * rest of the foreground by up to 3 steps of a 3×3 maximum filter (the highest label
+    * wins where two meet); each label, resized (nearest) to \a frame, is one mask, its score
+    * the mean foreground probability, instances below score_threshold dropped, at most
+    * max_detections kept (highest scores).
+    */
+  static std::vector<Instance> decodeDense (const cv::Mat& output, cv::Size content, cv::Size frame,
+                                            const OnnxSegmenterConfig& config);
+
+  /** \brief The xyz layout's input for \a frame: [1, 3, H, W] blob and the size of the
+    * frame inside it (top-left). Throws cuefusion::Error without depth.
+    */
+  static cv::Mat xyzInput (const RGBDFrame& frame, int dense_width, cv::Size& content);
 
 private:
   OnnxSegmenterConfig config_;
   std::vector<std::string> class_names_;
   cv::dnn::Net net_;
   std::vector<std::string> output_names_;
-  YoloSegLayout layout_ = YoloSegLayout::V5;
+  OnnxLayout layout_ = OnnxLayout::V5;
 };
 }  // namespace recognition
 }  // namespace cuefusion

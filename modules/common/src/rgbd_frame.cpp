@@ -72,4 +72,38 @@ toPointCloud (const RGBDFrame& frame)
   }
   return cloud;
 }
+RGBDFrame
+fromOrganizedCloud (const pcl::PointCloud<pcl::PointXYZRGBA>& cloud)
+{
+  RGBDFrame frame;
+  const int w = static_cast<int> (cloud.width), h = static_cast<int> (cloud.height);
+  frame.depth = cv::Mat (h, w, CV_32F, cv::Scalar (0.f));
+  frame.color = cv::Mat (h, w, CV_8UC3);
+  // Normal equations of u = fx·a + cx (a = x/z) and v = fy·b + cy (b = y/z).
+  double saa = 0, sa = 0, sau = 0, su = 0, sbb = 0, sb = 0, sbv = 0, sv = 0;
+  std::size_t n = 0;
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+    {
+      const pcl::PointXYZRGBA& p = cloud (u, v);
+      frame.color.at<cv::Vec3b> (v, u) = cv::Vec3b (p.b, p.g, p.r);
+      if (!(std::isfinite (p.x) && std::isfinite (p.y) && isValidDepth (p.z)))
+        continue;
+      frame.depth.at<float> (v, u) = p.z;
+      const double a = p.x / p.z, b = p.y / p.z;
+      saa += a * a, sa += a, sau += a * u, su += u;
+      sbb += b * b, sb += b, sbv += b * v, sv += v;
+      ++n;
+    }
+  const double m = static_cast<double> (n);
+  const double det_u = m * saa - sa * sa, det_v = m * sbb - sb * sb;
+  frame.camera = PinholeCamera ().scaled (w, h);
+  if (n >= 10 && det_u > 1e-12 * m * m && det_v > 1e-12 * m * m)
+  {
+    const double fx = (m * sau - sa * su) / det_u, fy = (m * sbv - sb * sv) / det_v;
+    if (fx > 0.0 && fy > 0.0 && std::isfinite (fx) && std::isfinite (fy))
+      frame.camera = PinholeCamera (fx, fy, (su - fx * sa) / m, (sv - fy * sb) / m, w, h);
+  }
+  return frame;
+}
 }  // namespace cuefusion

@@ -25,10 +25,11 @@ AsynchronousSegmenter::~AsynchronousSegmenter ()
 bool
 AsynchronousSegmenter::segment (const RGBDFrame& frame, std::vector<Instance>& instances)
 {
-  // A copy with its own colour image (what networks read): a live grabber may reuse its
-  // buffers once the frame is handed on. Made outside the lock.
+  // A copy with its own colour and depth images (what networks read): a live grabber may
+  // reuse its buffers once the frame is handed on. Made outside the lock.
   auto copy = std::make_shared<RGBDFrame> (frame);
   copy->color = frame.color.clone ();
+  copy->depth = frame.depth.clone ();
   std::unique_lock<std::mutex> lock (mutex_);
   if (error_)
   {

@@ -1,5 +1,6 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
+#include <cuefusion/common/rgbd_frame.h>
 
 #include <boost/filesystem.hpp>
 
@@ -39,14 +40,18 @@ void
 OnnxSegmenterConfig::validate () const
 {
   if (input_size < 32 || input_size > 4096 || input_size % 32 != 0)
-    throw ParameterError ("--input-size", "must be a multiple of 32 in [32, 4096]");
-  for (const auto& [value, option] :
-       {std::make_pair (score_threshold, "--score-threshold"), std::make_pair (nms_threshold, "--nms-threshold"),
-        std::make_pair (mask_threshold, "--mask-threshold")})
+    throw ParameterError ("OnnxSegmenterConfig::input_size", "must be a multiple of 32 in [32, 4096]");
+  for (const auto& [value, field] :
+       {std::make_pair (score_threshold, "score_threshold"), std::make_pair (nms_threshold, "nms_threshold"),
+        std::make_pair (mask_threshold, "mask_threshold"), std::make_pair (boundary_threshold, "boundary_threshold")})
     if (!(std::isfinite (value) && value >= 0.f && value <= 1.f))
-      throw ParameterError (option, "must lie in [0, 1]");
+      throw ParameterError (std::string ("OnnxSegmenterConfig::") + field, "must lie in [0, 1]");
   if (max_detections < 1)
-    throw ParameterError ("--max-detections", "must be at least 1");
+    throw ParameterError ("OnnxSegmenterConfig::max_detections", "must be at least 1");
+  if (dense_width < 16 || dense_width > 4096)
+    throw ParameterError ("OnnxSegmenterConfig::dense_width", "must lie in [16, 4096] pixels");
+  if (min_mask_pixels < 0)
+    throw ParameterError ("OnnxSegmenterConfig::min_mask_pixels", "must not be negative");
 }
 
 cv::Mat
@@ -69,7 +74,7 @@ OnnxInstanceSegmenter::letterbox (const cv::Mat& color, int size, Letterbox& box
 std::vector<Instance>
 OnnxInstanceSegmenter::decode (const std::vector<cv::Mat>& outputs, const Letterbox& box,
                                const OnnxSegmenterConfig& config, const std::vector<std::string>& class_names,
-                               YoloSegLayout* layout_out)
+                               OnnxLayout* layout_out)
 {
   const cv::Mat* det = nullptr;
   const cv::Mat* protos = nullptr;
@@ -85,20 +90,20 @@ OnnxInstanceSegmenter::decode (const std::vector<cv::Mat>& outputs, const Letter
   const int classes = static_cast<int> (class_names.size ());
   const std::string expected = "expected YOLO-seg outputs: detections [1, N, 5+C+K] (YOLOv5) or [1, 4+C+K, N] "
                                "(YOLOv8/11) and prototypes [1, K, H/4, W/4], with C = " +
-                               std::to_string (classes) + " class names";
+                               std::to_string (classes) + " class names; or one output [1, 2, H/2, W/2] (xyz layout)";
   if (outputs.size () != 2 || !det || !protos)
     throw Error ("ONNX model", "outputs " + shapes + " do not match the layout: " + expected);
   const int k = protos->size[1], mh = protos->size[2], mw = protos->size[3];
-  YoloSegLayout layout;
+  OnnxLayout layout;
   int n = 0;
   if (det->size[2] == 5 + classes + k)
   {
-    layout = YoloSegLayout::V5;
+    layout = OnnxLayout::V5;
     n = det->size[1];
   }
   else if (det->size[1] == 4 + classes + k)
   {
-    layout = YoloSegLayout::V8;
+    layout = OnnxLayout::V8;
     n = det->size[2];
   }
   else
@@ -107,12 +112,12 @@ OnnxInstanceSegmenter::decode (const std::vector<cv::Mat>& outputs, const Letter
     *layout_out = layout;
   CV_Assert (det->type () == CV_32F && protos->type () == CV_32F && det->isContinuous () && protos->isContinuous ());
   const float* data = det->ptr<float> ();
-  const int width = layout == YoloSegLayout::V5 ? 5 + classes + k : 4 + classes + k;
+  const int width = layout == OnnxLayout::V5 ? 5 + classes + k : 4 + classes + k;
   auto at = [&] (int row, int attribute) {
-    return layout == YoloSegLayout::V5 ? data[static_cast<std::size_t> (row) * width + attribute]
+    return layout == OnnxLayout::V5 ? data[static_cast<std::size_t> (row) * width + attribute]
                                        : data[static_cast<std::size_t> (attribute) * n + row];
   };
-  const int class0 = layout == YoloSegLayout::V5 ? 5 : 4, coefficient0 = class0 + classes;
+  const int class0 = layout == OnnxLayout::V5 ? 5 : 4, coefficient0 = class0 + classes;
 
   // Candidates, then class-aware NMS: boxes of different classes are moved far apart.
   std::vector<Candidate> candidates;
@@ -122,7 +127,7 @@ OnnxInstanceSegmenter::decode (const std::vector<cv::Mat>& outputs, const Letter
     for (int c = 1; c < classes; ++c)
       if (at (row, class0 + c) > at (row, class0 + best))
         best = c;
-    const float score = at (row, class0 + best) * (layout == YoloSegLayout::V5 ? at (row, 4) : 1.f);
+    const float score = at (row, class0 + best) * (layout == OnnxLayout::V5 ? at (row, 4) : 1.f);
     if (!(score >= config.score_threshold))
       continue;
     const double cx = at (row, 0), cy = at (row, 1), w = at (row, 2), h = at (row, 3);
@@ -178,12 +183,136 @@ OnnxInstanceSegmenter::decode (const std::vector<cv::Mat>& outputs, const Letter
   return instances;
 }
 
+cv::Mat
+OnnxInstanceSegmenter::xyzInput (const RGBDFrame& frame, int dense_width, cv::Size& content)
+{
+  if (frame.depth.empty () || frame.depth.type () != CV_32F)
+    throw Error ("OnnxInstanceSegmenter", "the xyz layout needs the frame's depth (CV_32F metres)");
+  const PinholeCamera& camera = frame.camera;
+  if (camera.width != frame.depth.cols || camera.height != frame.depth.rows || !(camera.fx > 0.0) || !(camera.fy > 0.0))
+    throw Error ("OnnxInstanceSegmenter", "the frame's camera does not describe its " + std::to_string (frame.depth.cols) +
+                                            "x" + std::to_string (frame.depth.rows) + " depth image");
+  cv::Mat xyz (frame.depth.size (), CV_32FC3);
+  for (int v = 0; v < xyz.rows; ++v)
+  {
+    const float* z = frame.depth.ptr<float> (v);
+    cv::Vec3f* out = xyz.ptr<cv::Vec3f> (v);
+    for (int u = 0; u < xyz.cols; ++u)
+    {
+      const Eigen::Vector3f p = isValidDepth (z[u]) ? camera.backProject (static_cast<float> (u), static_cast<float> (v), z[u])
+                                                     : Eigen::Vector3f::Zero ();
+      out[u] = cv::Vec3f (p.x (), p.y (), p.z ());
+    }
+  }
+  // Nearest resampling keeps every value a measured point (no mixing across depth jumps);
+  // at half size input pixel (x, y) is frame pixel (2x, 2y), as the training views are rendered.
+  const double scale = static_cast<double> (dense_width) / xyz.cols;
+  content = cv::Size (dense_width, std::max (1, static_cast<int> (std::lround (xyz.rows * scale))));
+  cv::Mat resized;
+  cv::resize (xyz, resized, content, 0, 0, cv::INTER_NEAREST);
+  cv::Mat padded = cv::Mat::zeros ((content.height + 15) / 16 * 16, (content.width + 15) / 16 * 16, CV_32FC3);
+  resized.copyTo (padded (cv::Rect (cv::Point (0, 0), content)));
+  return cv::dnn::blobFromImage (padded, 1.0, cv::Size (), cv::Scalar (), false, false, CV_32F);
+}
+
+std::vector<Instance>
+OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv::Size frame, const OnnxSegmenterConfig& config)
+{
+  if (output.dims != 4 || output.size[0] != 1 || output.size[1] != 2 || output.type () != CV_32F || !output.isContinuous ())
+    throw Error ("ONNX model", "output " + shapeOf (output) + " is not the xyz layout [1, 2, H, W]");
+  const int h = output.size[2], w = output.size[3];
+  if (content.width < 1 || content.height < 1 || content.width > w || content.height > h || frame.area () == 0)
+    throw Error ("ONNX model", "output " + shapeOf (output) + " does not cover the frame");
+  const cv::Rect roi (cv::Point (0, 0), content);
+  auto probability = [&] (int channel) {
+    const cv::Mat logits (h, w, CV_32F, const_cast<float*> (output.ptr<float> ()) + static_cast<std::size_t> (channel) * h * w);
+    cv::Mat p;
+    cv::exp (-logits (roi), p);
+    return cv::Mat (1.0 / (1.0 + p));
+  };
+  const cv::Mat foreground_p = probability (0), boundary_p = probability (1);
+  const cv::Mat foreground = foreground_p > config.mask_threshold;
+  const cv::Mat seeds = foreground & (boundary_p < config.boundary_threshold);
+  cv::Mat components, stats, centroids;
+  const int count = cv::connectedComponentsWithStats (seeds, components, stats, centroids, 4, CV_32S);
+  // Keep components of at least min_mask_pixels frame pixels, numbered 1..K in scan order.
+  const double frame_per_output = static_cast<double> (frame.area ()) / content.area ();
+  std::vector<int> renumber (static_cast<std::size_t> (count), 0);
+  int kept = 0;
+  for (int c = 1; c < count; ++c)
+    if (stats.at<int> (c, cv::CC_STAT_AREA) * frame_per_output >= config.min_mask_pixels)
+      renumber[static_cast<std::size_t> (c)] = ++kept;
+  cv::Mat labels (content, CV_32S);
+  for (int y = 0; y < content.height; ++y)
+    for (int x = 0; x < content.width; ++x)
+      labels.at<int> (y, x) = renumber[static_cast<std::size_t> (components.at<int> (y, x))];
+  // Grow into the boundary band: unlabelled foreground takes the highest 3×3 neighbour label.
+  for (int step = 0; step < 3; ++step)
+  {
+    const cv::Mat previous = labels.clone ();
+    bool changed = false;
+    for (int y = 0; y < content.height; ++y)
+      for (int x = 0; x < content.width; ++x)
+      {
+        if (previous.at<int> (y, x) || !foreground.at<std::uint8_t> (y, x))
+          continue;
+        int best = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx)
+          {
+            const int yy = y + dy, xx = x + dx;
+            if (yy >= 0 && yy < content.height && xx >= 0 && xx < content.width)
+              best = std::max (best, previous.at<int> (yy, xx));
+          }
+        if (best)
+        {
+          labels.at<int> (y, x) = best;
+          changed = true;
+        }
+      }
+    if (!changed)
+      break;
+  }
+  std::vector<double> score_sum (static_cast<std::size_t> (kept) + 1, 0.0);
+  std::vector<int> pixels (static_cast<std::size_t> (kept) + 1, 0);
+  for (int y = 0; y < content.height; ++y)
+    for (int x = 0; x < content.width; ++x)
+    {
+      const auto k = static_cast<std::size_t> (labels.at<int> (y, x));
+      score_sum[k] += foreground_p.at<float> (y, x);
+      ++pixels[k];
+    }
+  std::vector<int> order;
+  for (int k = 1; k <= kept; ++k)
+    if (score_sum[static_cast<std::size_t> (k)] / pixels[static_cast<std::size_t> (k)] >= config.score_threshold)
+      order.push_back (k);
+  std::stable_sort (order.begin (), order.end (), [&] (int a, int b) {
+    return score_sum[static_cast<std::size_t> (a)] / pixels[static_cast<std::size_t> (a)] >
+           score_sum[static_cast<std::size_t> (b)] / pixels[static_cast<std::size_t> (b)];
+  });
+  if (order.size () > static_cast<std::size_t> (config.max_detections))
+    order.resize (static_cast<std::size_t> (config.max_detections));
+  cv::Mat frame_labels;
+  cv::resize (labels, frame_labels, frame, 0, 0, cv::INTER_NEAREST);
+  std::vector<Instance> instances;
+  for (const int k : order)
+  {
+    Instance instance;
+    instance.mask = cv::Mat (frame_labels == k) & 1;
+    instance.box = cv::boundingRect (instance.mask);
+    if (instance.box.area () == 0)
+      continue;
+    instance.class_id = 0;
+    instance.class_name = "object";
+    instance.score = static_cast<float> (score_sum[static_cast<std::size_t> (k)] / pixels[static_cast<std::size_t> (k)]);
+    instances.push_back (std::move (instance));
+  }
+  return instances;
+}
+
 OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxSegmenterConfig& config) : config_ (config)
 {
   config_.validate ();
-  if (config_.classes_path.empty ())
-    config_.classes_path = defaultClassNamesPath ();
-  class_names_ = readClassNames (config_.classes_path);
   boost::system::error_code ec;
   if (!boost::filesystem::is_regular_file (config_.model_path, ec))
     throw Error (config_.model_path, "no such model file");
@@ -202,7 +331,7 @@ OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxSegmenterConfig& config)
   net_.setPreferableBackend (cv::dnn::DNN_BACKEND_OPENCV);
   net_.setPreferableTarget (cv::dnn::DNN_TARGET_CPU);
   output_names_ = net_.getUnconnectedOutLayersNames ();
-  // Dry run on a blank frame: the layout is known (or refused) before the first frame.
+  // Dry run on a blank input: the layout is known (or refused) before the first frame.
   std::vector<cv::Mat> outputs;
   try
   {
@@ -217,6 +346,16 @@ OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxSegmenterConfig& config)
     throw Error (config_.model_path, "OpenCV DNN cannot run this model at " + std::to_string (config_.input_size) +
                                        "x" + std::to_string (config_.input_size) + " (" + what.substr (0, 300) + ")");
   }
+  if (outputs.size () == 1 && outputs[0].dims == 4 && outputs[0].size[0] == 1 && outputs[0].size[1] == 2 &&
+      outputs[0].size[2] * 2 == config_.input_size && outputs[0].size[3] * 2 == config_.input_size)
+  {
+    layout_ = OnnxLayout::Xyz;
+    class_names_ = {"object"};
+    return;
+  }
+  if (config_.classes_path.empty ())
+    config_.classes_path = defaultClassNamesPath ();
+  class_names_ = readClassNames (config_.classes_path);
   Letterbox box;
   box.frame = cv::Size (config_.input_size, config_.input_size);
   try
@@ -232,13 +371,21 @@ OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxSegmenterConfig& config)
 std::string
 OnnxInstanceSegmenter::name () const
 {
-  return "onnx:" + boost::filesystem::path (config_.model_path).filename ().string () +
-         (layout_ == YoloSegLayout::V5 ? " (YOLOv5-seg layout)" : " (YOLOv8-seg layout)");
+  static const char* layouts[] = {" (YOLOv5-seg layout)", " (YOLOv8-seg layout)", " (xyz layout)"};
+  return "onnx:" + boost::filesystem::path (config_.model_path).filename ().string () + layouts[static_cast<int> (layout_)];
 }
 
 bool
 OnnxInstanceSegmenter::segment (const RGBDFrame& frame, std::vector<Instance>& instances)
 {
+  if (layout_ == OnnxLayout::Xyz)
+  {
+    cv::Size content;
+    net_.setInput (xyzInput (frame, config_.dense_width, content));
+    const cv::Mat output = net_.forward (output_names_.front ());
+    instances = decodeDense (output, cv::Size ((content.width + 1) / 2, (content.height + 1) / 2), frame.depth.size (), config_);
+    return true;
+  }
   if (frame.color.empty () || frame.color.type () != CV_8UC3)
     throw Error ("OnnxInstanceSegmenter", "needs a CV_8UC3 colour image");
   Letterbox box;
