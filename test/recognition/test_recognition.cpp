@@ -59,6 +59,45 @@ spec (const std::string& layout)
             {5, 5, 4, 4, 0.1, 0, 0.5, 2}}}};
 }
 
+/** Writes SPEC as JSON and runs test/recognition/make_dense_onnx.py on it (xyz layout). */
+std::string
+makeDenseModel (const test::TempDir& dir, const std::string& name, const nlohmann::json& spec)
+{
+  const std::string spec_path = dir / (name + ".json"), model = dir / (name + ".onnx");
+  test::writeFile (spec_path, spec.dump ());
+  const std::string cmd = std::string ("/usr/bin/python3 ") + CUEFUSION_TEST_SOURCE_DIR +
+                          "/recognition/make_dense_onnx.py " + spec_path + " " + model;
+  EXPECT_EQ (std::system (cmd.c_str ()), 0) << cmd;
+  return model;
+}
+
+// 64×64 xyz input, output 32×32 (frame pixel = 2 × output pixel). Rectangles (y0, y1,
+// x0, x1 in output pixels, inclusive; logit):
+//   A: foreground rows 2–9, cols 2–13                       → one instance
+//   E: foreground rows 2–9, cols 20–29 at logit 0.2 (p 0.55) → below score_threshold 0.6
+//   B|C: foreground rows 14–25, cols 4–27 with a boundary band at cols 15–16 → two seeds
+//        (cols 4–14 and 17–27); the band grows to B (col 15) and C (col 16)
+//   D: foreground rows 28–29, cols 28–29: 4 output = 16 frame pixels < min_mask_pixels 20
+nlohmann::json
+denseSpec (int channels = 2)
+{
+  return {{"input", 64},
+          {"channels", channels},
+          {"foreground", {{2, 9, 2, 13, 10}, {2, 9, 20, 29, 0.2}, {14, 25, 4, 27, 10}, {28, 29, 28, 29, 10}}},
+          {"boundary", {{14, 25, 15, 16, 10}}}};
+}
+
+/** A 64×64 frame 1 m from a wall (depth and camera; the xyz layout's input). */
+RGBDFrame
+wallFrame ()
+{
+  RGBDFrame frame;
+  frame.camera = PinholeCamera (50, 50, 31.5, 31.5, 64, 64);
+  frame.depth = cv::Mat (64, 64, CV_32F, cv::Scalar (1.f));
+  frame.color = cv::Mat (64, 64, CV_8UC3, cv::Scalar (90, 90, 90));
+  return frame;
+}
+
 class OnnxSegmenter : public ::testing::Test
 {
 protected:
@@ -71,14 +110,20 @@ protected:
   }
 
   std::vector<Instance>
-  run (const std::string& model, const cv::Mat& color, YoloSegLayout* layout = nullptr)
+  run (const std::string& model, const cv::Mat& color, OnnxLayout* layout = nullptr)
+  {
+    RGBDFrame frame;
+    frame.color = color;
+    return run (model, frame, layout);
+  }
+
+  std::vector<Instance>
+  run (const std::string& model, const RGBDFrame& frame, OnnxLayout* layout = nullptr)
   {
     config.model_path = model;
     OnnxInstanceSegmenter segmenter (config);
     if (layout)
       *layout = segmenter.layout ();
-    RGBDFrame frame;
-    frame.color = color;
     std::vector<Instance> instances;
     EXPECT_TRUE (segmenter.segment (frame, instances));
     return instances;
@@ -101,9 +146,9 @@ TEST_F (OnnxSegmenter, DecodesBothYoloLayoutsExactly)
 {
   for (const std::string layout : {"v5", "v8"})
   {
-    YoloSegLayout found;
+    OnnxLayout found;
     const auto instances = run (makeModel (dir, layout, spec (layout)), cv::Mat (64, 64, CV_8UC3, cv::Scalar (9, 9, 9)), &found);
-    EXPECT_EQ (found, layout == "v5" ? YoloSegLayout::V5 : YoloSegLayout::V8);
+    EXPECT_EQ (found, layout == "v5" ? OnnxLayout::V5 : OnnxLayout::V8);
     ASSERT_EQ (instances.size (), 3u) << layout;
     // Highest score first: B (0.855), A (0.72, or 0.8 in v8 which has no objectness), D.
     const float a_score = layout == "v5" ? 0.72f : 0.8f, b_score = layout == "v5" ? 0.855f : 0.9f;
@@ -123,6 +168,61 @@ TEST_F (OnnxSegmenter, DecodesBothYoloLayoutsExactly)
     EXPECT_EQ (d.class_id, 0);
     EXPECT_EQ (d.box, a.box);
   }
+}
+
+TEST_F (OnnxSegmenter, DecodesTheXyzLayoutExactly)
+{
+  config.dense_width = 64;
+  config.min_mask_pixels = 20;
+  config.score_threshold = 0.6f;
+  OnnxLayout found;
+  const auto instances = run (makeDenseModel (dir, "dense", denseSpec ()), wallFrame (), &found);
+  EXPECT_EQ (found, OnnxLayout::Xyz);
+  ASSERT_EQ (instances.size (), 3u);
+  const cv::Size frame (64, 64);
+  // Equal scores keep scan order: A, B, C. Frame rectangles are output × 2.
+  const cv::Rect a (4, 4, 24, 16), b (8, 28, 24, 24), c (32, 28, 24, 24);
+  for (const auto& [instance, box] : {std::make_pair (&instances[0], a), std::make_pair (&instances[1], b),
+                                      std::make_pair (&instances[2], c)})
+  {
+    EXPECT_EQ (instance->box, box);
+    EXPECT_EQ (cv::countNonZero (instance->mask != boxMask (frame, box)), 0) << box;
+    EXPECT_EQ (instance->class_id, 0);
+    EXPECT_EQ (instance->class_name, "object");
+    EXPECT_NEAR (instance->score, 1.f / (1.f + std::exp (-10.f)), 1e-6f);
+  }
+
+  // Without the score threshold E comes back (score 0.55, last); a lower size floor keeps D.
+  config.score_threshold = 0.5f;
+  config.min_mask_pixels = 16;
+  const auto more = run (dir / "dense.onnx", wallFrame ());
+  ASSERT_EQ (more.size (), 5u);
+  EXPECT_EQ (more[4].box, cv::Rect (40, 4, 20, 16));
+  EXPECT_NEAR (more[4].score, 1.f / (1.f + std::exp (-0.2f)), 1e-6f);
+  EXPECT_EQ (more[3].box, cv::Rect (56, 56, 4, 4));
+}
+
+TEST_F (OnnxSegmenter, XyzInputIsTheBackProjectedDepth)
+{
+  // 128×96 frame at dense_width 64: every second pixel, padded to 64×48 → 64×48 (a multiple of 16).
+  RGBDFrame frame;
+  frame.camera = PinholeCamera (100, 100, 63.5, 47.5, 128, 96);
+  frame.depth = cv::Mat (96, 128, CV_32F, cv::Scalar (2.f));
+  frame.depth.at<float> (10, 20) = 0.f;  // missing → xyz 0
+  cv::Size content;
+  const cv::Mat blob = OnnxInstanceSegmenter::xyzInput (frame, 64, content);
+  EXPECT_EQ (content, cv::Size (64, 48));
+  ASSERT_EQ (blob.dims, 4);
+  EXPECT_EQ (blob.size[1], 3);
+  EXPECT_EQ (blob.size[2], 48);
+  EXPECT_EQ (blob.size[3], 64);
+  auto at = [&] (int c, int y, int x) { return blob.ptr<float> (0, c)[y * 64 + x]; };
+  EXPECT_FLOAT_EQ (at (0, 3, 7), (14 - 63.5f) / 100.f * 2.f);
+  EXPECT_FLOAT_EQ (at (1, 3, 7), (6 - 47.5f) / 100.f * 2.f);
+  EXPECT_FLOAT_EQ (at (2, 3, 7), 2.f);
+  EXPECT_EQ (at (2, 5, 10), 0.f);
+  frame.depth = cv::Mat ();
+  test::expectError ([&] { OnnxInstanceSegmenter::xyzInput (frame, 64, content); }, "OnnxInstanceSegmenter", "depth");
 }
 
 TEST_F (OnnxSegmenter, LetterboxMapsBackToTheFrame)
@@ -165,6 +265,21 @@ TEST_F (OnnxSegmenter, BadModelsAreClearErrors)
   config.classes_path = "";
   test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "v5.onnx", "C = 80");
 
+  // An xyz-like model with three output channels is no layout either.
+  config.model_path = makeDenseModel (dir, "dense3", denseSpec (3));
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "dense3.onnx", "[1, 3, 32, 32]");
+
+  // The xyz layout needs depth.
+  config.model_path = makeDenseModel (dir, "dense", denseSpec ());
+  {
+    OnnxInstanceSegmenter dense (config);
+    RGBDFrame colour_only;
+    colour_only.color = cv::Mat (64, 64, CV_8UC3, cv::Scalar (1, 2, 3));
+    std::vector<Instance> instances;
+    test::expectError ([&] { dense.segment (colour_only, instances); }, "OnnxInstanceSegmenter", "needs the frame's depth");
+  }
+
+  config.model_path = makeModel (dir, "v5", spec ("v5"));
   config.classes_path = dir / "none.names";
   test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "none.names", "cannot read");
   config.input_size = 100;
