@@ -37,7 +37,10 @@ LEVELS = [
     ("splitting", ["--mask-boundary", "-3", "--mask-jitter", "1", "--mask-split", "0.2", "--mask-miss", "0.1"]),
     ("harsh", ["--mask-boundary", "3", "--mask-jitter", "4", "--mask-merge", "0.3", "--mask-miss", "0.25",
                "--mask-false-positives", "1", "--mask-split", "0.1"]),
+    # Not simulated: cuefusion's own network (data/models/xyz_instances.onnx) on each depth frame.
+    ("network", []),
 ]
+NETWORK = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "models", "xyz_instances.onnx")
 MODES = ["geometry", "masks", "fused"]
 
 
@@ -105,7 +108,7 @@ def main():
                         binary = args.compare_binary if "before" in mode else args.binary
                         cmd = [binary, "run", seq, "--out", out, "--mode", mode.split()[0]]
                         if mode != "geometry":
-                            cmd += ["--masks", os.path.join(seq, "detections")]
+                            cmd += ["--model", NETWORK] if level == "network" else ["--masks", os.path.join(seq, "detections")]
                         run(cmd)
                         scores = evaluate(args.binary, seq, out, out + "-report")
                         if mode == "geometry":
@@ -116,7 +119,8 @@ def main():
                               f"under {scores['under']} ATE {scores['ate']*100:.2f} cm", file=sys.stderr)
                     subprocess.run(["rm", "-rf", seq] + [os.path.join(tmp, d) for d in os.listdir(tmp) if d.startswith("run-")])
     print("### Segmentation quality on generated sequences\n")
-    print(f"Command: `scripts/bench quality {args.seeds}` ({datetime.date.today()}, {machine()}). "
+    only = "" if args.levels == ",".join(name for name, _ in LEVELS) else f" --levels {args.levels}"
+    print(f"Command: `scripts/bench quality {args.seeds}{only}` ({datetime.date.today()}, {machine()}). "
           f"Scenes {', '.join(scenes)}; {args.frames} frames at 640×480 with Kinect depth noise, camera tracked by ICP; "
           f"seeds 1–{args.seeds} (noise and detector errors). "
           "Scores: mean per-frame object IoU of the final map seen from the estimated poses; class-agnostic "
@@ -125,7 +129,11 @@ def main():
           "holding two objects (under) on gt_cloud.pcd; medians over seeds (min–max).\n")
     print("Detector levels (`cuefusion synth` options):\n")
     for level, options in levels:
-        print(f"- {level}: `{' '.join(options) if options else '(none)'}`")
+        if level == "network":
+            print("- network: no simulated detector; `cuefusion run --model data/models/xyz_instances.onnx` "
+                  "(cuefusion's own network on each depth frame)")
+        else:
+            print(f"- {level}: `{' '.join(options) if options else '(none)'}`")
     for scene in scenes:
         print(f"\n#### {scene} ({objects[scene]} objects and stuff surfaces)\n")
         print("| detector | mode | mean object IoU | AP50 | AP25 | AP | segments ≥ 100 voxels | over | under | ATE (cm) |")

@@ -13,6 +13,9 @@ In one run, on the same clouds:
   * the instance cue: masks derived from the OSD ground truth with the synthetic
     generator's detector error model (build/apps/cuefusion_bench_osd_masks), several
     error settings, each scored geometry-only, masks-only and fused;
+  * cuefusion's own network (data/models/xyz_instances.onnx, trained on synthetic views
+    only): masks alone and fused, and what it adds per frame (segment-frame with and
+    without it, same run); --network-only runs just this part;
   * normal accuracy on noisy synthetic views (build/apps/cuefusion_bench_normals).
 Everything is printed as Markdown, ready for docs/benchmarks.md.
 """
@@ -79,6 +82,33 @@ def fmt_scores(s):
         s["overlap_P"], s["overlap_R"], s["overlap_F"], s["boundary_P"], s["boundary_R"], s["boundary_F"], s["pct_075"])
 
 
+NETWORK = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "models", "xyz_instances.onnx")
+
+
+def network_section(binary, osd, evaluator, tmp, repeat):
+    """The shipped network on the real clouds: scores per mode, and per-frame time with and
+    without it (median over clouds, median of `repeat` runs, all in this run)."""
+    print("\n| cuefusion's network (`--model data/models/xyz_instances.onnx`) | mode | O-P | O-R | O-F | B-P | B-R | B-F "
+          "| %75 | ms per frame (segmentation + masks) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    totals = {}
+    for mode in ("geometry", "masks", "fused"):
+        timings = []
+        for r in range(repeat):
+            pred = os.path.join(tmp, "net_" + mode)
+            timings.append(os.path.join(tmp, "net_%s_%d.json" % (mode, r)))
+            subprocess.run(["rm", "-rf", pred])
+            extra = [] if mode == "geometry" else ["--model", NETWORK, "--mode", mode]
+            run_ours(binary, osd, pred, extra, timings[-1])
+        s = score(evaluator, osd, pred, tmp)
+        t = medians(timings, ["segmentation_ms", "masks_ms"])
+        totals[mode] = t["segmentation_ms"] + t["masks_ms"]
+        print("| %s | %s | %s | %.1f + %.1f |" % ("shipped network" if mode == "geometry" else "", mode, fmt_scores(s),
+                                                t["segmentation_ms"], t["masks_ms"]))
+    print("\nThe network adds %.1f ms per 640×480 frame in fused mode (%.1f with it, %.1f without; medians, same run)."
+          % (totals["fused"] - totals["geometry"], totals["fused"], totals["geometry"]))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("osd", help="folder of mOSD clouds (e.g. ../shared/data/osd-learn)")
@@ -86,6 +116,7 @@ def main():
     parser.add_argument("--build", default="build/apps")
     parser.add_argument("--repeat", type=int, default=3, help="timing runs (the median is reported)")
     parser.add_argument("--no-ablations", action="store_true")
+    parser.add_argument("--network-only", action="store_true", help="only the shipped network's section")
     args = parser.parse_args()
     binary = os.path.join(args.build, "cuefusion")
     peer = os.path.join(args.build, "cuefusion_pcl_peer_segmentation")
@@ -93,9 +124,13 @@ def main():
 
     print("## Geometric segmentation (%s)\n" % datetime.date.today().isoformat())
     print("- machine: %s" % machine())
-    print("- command: `scripts/bench segmentation %s`" % args.osd)
+    print("- command: `scripts/bench segmentation %s%s`" % (args.osd, " --network-only" if args.network_only else ""))
     print("- data: %s (%d clouds, 640×480); scored with osd_eval.py (objects = GT label // 10; a segment on "
           "the table counts against precision)\n" % (args.osd, clouds))
+    if args.network_only:
+        with tempfile.TemporaryDirectory() as tmp:
+            network_section(binary, args.osd, args.evaluator, tmp, args.repeat)
+        return
     with tempfile.TemporaryDirectory() as tmp:
         ours_t, peer_t = [], []
         for r in range(args.repeat):
@@ -142,6 +177,7 @@ def main():
                 t = medians([timing], ["segmentation_ms", "masks_ms"])
                 print("| %s | %s | %s | %.1f + %.1f |" % (name if mode == "geometry" else "", mode, fmt_scores(s),
                                                         t["segmentation_ms"], t["masks_ms"]))
+        network_section(binary, args.osd, args.evaluator, tmp, args.repeat)
     scene = os.path.join(os.path.dirname(__file__), "..", "data", "scenes", "tabletop.scene")
     print()
     sys.stdout.flush()

@@ -3,6 +3,7 @@
 #include "test_utils.h"
 
 #include <cuefusion/io/file_io.h>
+#include <cuefusion/io/random_scene.h>
 #include <cuefusion/io/sequence.h>
 #include <cuefusion/io/sequence_writer.h>
 #include <cuefusion/io/synthetic_sequence.h>
@@ -14,22 +15,31 @@
 #include <pcl/io/pcd_io.h>
 
 #include <cstdlib>
+#include <iostream>
+#include <map>
 
 using namespace cuefusion;
 using namespace cuefusion::recognition;
 
 namespace
 {
-/** Writes SPEC as JSON and runs test/recognition/make_yolo_seg_onnx.py on it. */
+/** Writes SPEC as JSON and runs test/recognition/SCRIPT on it; returns the model's path. */
 std::string
-makeModel (const test::TempDir& dir, const std::string& name, const nlohmann::json& spec)
+generateModel (const std::string& script, const test::TempDir& dir, const std::string& name, const nlohmann::json& spec)
 {
   const std::string spec_path = dir / (name + ".json"), model = dir / (name + ".onnx");
   test::writeFile (spec_path, spec.dump ());
-  const std::string cmd = std::string ("/usr/bin/python3 ") + CUEFUSION_TEST_SOURCE_DIR +
-                          "/recognition/make_yolo_seg_onnx.py " + spec_path + " " + model;
+  const std::string cmd =
+    std::string ("/usr/bin/python3 ") + CUEFUSION_TEST_SOURCE_DIR + "/recognition/" + script + " " + spec_path + " " + model;
   EXPECT_EQ (std::system (cmd.c_str ()), 0) << cmd;
   return model;
+}
+
+/** A model in a YOLO-seg layout (make_yolo_seg_onnx.py). */
+std::string
+makeModel (const test::TempDir& dir, const std::string& name, const nlohmann::json& spec)
+{
+  return generateModel ("make_yolo_seg_onnx.py", dir, name, spec);
 }
 
 // 64×64 input, 3 classes, 4 mask coefficients, 16×16 prototypes (input / 4).
@@ -59,16 +69,11 @@ spec (const std::string& layout)
             {5, 5, 4, 4, 0.1, 0, 0.5, 2}}}};
 }
 
-/** Writes SPEC as JSON and runs test/recognition/make_dense_onnx.py on it (xyz layout). */
+/** A model in the xyz layout (make_dense_onnx.py). */
 std::string
 makeDenseModel (const test::TempDir& dir, const std::string& name, const nlohmann::json& spec)
 {
-  const std::string spec_path = dir / (name + ".json"), model = dir / (name + ".onnx");
-  test::writeFile (spec_path, spec.dump ());
-  const std::string cmd = std::string ("/usr/bin/python3 ") + CUEFUSION_TEST_SOURCE_DIR +
-                          "/recognition/make_dense_onnx.py " + spec_path + " " + model;
-  EXPECT_EQ (std::system (cmd.c_str ()), 0) << cmd;
-  return model;
+  return generateModel ("make_dense_onnx.py", dir, name, spec);
 }
 
 // 64×64 xyz input, output 32×32 (frame pixel = 2 × output pixel). Rectangles (y0, y1,
@@ -399,4 +404,124 @@ TEST_F (OnnxSegmenter, SegmentFrameRunsTheModel)
   const auto json = nlohmann::json::parse (test::readFile (dir / "out.json"));
   EXPECT_EQ (json.at ("segments").at (0).at ("class_name"), "gamma");
   EXPECT_EQ (json.at ("segments").at (1).at ("class_name"), "beta");
+}
+
+namespace
+{
+std::string
+shippedModelPath ()
+{
+  return std::string (CUEFUSION_TEST_DATA_DIR) + "/models/xyz_instances.onnx";
+}
+
+/** Mean over the truth's objects (>= min_pixels visible) of the best IoU of one mask. */
+double
+meanBestIoU (const std::vector<Instance>& instances, const cv::Mat& truth, int min_pixels, int& objects)
+{
+  std::map<int, int> area;
+  for (int v = 0; v < truth.rows; ++v)
+    for (int u = 0; u < truth.cols; ++u)
+      if (truth.at<std::uint16_t> (v, u))
+        ++area[truth.at<std::uint16_t> (v, u)];
+  double sum = 0;
+  objects = 0;
+  for (const auto& [id, pixels] : area)
+  {
+    if (pixels < min_pixels)
+      continue;
+    const cv::Mat object = truth == id;
+    double best = 0;
+    for (const Instance& instance : instances)
+    {
+      const cv::Mat mask = instance.mask > 0;
+      const double inter = cv::countNonZero (object & mask), uni = cv::countNonZero (object | mask);
+      best = std::max (best, uni > 0 ? inter / uni : 0.0);
+    }
+    sum += best;
+    ++objects;
+  }
+  return objects ? sum / objects : 0.0;
+}
+}  // namespace
+
+TEST (ShippedNetwork, MasksOfUnseenRenderedViewsMatchTheTruth)
+{
+  // Views the network never saw (another seed than training and validation), at 640×480
+  // (it runs at 320 columns), and the bundled tabletop scene with depth noise.
+  OnnxSegmenterConfig config;
+  config.model_path = shippedModelPath ();
+  OnnxInstanceSegmenter network (config);
+  ASSERT_EQ (network.layout (), OnnxLayout::Xyz);
+  double sum = 0;
+  int views = 0, objects_seen = 0;
+  const io::RandomSceneGenerator generator (io::RandomSceneConfig (), 424242);
+  for (std::size_t i = 0; i < 8; ++i)
+  {
+    const io::RandomView view = generator.view (i, 640, 480);
+    RGBDFrame frame;
+    frame.camera = view.camera;
+    frame.depth = view.view.depth;
+    frame.color = view.view.color;
+    std::vector<Instance> instances;
+    ASSERT_TRUE (network.segment (frame, instances));
+    int objects = 0;
+    const double iou = meanBestIoU (instances, view.objects, 400, objects);
+    if (!objects)
+      continue;
+    sum += iou;
+    ++views;
+    objects_seen += objects;
+  }
+  io::SyntheticSequenceConfig sequence_config;
+  sequence_config.frames = 30;
+  sequence_config.noise.enabled = true;
+  const io::SyntheticScene scene = io::SyntheticScene::load (test::tabletopScenePath ());
+  const io::SyntheticSequence sequence (scene, sequence_config);
+  for (std::size_t i = 0; i < 30; i += 10)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    cv::Mat truth = frame->instance_mask.clone ();
+    for (int v = 0; v < truth.rows; ++v)
+      for (int u = 0; u < truth.cols; ++u)
+      {
+        const std::uint16_t id = truth.at<std::uint16_t> (v, u);
+        if (id && !scene.objectById (id)->detectable)
+          truth.at<std::uint16_t> (v, u) = 0;
+      }
+    std::vector<Instance> instances;
+    ASSERT_TRUE (network.segment (*frame, instances));
+    int objects = 0;
+    sum += meanBestIoU (instances, truth, 400, objects);
+    ++views;
+    objects_seen += objects;
+  }
+  ASSERT_GE (views, 8);
+  std::cout << "shipped network: mean best IoU " << sum / views << " over " << objects_seen << " objects in " << views
+            << " views\n";
+  EXPECT_GE (objects_seen, 30);
+  EXPECT_GE (sum / views, 0.7) << "mean IoU over " << views << " views";
+}
+
+TEST (ShippedNetwork, RunAndSegmentFrameUseIt)
+{
+  test::TempDir dir;
+  io::SyntheticSequenceConfig config;
+  config.frames = 6;
+  config.noise.enabled = true;
+  io::writeSyntheticSequence (io::SyntheticSequence (io::SyntheticScene::load (test::tabletopScenePath ()), config),
+                              io::DatasetLayout::Redwood, dir / "seq");
+  const auto run = test::runCuefusion ("run " + (dir / "seq") + " --out " + (dir / "run") + " --model " + shippedModelPath (), dir);
+  ASSERT_EQ (run.code, 0) << run.err;
+  const auto segments = nlohmann::json::parse (test::readFile (dir / "run/segments.json")).at ("segments");
+  int objects = 0;
+  for (const auto& s : segments)
+    objects += s.at ("class") == "object" ? 1 : 0;
+  EXPECT_GE (objects, 5);  // the tabletop holds 8 objects
+
+  const auto one = test::runCuefusion ("segment-frame " + (dir / "seq/depth/00000.png") + " --intrinsics " +
+                                         (dir / "seq/camera_intrinsics.json") + " --out " + (dir / "one.pcd") +
+                                         " --model " + shippedModelPath () + " --mode masks",
+                                       dir);
+  ASSERT_EQ (one.code, 0) << one.err;
+  EXPECT_GE (nlohmann::json::parse (test::readFile (dir / "one.json")).at ("segments").size (), 5u);
 }

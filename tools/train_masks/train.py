@@ -1,0 +1,212 @@
+#!/usr/bin/python3
+"""Trains cuefusion's class-agnostic instance segmenter on views rendered by
+`cuefusion synth-views` and exports it to ONNX (opset 11, loads in OpenCV 4.6 DNN).
+
+    tools/train_masks/train.py --train VIEWS_DIR --val VAL_DIR --out data/models/xyz_instances.onnx
+
+Everything runs on the CPU (Debian's python3-torch, python3-opencv); --device cuda uses a
+GPU where one exists. Seeded: the same views, seed and iteration count give the same
+weights on the same machine (thread scheduling can change the last bits).
+See README.md beside this file.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+
+import cv2
+import numpy as np
+import onnx
+import torch
+import torch.nn.functional as F
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from model import XyzInstanceNet  # noqa: E402
+from decode import decode, match_iou  # noqa: E402
+
+
+def load_views(folder, limit=0):
+    meta = json.load(open(os.path.join(folder, "views.json")))
+    units = float(meta["depth_units_per_metre"])
+    views = meta["views"][: limit or None]
+    depth = np.stack([cv2.imread(os.path.join(folder, "depth", v["file"]), cv2.IMREAD_UNCHANGED) for v in views])
+    inst = np.stack([cv2.imread(os.path.join(folder, "instance", v["file"]), cv2.IMREAD_UNCHANGED) for v in views])
+    cams = np.array([[v["camera"][k] for k in ("fx", "fy", "cx", "cy")] for v in views], np.float32)
+    return depth.astype(np.float32) / units, inst, cams
+
+
+def back_project(z, cam):
+    """xyz [3, H, W] in the camera frame; 0 where z is 0 (the C++ side does the same)."""
+    h, w = z.shape
+    fx, fy, cx, cy = cam
+    u = np.arange(w, dtype=np.float32)[None, :]
+    v = np.arange(h, dtype=np.float32)[:, None]
+    return np.stack([(u - cx) / fx * z, (v - cy) / fy * z, z])
+
+
+def targets(inst):
+    """Foreground (2x2 block mean) and instance boundary at half resolution."""
+    h, w = inst.shape
+    fg = (inst > 0).astype(np.float32).reshape(h // 2, 2, w // 2, 2).mean(axis=(1, 3))
+    ids = inst[::2, ::2].astype(np.int32)
+    boundary = np.zeros_like(fg)
+    padded = np.pad(ids, 1)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            n = padded[1 + dy: 1 + dy + ids.shape[0], 1 + dx: 1 + dx + ids.shape[1]]
+            boundary[(ids > 0) & (n > 0) & (n != ids)] = 1.0
+    return fg, boundary
+
+
+def augment(z, inst, rng):
+    """Real-sensor imperfections the renderer leaves out: IR shadows beside depth jumps,
+    missing blobs and speckle, disparity quantisation; and mirror images."""
+    z = z.copy()
+    if rng.random() < 0.5:  # Kinect disparity steps: d(1/z) = 2.85e-3 / m
+        q = 2.85e-3 * rng.uniform(0.5, 1.5)
+        valid = z > 0
+        z[valid] = 1.0 / (np.round((1.0 / z[valid]) / q) * q)
+    width = int(rng.integers(0, 5))  # shadow band on the far side of a jump, one image side
+    if width:
+        side = 1 if rng.random() < 0.5 else -1
+        shadow = np.zeros(z.shape, bool)
+        for k in range(1, width + 1):
+            near = np.roll(z, side * k, axis=1)
+            shadow |= (near > 0) & (z - near > 0.03)
+        z[shadow] = 0
+    for _ in range(int(rng.integers(0, 4))):  # missing blobs (dark or shiny surfaces)
+        cy, cx = rng.integers(0, z.shape[0]), rng.integers(0, z.shape[1])
+        axes = (int(rng.integers(2, 20)), int(rng.integers(2, 20)))
+        mask = np.zeros(z.shape, np.uint8)
+        cv2.ellipse(mask, (int(cx), int(cy)), axes, float(rng.uniform(0, 180)), 0, 360, 1, -1)
+        z[mask > 0] = 0
+    z[rng.random(z.shape) < rng.uniform(0, 0.03)] = 0  # speckle
+    flip = rng.random() < 0.5
+    return z, inst, flip
+
+
+def batch(depth, inst, cams, index, rng, train):
+    xs, fgs, bds = [], [], []
+    for i in index:
+        z, ids, flip = augment(depth[i], inst[i], rng) if train else (depth[i], inst[i], False)
+        xyz = back_project(z, cams[i])
+        if flip:  # a mirrored world: columns reversed, x negated
+            xyz = xyz[:, :, ::-1].copy()
+            xyz[0] = -xyz[0]
+            ids = ids[:, ::-1]
+        fg, bd = targets(ids)
+        xs.append(xyz)
+        fgs.append(fg)
+        bds.append(bd)
+    return (torch.from_numpy(np.stack(xs)), torch.from_numpy(np.stack(fgs)), torch.from_numpy(np.stack(bds)))
+
+
+def loss_fn(logits, fg, bd):
+    l_fg = F.binary_cross_entropy_with_logits(logits[:, 0], fg)
+    l_bd = F.binary_cross_entropy_with_logits(logits[:, 1], bd, pos_weight=torch.tensor(4.0))
+    return l_fg + l_bd, l_fg.item(), l_bd.item()
+
+
+def validate(net, depth, inst, cams, device):
+    net.eval()
+    ious, counts = [], []
+    with torch.no_grad():
+        for i in range(len(depth)):
+            x, _, _ = batch(depth, inst, cams, [i], None, False)
+            prob = torch.sigmoid(net(x.to(device)))[0].cpu().numpy()
+            labels = decode(prob[0], prob[1], depth[i].shape)
+            mean_iou, n = match_iou(labels, inst[i])
+            ious.append(mean_iou)
+            counts.append(n)
+    net.train()
+    return float(np.mean(ious)), float(np.mean(counts))
+
+
+def inline_identities(model):
+    """torch's exporter shares equal weight tensors through Identity nodes, which
+    OpenCV 4.6 DNN cannot import: give each user its own copy of the initializer."""
+    inits = {t.name: t for t in model.graph.initializer}
+    for node in [n for n in model.graph.node if n.op_type == "Identity" and n.input[0] in inits]:
+        copy = onnx.TensorProto()
+        copy.CopyFrom(inits[node.input[0]])
+        copy.name = node.output[0]
+        model.graph.initializer.append(copy)
+        model.graph.node.remove(node)
+    return model
+
+
+def export(net, path, h, w):
+    net.eval()
+    tmp = path + ".tmp"
+    torch.onnx.export(net.cpu(), torch.zeros(1, 3, h, w), tmp, opset_version=11, input_names=["xyz"],
+                      output_names=["foreground_boundary"], do_constant_folding=True)
+    model = inline_identities(onnx.load(tmp))
+    onnx.checker.check_model(model)
+    onnx.save(model, tmp)
+    os.replace(tmp, path)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--train", required=True, help="folder written by cuefusion synth-views")
+    p.add_argument("--val", required=True, help="held-out folder written by cuefusion synth-views (another --seed)")
+    p.add_argument("--out", required=True, help="ONNX file to write")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--iterations", type=int, default=6000)
+    p.add_argument("--minutes", type=float, default=0, help="stop early after this long (0 = no limit)")
+    p.add_argument("--batch", type=int, default=8)
+    p.add_argument("--lr", type=float, default=3e-3)
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--device", default="cpu")
+    p.add_argument("--log", default="", help="JSON log of the run (default OUT.log.json)")
+    a = p.parse_args()
+
+    torch.manual_seed(a.seed)
+    torch.set_num_threads(a.threads)
+    rng = np.random.default_rng(a.seed)
+    t0 = time.time()
+    depth, inst, cams = load_views(a.train)
+    vdepth, vinst, vcams = load_views(a.val)
+    print("loaded %d training and %d validation views in %.0f s" % (len(depth), len(vdepth), time.time() - t0), flush=True)
+
+    net = XyzInstanceNet().to(a.device)
+    opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=a.lr, total_steps=a.iterations, pct_start=0.05)
+    log = {"args": vars(a), "parameters": sum(p.numel() for p in net.parameters()), "history": []}
+    t0 = time.time()
+    run_fg = run_bd = 0.0
+    it = 0
+    for it in range(1, a.iterations + 1):
+        index = rng.integers(0, len(depth), a.batch)
+        x, fg, bd = batch(depth, inst, cams, index, rng, True)
+        logits = net(x.to(a.device))
+        loss, l_fg, l_bd = loss_fn(logits, fg.to(a.device), bd.to(a.device))
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        sched.step()
+        run_fg = 0.98 * run_fg + 0.02 * l_fg if it > 1 else l_fg
+        run_bd = 0.98 * run_bd + 0.02 * l_bd if it > 1 else l_bd
+        minutes = (time.time() - t0) / 60
+        if it % 250 == 0 or it == a.iterations or (a.minutes and minutes > a.minutes):
+            entry = {"iteration": it, "minutes": round(minutes, 2), "loss_fg": round(run_fg, 4), "loss_boundary": round(run_bd, 4)}
+            if it % 1000 == 0 or it == a.iterations or (a.minutes and minutes > a.minutes):
+                entry["val_mean_iou"], entry["val_instances"] = validate(net, vdepth, vinst, vcams, a.device)
+                export(net, a.out, depth.shape[1], depth.shape[2])
+                torch.save(net.state_dict(), a.out + ".pt")
+                net.to(a.device)
+            log["history"].append(entry)
+            print(json.dumps(entry), flush=True)
+        if a.minutes and minutes > a.minutes:
+            break
+    log["iterations_done"] = it
+    log["minutes"] = round((time.time() - t0) / 60, 2)
+    log["threads"] = a.threads
+    with open(a.log or a.out + ".log.json", "w") as f:
+        json.dump(log, f, indent=1)
+    print("wrote %s after %d iterations, %.1f min" % (a.out, it, log["minutes"]))
+
+
+if __name__ == "__main__":
+    main()
