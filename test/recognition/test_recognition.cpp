@@ -342,7 +342,18 @@ TEST (MaskFolderSegmenter, ReadsIdPNGsWithTheirJSONByNameOrIndex)
   test::expectError ([&] { folder.segment (frame, instances); }, "frame-000012.png", "mask image is 30x20");
   frame.depth = cv::Mat::zeros (20, 30, CV_32F);
   test::writeFile (dir / "frame-000012.json", "{ broken");
-  test::expectError ([&] { folder.segment (frame, instances); }, "frame-000012.json", "not a mask description");
+  test::expectError ([&] { folder.segment (frame, instances); }, "frame-000012.json", "not valid JSON");
+  // Ids are integers, class ids integers in range, scores probabilities.
+  for (const auto& [entry, message] :
+       {std::make_pair (R"({"id": 4.7})", "instance id 4.7 is not an integer"),
+        std::make_pair (R"({"id": 3, "score": -5})", "score -5 of instance 3 is not in [0, 1]"),
+        std::make_pair (R"({"id": 3, "score": 1e300})", "is not in [0, 1]"),
+        std::make_pair (R"({"id": 3, "class_id": 1e20})", "class_id 1e+20 of instance 3 is not an integer"),
+        std::make_pair (R"({"id": 3, "class_id": -7})", "is not an integer in [-1, 1000000]")})
+  {
+    test::writeFile (dir / "frame-000012.json", std::string (R"({"instances": [)") + entry + "]}");
+    test::expectError ([&] { folder.segment (frame, instances); }, "frame-000012.json", message);
+  }
   test::expectError ([&] { MaskFolderSegmenter bad (dir / "nope"); }, "nope", "not a folder");
 }
 

@@ -27,7 +27,8 @@ cv::Mat
 instancesToIdImage (const std::vector<Instance>& instances, cv::Size size);
 
 /** \brief CV_16U (or CV_32S) id image → one Instance per distinct non-zero id, in
-  * increasing id order, with class -1 and score 1; \a ids_out receives the ids.
+  * increasing id order, with class -1 and score 1; \a ids_out receives the ids. More
+  * than 1024 distinct ids is a cuefusion::Error (each instance holds a full-frame mask).
   */
 std::vector<Instance>
 instancesFromIdImage (const cv::Mat& ids, std::vector<int>* ids_out = nullptr);

@@ -61,6 +61,11 @@ writeTextAtomic (const std::string& path, const std::string& text);
 std::string
 readTextFile (const std::string& path);
 
+/** \brief JSON text from \a source, parsed; throws cuefusion::Error naming \a source when
+  * it is not JSON or nests deeper than 64 levels. */
+nlohmann::json
+parseJson (const std::string& text, const std::string& source);
+
 /** \brief A JSON file, parsed; throws cuefusion::Error naming it ("not valid JSON (…)")
   * when it cannot be read or parsed. */
 nlohmann::json

@@ -47,14 +47,20 @@ instancesFromIdImage (const cv::Mat& ids, std::vector<int>* ids_out)
       else
         it->second |= cv::Rect (x, y, 1, 1);
     }
+  // Every instance carries a full-frame mask: the count is bounded so that a PNG of
+  // 65,535 ids cannot take gigabytes; each mask is filled inside its box only.
+  constexpr std::size_t max_instances = 1024;
+  if (boxes.size () > max_instances)
+    throw Error ("instance id image", "holds " + std::to_string (boxes.size ()) + " distinct instance ids (at most " +
+                                        std::to_string (max_instances) + ")");
   std::vector<Instance> instances;
   if (ids_out)
     ids_out->clear ();
   for (const auto& [id, box] : boxes)
   {
     Instance instance;
-    instance.mask = (ids32 == id);
-    instance.mask /= 255;  // 0/1
+    instance.mask = cv::Mat::zeros (ids32.size (), CV_8U);
+    instance.mask (box).setTo (1, ids32 (box) == id);
     instance.box = box;
     instances.push_back (std::move (instance));
     if (ids_out)

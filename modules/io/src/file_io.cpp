@@ -231,17 +231,36 @@ readTextFile (const std::string& path)
 }
 
 nlohmann::json
-readJsonFile (const std::string& path)
+parseJson (const std::string& text, const std::string& source)
 {
-  const std::string text = readTextFile (path);
+  // Deep nesting is refused while parsing: copying a document nested 10^6 deep recurses
+  // once per level and overflows the stack. cuefusion's own files nest 4 levels.
+  constexpr int max_depth = 64;
+  struct TooDeep
+  {
+  };
   try
   {
-    return nlohmann::json::parse (text);
+    return nlohmann::json::parse (text, [] (int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
+      if (depth > max_depth)
+        throw TooDeep ();
+      return true;
+    });
+  }
+  catch (const TooDeep&)
+  {
+    throw Error (source, "JSON nested deeper than " + std::to_string (max_depth) + " levels");
   }
   catch (const nlohmann::json::exception& e)
   {
-    throw Error (path, std::string ("not valid JSON (") + e.what () + ")");
+    throw Error (source, std::string ("not valid JSON (") + e.what () + ")");
   }
+}
+
+nlohmann::json
+readJsonFile (const std::string& path)
+{
+  return parseJson (readTextFile (path), path);
 }
 
 std::vector<double>

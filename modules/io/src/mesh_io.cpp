@@ -1,6 +1,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/mesh_io.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -96,6 +97,12 @@ readMeshPLY (const std::string& path)
   std::ifstream in (path, std::ios::binary);
   if (!in)
     throw Error (path, "cannot open mesh");
+  in.seekg (0, std::ios::end);
+  const std::uint64_t file_size = static_cast<std::uint64_t> (in.tellg ());
+  in.seekg (0);
+  // Every count is checked against the bytes left before anything is allocated: a small
+  // file declaring 10^9 vertices is an error, not a 17 GB allocation.
+  const auto left = [&in, file_size] { return file_size - std::min<std::uint64_t> (file_size, static_cast<std::uint64_t> (in.tellg ())); };
   std::string line;
   if (!std::getline (in, line) || line.rfind ("ply", 0) != 0)
     throw Error (path, "not a PLY file");
@@ -163,6 +170,8 @@ readMeshPLY (const std::string& path)
   {
     if (e.name == "vertex")
     {
+      if (have_vertices)
+        throw Error (path, "PLY file has two vertex elements");
       have_vertices = true;
       std::size_t stride = 0;
       int ix = -1, iy = -1, iz = -1, ir = -1, ig = -1, ib = -1, il = -1;
@@ -186,6 +195,9 @@ readMeshPLY (const std::string& path)
       if (ix < 0 || iy < 0 || iz < 0)
         throw Error (path, "PLY vertices have no x, y, z");
       const bool color = ir >= 0 && ig >= 0 && ib >= 0;
+      if (e.count > left () / stride)
+        throw Error (path, "PLY declares " + std::to_string (e.count) + " vertices but the file holds " +
+                             std::to_string (left () / stride) + " (truncated?)");
       std::vector<char> data (e.count * stride);
       if (!in.read (data.data (), static_cast<std::streamsize> (data.size ())))
         throw Error (path, "PLY file ends inside its vertex data (truncated?)");
@@ -212,6 +224,16 @@ readMeshPLY (const std::string& path)
     {
       if (!have_vertices)
         throw Error (path, "PLY faces come before vertices");
+      std::size_t smallest_face = 0;
+      for (const Property& p : e.properties)
+      {
+        smallest_face += sizeOf (p.list ? p.count_type : p.type);
+        if (p.list && (p.type == ScalarType::Float32 || p.type == ScalarType::Float64 ||
+                       p.count_type == ScalarType::Float32 || p.count_type == ScalarType::Float64))
+          throw Error (path, "PLY face list '" + p.name + "' must hold integers");
+      }
+      if (smallest_face == 0 || e.count > left () / smallest_face)
+        throw Error (path, "PLY declares " + std::to_string (e.count) + " faces, more than the file can hold (truncated?)");
       for (std::size_t f = 0; f < e.count; ++f)
         for (const Property& p : e.properties)
         {
@@ -221,7 +243,7 @@ readMeshPLY (const std::string& path)
           if (!p.list)
             continue;
           const double n = readScalar (buffer, p.count_type);
-          if (n < 0 || n > 1024)
+          if (!(n >= 0 && n <= 1024))
             throw Error (path, "PLY face " + std::to_string (f) + " has an absurd vertex count");
           std::vector<int> indices (static_cast<std::size_t> (n));
           for (int& index : indices)
@@ -229,7 +251,7 @@ readMeshPLY (const std::string& path)
             if (!in.read (buffer, static_cast<std::streamsize> (sizeOf (p.type))))
               throw Error (path, "PLY file ends inside its face data (truncated?)");
             const double v = readScalar (buffer, p.type);
-            if (v < 0 || v >= static_cast<double> (mesh.vertices.size ()))
+            if (!(v >= 0 && v < static_cast<double> (mesh.vertices.size ())))
               throw Error (path, "PLY face " + std::to_string (f) + " indexes a vertex that does not exist");
             index = static_cast<int> (v);
           }
@@ -249,6 +271,8 @@ readMeshPLY (const std::string& path)
           throw Error (path, "cannot skip PLY element '" + e.name + "' with list properties");
         stride += sizeOf (p.type);
       }
+      if (stride > 0 && e.count > left () / stride)
+        throw Error (path, "PLY element '" + e.name + "' is longer than the file (truncated?)");
       in.seekg (static_cast<std::streamoff> (stride * e.count), std::ios::cur);
     }
   }

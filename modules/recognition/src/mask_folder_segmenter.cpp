@@ -68,7 +68,15 @@ MaskFolderSegmenter::readInstanceMasks (const std::string& png, cv::Size size, c
     throw Error (png, "mask image is " + std::to_string (ids.cols) + "x" + std::to_string (ids.rows) + ", the frame " +
                         std::to_string (size.width) + "x" + std::to_string (size.height));
   std::vector<int> id_values;
-  std::vector<Instance> instances = instancesFromIdImage (ids, &id_values);
+  std::vector<Instance> instances;
+  try
+  {
+    instances = instancesFromIdImage (ids, &id_values);
+  }
+  catch (const Error& e)
+  {
+    throw Error (png, e.what ());
+  }
   const std::string json_path = (fs::path (png).parent_path () / fs::path (png).stem ()).string () + ".json";
   boost::system::error_code ec;
   if (!fs::exists (json_path, ec))
@@ -76,20 +84,38 @@ MaskFolderSegmenter::readInstanceMasks (const std::string& png, cv::Size size, c
   nlohmann::json doc;
   try
   {
-    doc = nlohmann::json::parse (io::readTextFile (json_path));
+    doc = io::parseJson (io::readTextFile (json_path), json_path);
     for (const auto& entry : doc.at ("instances"))
     {
-      const int id = entry.at ("id").get<int> ();
+      // Ids and class ids are integers, scores probabilities: anything else is refused
+      // (a class_id of 1e20 would become INT_MIN, a score of 1e300 outvote every mask).
+      const auto& id_value = entry.at ("id");
+      if (!id_value.is_number_integer ())
+        throw Error (json_path, "instance id " + id_value.dump () + " is not an integer");
+      const long long id = id_value.get<long long> ();
       const auto it = std::find (id_values.begin (), id_values.end (), id);
       if (it == id_values.end ())
         continue;  // described but not visible in the PNG
       Instance& instance = instances[static_cast<std::size_t> (it - id_values.begin ())];
-      instance.class_id = entry.value ("class_id", -1);
+      if (entry.contains ("class_id"))
+      {
+        const auto& class_id = entry.at ("class_id");
+        if (!class_id.is_number_integer () || class_id.get<long long> () < -1 || class_id.get<long long> () > 1000000)
+          throw Error (json_path, "class_id " + class_id.dump () + " of instance " + std::to_string (id) +
+                                    " is not an integer in [-1, 1000000]");
+        instance.class_id = class_id.get<int> ();
+      }
       instance.class_name = entry.value ("class_name", std::string ());
       if (instance.class_name.empty () && instance.class_id >= 0 &&
           static_cast<std::size_t> (instance.class_id) < class_names.size ())
         instance.class_name = class_names[static_cast<std::size_t> (instance.class_id)];
-      instance.score = entry.value ("score", 1.f);
+      if (entry.contains ("score"))
+      {
+        const auto& score = entry.at ("score");
+        if (!score.is_number () || !(score.get<double> () >= 0.0 && score.get<double> () <= 1.0))
+          throw Error (json_path, "score " + score.dump () + " of instance " + std::to_string (id) + " is not in [0, 1]");
+        instance.score = score.get<float> ();
+      }
     }
   }
   catch (const nlohmann::json::exception& e)
