@@ -102,9 +102,9 @@ def batch(depth, inst, cams, index, rng, train):
     return (torch.from_numpy(np.stack(xs)), torch.from_numpy(np.stack(fgs)), torch.from_numpy(np.stack(bds)))
 
 
-def loss_fn(logits, fg, bd):
+def loss_fn(logits, fg, bd, boundary_weight=4.0):
     l_fg = F.binary_cross_entropy_with_logits(logits[:, 0], fg)
-    l_bd = F.binary_cross_entropy_with_logits(logits[:, 1], bd, pos_weight=torch.tensor(4.0))
+    l_bd = F.binary_cross_entropy_with_logits(logits[:, 1], bd, pos_weight=torch.tensor(boundary_weight))
     return l_fg + l_bd, l_fg.item(), l_bd.item()
 
 
@@ -159,6 +159,8 @@ def main():
     p.add_argument("--lr", type=float, default=3e-3)
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--device", default="cpu")
+    p.add_argument("--init", default="", help="start from these weights (a .pt written by an earlier run)")
+    p.add_argument("--boundary-weight", type=float, default=4.0, help="positive weight of the boundary loss")
     p.add_argument("--log", default="", help="JSON log of the run (default OUT.log.json)")
     a = p.parse_args()
 
@@ -170,7 +172,10 @@ def main():
     vdepth, vinst, vcams = load_views(a.val)
     print("loaded %d training and %d validation views in %.0f s" % (len(depth), len(vdepth), time.time() - t0), flush=True)
 
-    net = XyzInstanceNet().to(a.device)
+    net = XyzInstanceNet()
+    if a.init:
+        net.load_state_dict(torch.load(a.init, map_location="cpu"))
+    net.to(a.device)
     opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=a.lr, total_steps=a.iterations, pct_start=0.05)
     log = {"args": vars(a), "parameters": sum(p.numel() for p in net.parameters()), "history": []}
@@ -181,7 +186,7 @@ def main():
         index = rng.integers(0, len(depth), a.batch)
         x, fg, bd = batch(depth, inst, cams, index, rng, True)
         logits = net(x.to(a.device))
-        loss, l_fg, l_bd = loss_fn(logits, fg.to(a.device), bd.to(a.device))
+        loss, l_fg, l_bd = loss_fn(logits, fg.to(a.device), bd.to(a.device), a.boundary_weight)
         opt.zero_grad()
         loss.backward()
         opt.step()

@@ -22,7 +22,7 @@ struct OnnxSegmenterConfig
   float score_threshold = 0.25f;      ///< detections (xyz layout: instances by mean foreground) below are dropped
   float nms_threshold = 0.45f;        ///< IoU above which the lower-scored box of a class is dropped
   float mask_threshold = 0.5f;        ///< on sigmoid(coefficients · prototypes); xyz layout: on the foreground
-  float boundary_threshold = 0.15f;   ///< xyz layout: instance boundary where its probability is at least this
+  float boundary_threshold = 0.3f;    ///< xyz layout: instance boundary where its probability is at least this
                                       ///< (chosen on held-out synthetic views, tools/train_masks/calibrate.py)
   int max_detections = 100;
   void validate () const;
