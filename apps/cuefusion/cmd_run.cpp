@@ -215,6 +215,7 @@ runRun (const std::vector<std::string>& args)
 {
   std::string source, out, format, intrinsics;
   std::size_t max_frames = 0;
+  long long frames_option = 0, save_every_option = 0;  // signed: "-5" must not wrap to 2^64 - 5
   double voxel = 0.01, truncation = 4.0, max_depth = 5.0;
   bool use_gt_poses = false, save_volume = false;
   std::string masks, mode;
@@ -227,7 +228,7 @@ runRun (const std::vector<std::string>& args)
   options.add_options ()
     ("sequence", po::value (&source)->required (), "dataset folder, openni2[:DEVICE] or .oni file")
     ("out", po::value (&out)->required (), "output folder")
-    ("frames", po::value (&max_frames)->default_value (0), "process at most N frames (0 = all)")
+    ("frames", po::value (&frames_option)->default_value (0), "process at most N frames (0 = all)")
     ("format", po::value (&format)->default_value ("auto"), "auto, tum, redwood, 7scenes, scannet, openni2")
     ("intrinsics", po::value (&intrinsics), "intrinsics file overriding the sequence's own")
     ("voxel", po::value (&voxel)->default_value (voxel), "TSDF voxel size in metres")
@@ -246,7 +247,7 @@ runRun (const std::vector<std::string>& args)
     ("boundary-threshold", po::value (&onnx.boundary_threshold)->default_value (onnx.boundary_threshold),
      "--model of the xyz layout: instances are cut where the boundary probability reaches this")
     ("async-masks", po::bool_switch (&async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
-    ("save-every", po::value (&save_every)->default_value (0), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
+    ("save-every", po::value (&save_every_option)->default_value (0), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
     ("render", po::value (&render_dir), "write per-frame PNGs to DIR: input colour, depth and the map's segments seen from the camera")
     ("video", po::value (&video_path), "the same panels as a video (.avi Motion-JPEG or .mp4)")
     ("view", po::bool_switch (&view), "show the map growing in a PCLVisualizer window (needs a display)")
@@ -256,6 +257,12 @@ runRun (const std::vector<std::string>& args)
   po::variables_map vm;
   if (!parseCommandLine ("run", "SEQUENCE --out DIR [options]", args, options, positional, vm))
     return 0;
+  if (frames_option < 0)
+    throw ParameterError ("--frames", "must not be negative (0 = all frames), got " + std::to_string (frames_option));
+  if (save_every_option < 0)
+    throw ParameterError ("--save-every", "must not be negative (0 = never), got " + std::to_string (save_every_option));
+  max_frames = static_cast<std::size_t> (frames_option);
+  save_every = static_cast<std::size_t> (save_every_option);
 
   pipeline::FusionPipelineConfig pipeline_config;
   reconstruction::DenseReconstructionConfig& config = pipeline_config.reconstruction;

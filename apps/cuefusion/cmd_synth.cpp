@@ -29,11 +29,12 @@ runSynth (const std::vector<std::string>& args)
 {
   std::string scene_name, layout_name, out, size;
   io::SyntheticSequenceConfig config;
+  long long frames = 0;  // signed: "-5" must not wrap to 2^64 - 5
   io::DetectorErrorConfig& det = config.detector;
   po::options_description options ("options");
   options.add_options ()
     ("scene", po::value (&scene_name)->required (), "scene NAME (data/scenes/NAME.scene) or scene FILE")
-    ("frames", po::value (&config.frames)->default_value (config.frames), "number of frames")
+    ("frames", po::value (&frames)->default_value (static_cast<long long> (config.frames)), "number of frames")
     ("layout", po::value (&layout_name)->default_value ("tum"), "dataset layout: tum, scannet, redwood, 7scenes")
     ("out", po::value (&out)->required (), "output folder (must not exist or be empty)")
     ("seed", po::value (&config.seed)->default_value (config.seed), "seed of every random choice")
@@ -61,6 +62,9 @@ runSynth (const std::vector<std::string>& args)
   po::variables_map vm;
   if (!parseCommandLine ("synth", "--scene NAME|FILE --out DIR [options]", args, options, positional, vm))
     return 0;
+  if (frames < 1 || frames > 1000000)
+    throw ParameterError ("--frames", "must lie in [1, 1000000], got " + std::to_string (frames));
+  config.frames = static_cast<std::size_t> (frames);
   if (!size.empty ())
     parseSize (size, config.width, config.height);
   const io::DatasetLayout layout = io::parseDatasetLayout (layout_name);

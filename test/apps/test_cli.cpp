@@ -50,12 +50,27 @@ TEST_F (Cli, UsageErrorsExitWith2)
   EXPECT_EQ (r.code, 2);
   EXPECT_NE (r.err.find ("--mask-merge"), std::string::npos) << r.err;
   EXPECT_EQ (run ("synth --scene tabletop --out " + (dir / "s") + " --layout nope").code, 2);
+  // Negative counts are refused by name, not wrapped to 2^64 - N; sizes must be real.
+  for (const std::string& bad : {"synth --scene tabletop --out " + (dir / "s") + " --frames -5",
+                                 "synth --scene tabletop --out " + (dir / "s") + " --frames 0",
+                                 "synth --scene tabletop --out " + (dir / "s") + " --size 0x0",
+                                 "run " + (dir / "s") + " --out " + (dir / "r") + " --frames -5",
+                                 "run " + (dir / "s") + " --out " + (dir / "r") + " --save-every -1"})
+  {
+    r = run (bad);
+    EXPECT_EQ (r.code, 2) << bad;
+    EXPECT_EQ (lines (r.err), 1) << r.err;
+    const std::string option = bad.find ("--size") != std::string::npos ? "--size"
+                               : bad.find ("--save-every") != std::string::npos ? "--save-every" : "--frames";
+    EXPECT_NE (r.err.find (option), std::string::npos) << r.err;
+  }
   EXPECT_FALSE (boost::filesystem::exists (dir / "s"));
+  EXPECT_FALSE (boost::filesystem::exists (dir / "r"));
 }
 
 TEST_F (Cli, HelpForEveryCommand)
 {
-  for (const char* command : {"--help", "synth --help", "info --help", "run --help", "segment-frame --help", "eval --help", "render --help"})
+  for (const char* command : {"--help", "synth --help", "synth-views --help", "info --help", "run --help", "segment-frame --help", "eval --help", "render --help"})
   {
     const Result r = run (command);
     EXPECT_EQ (r.code, 0) << command;
