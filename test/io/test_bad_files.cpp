@@ -7,6 +7,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/instance.h>
+#include <cuefusion/io/camera_io.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/map_io.h>
 #include <cuefusion/io/mesh_io.h>
@@ -201,4 +202,28 @@ TEST (BadMasks, AnIdImageOfThousandsOfIdsIsRefusedCheaply)
   ASSERT_EQ (instances.size (), 1000u);
   EXPECT_EQ (cv::countNonZero (instances[999].mask), 1);
   EXPECT_EQ (instances[999].mask.at<std::uint8_t> (24 * 4, 39 * 4), 1);
+}
+
+TEST (BadIntrinsics, AbsurdValuesAreRefusedWithTheFileNamed)
+{
+  test::TempDir dir;
+  const std::pair<const char*, const char*> cases[] = {
+    {"tiny_focal.txt", "1e-300 525 319.5 239.5"},
+    {"huge_centre.txt", "525 525 1e30 239.5"},
+    {"huge_width.txt", "525 525 319.5 239.5 4294967616 240"},
+    {"wide.json", R"({"intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1], "width": 4294967616, "height": 240})"},
+    {"fraction.json", R"({"intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1], "width": 320.5, "height": 240})"},
+  };
+  for (const auto& [name, text] : cases)
+  {
+    const std::string path = dir / name;
+    test::writeFile (path, text);
+    EXPECT_THROW (io::readIntrinsics (path), Error) << name;
+    test::expectError ([&] { io::readIntrinsics (path); }, path, "");
+  }
+  test::writeFile (dir / "good.json",
+                   R"({"intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1], "width": 640, "height": 480})");
+  const PinholeCamera camera = io::readIntrinsics (dir / "good.json");
+  EXPECT_EQ (camera.width, 640);
+  EXPECT_DOUBLE_EQ (camera.cx, 319.5);
 }

@@ -65,7 +65,8 @@ struct PinholeCamera
   Eigen::Matrix3d
   matrix () const;
 
-  /** \brief Finite positive focal lengths and a positive image size. */
+  /** \brief Focal lengths in [1, 10^6] pixels, principal point within ±10^6 pixels, image
+    * size in [1, 65536] each way. */
   bool
   isValid () const;
 

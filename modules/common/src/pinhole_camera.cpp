@@ -26,8 +26,13 @@ PinholeCamera::matrix () const
 bool
 PinholeCamera::isValid () const
 {
-  return std::isfinite (fx) && std::isfinite (fy) && std::isfinite (cx) && std::isfinite (cy) && fx > 0.0 &&
-         fy > 0.0 && width > 0 && height > 0;
+  // Bounds, not just signs: a focal length of 1e-300 loses every frame silently, and a
+  // principal point of 1e30 overflows the integer pixel arithmetic downstream.
+  constexpr double max_focal = 1e6, max_centre = 1e6;
+  constexpr int max_size = 65536;
+  return std::isfinite (fx) && std::isfinite (fy) && std::isfinite (cx) && std::isfinite (cy) && fx >= 1.0 &&
+         fy >= 1.0 && fx <= max_focal && fy <= max_focal && std::abs (cx) <= max_centre && std::abs (cy) <= max_centre &&
+         width > 0 && height > 0 && width <= max_size && height <= max_size;
 }
 
 void

@@ -33,10 +33,15 @@ readIntrinsicsJson (const std::string& path)
   }
   // Open3D stores K column-major: [fx 0 0, 0 fy 0, cx cy 1].
   PinholeCamera camera (k[0], k[4], k[6], k[7], 0, 0);
-  if (j.contains ("width") && j["width"].is_number_integer ())
-    camera.width = j["width"].get<int> ();
-  if (j.contains ("height") && j["height"].is_number_integer ())
-    camera.height = j["height"].get<int> ();
+  for (const auto& [key, target] : {std::make_pair ("width", &camera.width), std::make_pair ("height", &camera.height)})
+  {
+    if (!j.contains (key))
+      continue;
+    // Read wide: an int read of 4294967616 would silently become 320.
+    if (!j[key].is_number_integer () || j[key].get<long long> () < 1 || j[key].get<long long> () > 65536)
+      throw Error (path, std::string ("\"") + key + "\" must be an integer in [1, 65536], found " + j[key].dump ());
+    *target = static_cast<int> (j[key].get<long long> ());
+  }
   return camera;
 }
 }  // namespace
@@ -60,8 +65,8 @@ readIntrinsics (const std::string& path)
       camera = PinholeCamera (n[0], n[1], n[2], n[3], 0, 0);
       if (n.size () == 6)
       {
-        if (n[4] != std::floor (n[4]) || n[5] != std::floor (n[5]) || n[4] <= 0 || n[5] <= 0)
-          throw Error (path, "image width and height must be positive integers");
+        if (n[4] != std::floor (n[4]) || n[5] != std::floor (n[5]) || !(n[4] >= 1 && n[4] <= 65536) || !(n[5] >= 1 && n[5] <= 65536))
+          throw Error (path, "image width and height must be integers in [1, 65536]");
         camera.width = static_cast<int> (n[4]);
         camera.height = static_cast<int> (n[5]);
       }
