@@ -104,7 +104,7 @@ loadRun (const std::string& spec, bool need_mesh)
   {
     try
     {
-      run.voxel_size = io::parseJson (io::readTextFile (tracking.string ()), tracking.string ()).at ("volume").at ("voxel_size").get<double> ();
+      run.voxel_size = io::readJsonFile (tracking.string ()).at ("volume").at ("voxel_size").get<double> ();
     }
     catch (const nlohmann::json::exception&)
     {

@@ -72,6 +72,7 @@ toPointCloud (const RGBDFrame& frame)
   }
   return cloud;
 }
+
 RGBDFrame
 fromOrganizedCloud (const pcl::PointCloud<pcl::PointXYZRGBA>& cloud)
 {

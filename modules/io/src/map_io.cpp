@@ -177,19 +177,17 @@ readPCD (const std::string& path, const std::vector<std::string>& required_field
       throw Error (path, "PCD field 'label' must be one 4-byte integer (TYPE U or I, SIZE 4, COUNT 1)");
   }
   pcl::PCLPointCloud2 blob;
+  int status = -1;
   try
   {
-    if (pcl::io::loadPCDFile (path, blob) < 0)
-      throw Error (path, "cannot read PCD file (truncated or corrupt)");
-  }
-  catch (const Error&)
-  {
-    throw;
+    status = pcl::io::loadPCDFile (path, blob);
   }
   catch (const std::exception& e)
   {
     throw Error (path, std::string ("cannot read PCD file (") + e.what () + ")");
   }
+  if (status < 0)
+    throw Error (path, "cannot read PCD file (truncated or corrupt)");
   if (blob.data.size () != static_cast<std::size_t> (blob.width) * blob.height * blob.point_step)
     throw Error (path, "PCD data does not match its header (" + std::to_string (blob.data.size ()) + " bytes read)");
   return blob;

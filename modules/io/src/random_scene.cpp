@@ -156,7 +156,6 @@ struct Placed
 {
   Eigen::Vector2d xy;
   double base_z;
-  double radius;
   double yaw;
   Shape shape;
   bool carries = false;  // something stands on it
@@ -276,7 +275,7 @@ RandomSceneGenerator::scene (std::size_t index) const
         continue;
       const Placed& o = placed[j];
       const bool levels_meet = base_z < o.base_z + o.shape.height && o.base_z < base_z + height;
-      if (levels_meet && (xy - o.xy).norm () < 0.92 * (radius + o.radius))
+      if (levels_meet && (xy - o.xy).norm () < 0.92 * (radius + o.shape.radius))
         return false;
     }
     return true;
@@ -297,7 +296,7 @@ RandomSceneGenerator::scene (std::size_t index) const
           chance (rng, c.stacking_probability / (c.stacking_probability + c.touching_probability)))
       {
         // Stacked: the upper object's centre over the lower box's top (overhang allowed),
-        // turned at random, no wider than the lower box.
+        // turned at random, its footprint not much wider than the lower box.
         const Placed& below = placed[partner];
         const Eigen::Vector2d half = below.shape.box_size.head<2> () / 2;
         if (shape.radius > 1.2 * half.maxCoeff ())
@@ -327,7 +326,7 @@ RandomSceneGenerator::scene (std::size_t index) const
         else
         {
           const double angle = uniform (rng, 0, 2 * kPi);
-          xy = other.xy + rotate2 (Eigen::Vector2d (other.radius + shape.radius, 0), angle);
+          xy = other.xy + rotate2 (Eigen::Vector2d (other.shape.radius + shape.radius, 0), angle);
         }
       }
       else
@@ -348,7 +347,7 @@ RandomSceneGenerator::scene (std::size_t index) const
       scene.objects.push_back (o);
       if (base_z > support_z)
         placed[partner].carries = true;
-      placed.push_back ({xy, base_z, shape.radius, yaw, shape, false});
+      placed.push_back ({xy, base_z, yaw, shape, false});
       done = true;
     }
   }

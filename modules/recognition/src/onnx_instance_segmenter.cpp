@@ -1,6 +1,5 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
-#include <cuefusion/common/rgbd_frame.h>
 
 #include <boost/filesystem.hpp>
 
@@ -273,23 +272,25 @@ OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv:
     if (!changed)
       break;
   }
-  std::vector<double> score_sum (static_cast<std::size_t> (kept) + 1, 0.0);
+  // Score = mean foreground probability over the grown label.
+  std::vector<double> score (static_cast<std::size_t> (kept) + 1, 0.0);
   std::vector<int> pixels (static_cast<std::size_t> (kept) + 1, 0);
   for (int y = 0; y < content.height; ++y)
     for (int x = 0; x < content.width; ++x)
     {
       const auto k = static_cast<std::size_t> (labels.at<int> (y, x));
-      score_sum[k] += foreground_p.at<float> (y, x);
+      score[k] += foreground_p.at<float> (y, x);
       ++pixels[k];
     }
   std::vector<int> order;
   for (int k = 1; k <= kept; ++k)
-    if (score_sum[static_cast<std::size_t> (k)] / pixels[static_cast<std::size_t> (k)] >= config.score_threshold)
+  {
+    score[static_cast<std::size_t> (k)] /= pixels[static_cast<std::size_t> (k)];
+    if (score[static_cast<std::size_t> (k)] >= config.score_threshold)
       order.push_back (k);
-  std::stable_sort (order.begin (), order.end (), [&] (int a, int b) {
-    return score_sum[static_cast<std::size_t> (a)] / pixels[static_cast<std::size_t> (a)] >
-           score_sum[static_cast<std::size_t> (b)] / pixels[static_cast<std::size_t> (b)];
-  });
+  }
+  std::stable_sort (order.begin (), order.end (),
+                    [&score] (int a, int b) { return score[static_cast<std::size_t> (a)] > score[static_cast<std::size_t> (b)]; });
   if (order.size () > static_cast<std::size_t> (config.max_detections))
     order.resize (static_cast<std::size_t> (config.max_detections));
   cv::Mat frame_labels;
@@ -304,7 +305,7 @@ OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv:
       continue;
     instance.class_id = 0;
     instance.class_name = "object";
-    instance.score = static_cast<float> (score_sum[static_cast<std::size_t> (k)] / pixels[static_cast<std::size_t> (k)]);
+    instance.score = static_cast<float> (score[static_cast<std::size_t> (k)]);
     instances.push_back (std::move (instance));
   }
   return instances;
