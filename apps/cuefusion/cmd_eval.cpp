@@ -274,10 +274,10 @@ runEval (const std::vector<std::string>& args)
     return it == gt_cloud->class_names.end () ? std::string () : it->second;
   };
 
-  boost::system::error_code ec;
-  fs::create_directories (fs::path (out) / "plots", ec);
-  if (ec || !fs::is_directory (out))
-    throw Error (out, "cannot create report folder" + (ec ? ": " + ec.message () : std::string ()));
+  // The report is written to a staging folder and replaces the previous report as a
+  // whole (io::OutputSet); report.json, moved in last, marks it complete.
+  io::OutputSet outputs (out, {"tracking.csv", "object_iou.csv", "object_iou_frames.csv", "instance_ap.csv", "plots", "report.json"},
+                         "report.json");
   const fs::path report_dir (out);
 
   // --- tracking
@@ -478,7 +478,7 @@ runEval (const std::vector<std::string>& args)
       plot_note = "skipped: gnuplot not found (Debian package gnuplot-nox; scripts/setup installs it)";
     else
     {
-      const fs::path plot_dir = report_dir / "plots";
+      const fs::path plot_dir = outputs.stagingPath ("plots/");
       // Per object: IoU over frames, one line per run; then the mean over the objects
       // visible in each frame.
       for (const std::uint32_t object : all_objects)
@@ -546,15 +546,18 @@ runEval (const std::vector<std::string>& args)
       }
     }
   }
+  for (std::string& plot : plots)
+    plot = outputs.finalPath ("plots/" + fs::path (plot).filename ().string ());
   report["plots"] = plots;
   if (!plot_note.empty ())
     report["plots_note"] = plot_note;
 
-  io::writeTextAtomic ((report_dir / "tracking.csv").string (), tracking_csv.str ());
-  io::writeTextAtomic ((report_dir / "object_iou.csv").string (), iou_csv.str ());
-  io::writeTextAtomic ((report_dir / "object_iou_frames.csv").string (), iou_frames_csv.str ());
-  io::writeTextAtomic ((report_dir / "instance_ap.csv").string (), ap_csv.str ());
-  io::writeTextAtomic ((report_dir / "report.json").string (), report.dump (2) + "\n");
+  io::writeTextAtomic (outputs.stagingPath ("tracking.csv"), tracking_csv.str ());
+  io::writeTextAtomic (outputs.stagingPath ("object_iou.csv"), iou_csv.str ());
+  io::writeTextAtomic (outputs.stagingPath ("object_iou_frames.csv"), iou_frames_csv.str ());
+  io::writeTextAtomic (outputs.stagingPath ("instance_ap.csv"), ap_csv.str ());
+  io::writeTextAtomic (outputs.stagingPath ("report.json"), report.dump (2) + "\n");
+  outputs.commit ();
 
   // Summary on stdout, one block per run.
   std::cout << "evaluated " << runs.size () << " run(s) against " << gt << " (" << frames_with_masks << " frames with instance masks"

@@ -38,13 +38,58 @@ namespace cli
 {
 namespace
 {
-std::atomic<bool> g_interrupted{false};
+/** SIGINT and SIGTERM: the first stops the run after its frame (the outputs are still
+  * written), the second abandons writing (the folder's previous outputs stay as they
+  * were), and the handlers then return to the default, so a third ends the process. */
+std::atomic<int> g_signals{0};
 
 extern "C" void
 onInterrupt (int)
 {
-  g_interrupted = true;
+  if (++g_signals >= 2)
+  {
+    std::signal (SIGINT, SIG_DFL);
+    std::signal (SIGTERM, SIG_DFL);
+  }
 }
+
+class InterruptHandlers
+{
+public:
+  InterruptHandlers ()
+  {
+    g_signals = 0;
+    struct sigaction action{};
+    action.sa_handler = onInterrupt;
+    sigemptyset (&action.sa_mask);
+    sigaction (SIGINT, &action, &previous_int_);
+    sigaction (SIGTERM, &action, &previous_term_);
+  }
+  ~InterruptHandlers ()
+  {
+    sigaction (SIGINT, &previous_int_, nullptr);
+    sigaction (SIGTERM, &previous_term_, nullptr);
+  }
+  static bool
+  interrupted ()
+  {
+    return g_signals > 0;
+  }
+  static bool
+  interruptedTwice ()
+  {
+    return g_signals > 1;
+  }
+
+private:
+  struct sigaction previous_int_, previous_term_;
+};
+
+/** What `run` writes into --out (outputs.json, written last, marks a complete set). */
+const std::vector<std::string> kRunOutputs = {"map.pcd",        "mesh.ply",      "segments.json",
+                                              "trajectory.txt", "reference_trajectory.txt",
+                                              "volume.tsdf",    "tracking.json", "timings.json",
+                                              "labels",         "outputs.json"};
 
 struct RunOutputs
 {
@@ -304,19 +349,16 @@ runRun (const std::vector<std::string>& args)
   if (asynchronous_masks)  // the first frames go without masks until the first finish
     mask_source = std::make_shared<recognition::AsynchronousSegmenter> (mask_source);
 
-  boost::system::error_code ec;
-  fs::create_directories (out, ec);
-  if (ec || !fs::is_directory (out))
-    throw Error (out, "cannot create output folder" + (ec ? ": " + ec.message () : std::string ()));
-
+  // Everything goes to a staging folder first and replaces the previous run's set as a
+  // whole at the end (io::OutputSet): an error or a second signal leaves it untouched.
+  io::OutputSet outputs (out, kRunOutputs, "outputs.json");
   pipeline::FusionPipeline fusion (pipeline_config);
-  for (const std::string& folder : {save_every > 0 ? (fs::path (out) / "labels").string () : std::string (), render_dir})
+  boost::system::error_code ec;
+  if (!render_dir.empty ())
   {
-    if (folder.empty ())
-      continue;
-    fs::create_directories (folder, ec);
-    if (ec || !fs::is_directory (folder))
-      throw Error (folder, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
+    fs::create_directories (render_dir, ec);
+    if (ec || !fs::is_directory (render_dir))
+      throw Error (render_dir, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
   }
   std::unique_ptr<VideoOutput> video;
   if (!video_path.empty ())
@@ -362,8 +404,8 @@ runRun (const std::vector<std::string>& args)
           const cv::Mat labels = fusion.modelLabels ();
           if (save_labels)
           {
-            const std::string path = (fs::path (out) / "labels" / name.str ()).string ();
-            io::writeImageAtomic (path, labelsAs16Bit (labels, path));
+            const std::string path = outputs.stagingPath ("labels/" + name.str ());
+            io::writeImageAtomic (path, labelsAs16Bit (labels, outputs.finalPath ("labels/" + name.str ())));
           }
           if (!render_dir.empty () || video)
           {
@@ -400,12 +442,12 @@ runRun (const std::vector<std::string>& args)
     }
   };
   const boost::signals2::connection connection = grabber->registerCallback (on_frame);
-  const auto previous_handler = std::signal (SIGINT, onInterrupt);
+  const InterruptHandlers interrupt_handlers;
   const auto process = [&] {
     grabber->start ();
     if (dataset)
     {
-      while (!g_interrupted && dataset->trigger ())
+      while (!InterruptHandlers::interrupted () && dataset->trigger ())
       {
         const std::lock_guard<std::mutex> lock (mutex);
         if (!callback_error.empty ())
@@ -419,7 +461,7 @@ runRun (const std::vector<std::string>& args)
       {
         std::this_thread::sleep_for (std::chrono::milliseconds (20));
         const std::lock_guard<std::mutex> lock (mutex);
-        if (g_interrupted || !grabber->isRunning () || !callback_error.empty () ||
+        if (InterruptHandlers::interrupted () || !grabber->isRunning () || !callback_error.empty () ||
             (max_frames && result.reports.size () >= max_frames))
           break;
       }
@@ -446,7 +488,8 @@ runRun (const std::vector<std::string>& args)
       if (window_open && !viewer->spinOnce (30))
       {
         window_open = false;  // closing the window stops the run, which still writes its map
-        g_interrupted = true;
+        int none = 0;  // as one signal: stop, then write everything
+        g_signals.compare_exchange_strong (none, 1);
       }
       else if (!window_open)
         std::this_thread::sleep_for (std::chrono::milliseconds (30));
@@ -471,7 +514,6 @@ runRun (const std::vector<std::string>& args)
   else
     process ();
   connection.disconnect ();
-  std::signal (SIGINT, previous_handler);
   progress.finish ();
   if (!callback_error.empty ())
     throw Error (source, callback_error);
@@ -482,21 +524,25 @@ runRun (const std::vector<std::string>& args)
   const double seconds = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
 
   const fs::path dir (out);
+  // A second signal while writing abandons the set; checked between the files.
+  const auto staged = [&] (const std::string& name) {
+    if (InterruptHandlers::interruptedTwice ())
+      throw Error (out, "interrupted again while writing the outputs: nothing written, the folder's previous outputs are unchanged");
+    return outputs.stagingPath (name);
+  };
   const reconstruction::TSDFVolume& volume = fusion.reconstruction ().volume ();
   const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr map_cloud = fusion.labelledCloud ();
   const pcl::PointCloud<pcl::PointXYZRGBL>& map = *map_cloud;
-  io::saveMapPCD ((dir / "map.pcd").string (), map);
+  io::saveMapPCD (staged ("map.pcd"), map);
   const pcl::PolygonMesh mesh = fusion.labelledMesh (true);
-  io::saveMeshPLY ((dir / "mesh.ply").string (), mesh);
+  io::saveMeshPLY (staged ("mesh.ply"), mesh);
   const std::vector<segmentation::SegmentRecord> segments = fusion.segments ();
-  io::writeTextAtomic ((dir / "segments.json").string (), segmentsJson (segments).dump (1) + "\n");
-  io::writeTumTrajectory ((dir / "trajectory.txt").string (), result.trajectory);
+  io::writeTextAtomic (staged ("segments.json"), segmentsJson (segments).dump (1) + "\n");
+  io::writeTumTrajectory (staged ("trajectory.txt"), result.trajectory);
   if (!result.reference.empty ())  // for evaluating the estimate with any TUM tool
-    io::writeTumTrajectory ((dir / "reference_trajectory.txt").string (), result.reference);
+    io::writeTumTrajectory (staged ("reference_trajectory.txt"), result.reference);
   if (save_volume)
-    volume.save ((dir / "volume.tsdf").string ());
-  if (video)
-    video->finish ();
+    volume.save (staged ("volume.tsdf"));
 
   nlohmann::json tracking;
   nlohmann::json lost = nlohmann::json::array ();
@@ -523,8 +569,21 @@ runRun (const std::vector<std::string>& args)
          << ate.pairs << " frames)\n";
     ate_line = line.str ();
   }
-  io::writeTextAtomic ((dir / "tracking.json").string (), tracking.dump (2) + "\n");
-  io::writeTextAtomic ((dir / "timings.json").string (), timingsJson (result.reports, result.segmentation, result.volume_bytes, result.loop_ms).dump (2) + "\n");
+  io::writeTextAtomic (staged ("tracking.json"), tracking.dump (2) + "\n");
+  io::writeTextAtomic (staged ("timings.json"), timingsJson (result.reports, result.segmentation, result.volume_bytes, result.loop_ms).dump (2) + "\n");
+  nlohmann::json files = nlohmann::json::array ();
+  for (const std::string& name : kRunOutputs)
+    if (fs::exists (fs::path (outputs.stagingPath (name))))
+      files.push_back (name);
+  const nlohmann::json manifest = {{"command", "run"},
+                                   {"sequence", source},
+                                   {"frames", result.reports.size ()},
+                                   {"complete", true},
+                                   {"files", files}};
+  io::writeTextAtomic (staged ("outputs.json"), manifest.dump (2) + "\n");
+  if (video)
+    video->finish ();
+  outputs.commit ();
 
   std::cout << "processed " << result.reports.size () << " frames of " << source << " (" << grabber->formatName ()
             << ") in " << std::fixed << std::setprecision (2) << seconds << " s; " << result.trajectory.size ()

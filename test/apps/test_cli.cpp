@@ -11,8 +11,16 @@
 
 #include <set>
 
+#include <chrono>
+#include <csignal>
 #include <cstdlib>
+#include <thread>
+
+#include <fcntl.h>
+#include <spawn.h>
 #include <sys/wait.h>
+
+extern char** environ;
 
 using namespace cuefusion;
 
@@ -215,4 +223,94 @@ TEST_F (Cli, RunSegmentsWithMasks)
   r = run ("run " + seq + " --out " + (dir / "run2") + " --mode sideways");
   EXPECT_EQ (r.code, 2);
   EXPECT_NE (r.err.find ("--mode"), std::string::npos) << r.err;
+}
+
+namespace
+{
+/** Starts `cuefusion ARGS` without waiting; stdout/stderr go to files of \a dir. */
+pid_t
+startCuefusion (const std::vector<std::string>& args, const test::TempDir& dir)
+{
+  std::vector<std::string> argv_strings = {CUEFUSION_BINARY};
+  argv_strings.insert (argv_strings.end (), args.begin (), args.end ());
+  std::vector<char*> argv;
+  for (std::string& a : argv_strings)
+    argv.push_back (&a[0]);
+  argv.push_back (nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init (&actions);
+  const std::string out = dir / "bg_out.txt", err = dir / "bg_err.txt";
+  posix_spawn_file_actions_addopen (&actions, 1, out.c_str (), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen (&actions, 2, err.c_str (), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid = -1;
+  const int spawned = posix_spawn (&pid, CUEFUSION_BINARY, &actions, nullptr, argv.data (), environ);
+  posix_spawn_file_actions_destroy (&actions);
+  return spawned == 0 ? pid : -1;
+}
+
+/** Waits until the run has opened its staging folder in \a out (it is processing frames). */
+bool
+waitForStaging (const std::string& out)
+{
+  for (int i = 0; i < 3000; ++i)
+  {
+    boost::system::error_code ec;
+    for (boost::filesystem::directory_iterator it (out, ec), end; !ec && it != end; it.increment (ec))
+      if (it->path ().filename ().string ().rfind (".cuefusion-staging-", 0) == 0)
+        return true;
+    std::this_thread::sleep_for (std::chrono::milliseconds (10));
+  }
+  return false;
+}
+}  // namespace
+
+TEST_F (Cli, SignalsFinishTheSetOrKeepThePreviousOne)
+{
+  const std::string seq = dir / "seq", out = dir / "run";
+  ASSERT_EQ (run ("synth --scene tabletop --frames 300 --size 160x120 --out " + seq).code, 0);
+  // A first complete run of 4 frames, with labels/ (which a later run without
+  // --save-every must not leave beside its own outputs).
+  ASSERT_EQ (run ("run " + seq + " --out " + out + " --frames 4 --save-every 2").code, 0);
+  const nlohmann::json first = nlohmann::json::parse (test::readFile (out + "/outputs.json"));
+  EXPECT_EQ (first["frames"], 4);
+  EXPECT_TRUE (boost::filesystem::exists (out + "/labels/000002.png"));
+  const std::string first_map = test::readFile (out + "/map.pcd");
+
+  // Two signals: the second arrives before the writing ends, so nothing is replaced.
+  pid_t pid = startCuefusion ({"run", seq, "--out", out}, dir);
+  ASSERT_GT (pid, 0);
+  ASSERT_TRUE (waitForStaging (out));
+  std::this_thread::sleep_for (std::chrono::milliseconds (200));
+  kill (pid, SIGTERM);
+  kill (pid, SIGINT);
+  int status = 0;
+  waitpid (pid, &status, 0);
+  ASSERT_TRUE (WIFEXITED (status)) << "killed by signal " << WTERMSIG (status);
+  EXPECT_EQ (WEXITSTATUS (status), 1);
+  const std::string err = test::readFile (dir / "bg_err.txt");
+  EXPECT_NE (err.find ("previous outputs are unchanged"), std::string::npos) << err;
+  EXPECT_EQ (test::readFile (out + "/map.pcd"), first_map);
+  EXPECT_EQ (nlohmann::json::parse (test::readFile (out + "/outputs.json")), first);
+  EXPECT_TRUE (boost::filesystem::exists (out + "/labels/000002.png"));
+
+  // One SIGTERM: the run stops after its frame and writes a complete, consistent set.
+  pid = startCuefusion ({"run", seq, "--out", out}, dir);
+  ASSERT_GT (pid, 0);
+  ASSERT_TRUE (waitForStaging (out));
+  std::this_thread::sleep_for (std::chrono::milliseconds (200));
+  kill (pid, SIGTERM);
+  waitpid (pid, &status, 0);
+  ASSERT_TRUE (WIFEXITED (status)) << "killed by signal " << WTERMSIG (status);
+  EXPECT_EQ (WEXITSTATUS (status), 0) << test::readFile (dir / "bg_err.txt");
+  const nlohmann::json second = nlohmann::json::parse (test::readFile (out + "/outputs.json"));
+  const nlohmann::json tracking = nlohmann::json::parse (test::readFile (out + "/tracking.json"));
+  EXPECT_GT (second["frames"].get<int> (), 0);
+  EXPECT_EQ (second["frames"], tracking["frames"]);
+  EXPECT_NE (test::readFile (out + "/map.pcd"), first_map);
+  EXPECT_FALSE (boost::filesystem::exists (out + "/labels"));  // the previous run's, removed with its set
+  std::vector<std::string> left;
+  for (boost::filesystem::directory_iterator it (out), end; it != end; ++it)
+    if (it->path ().filename ().string ()[0] == '.')
+      left.push_back (it->path ().string ());
+  EXPECT_TRUE (left.empty ()) << left.front ();
 }

@@ -6,7 +6,10 @@
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/pose_io.h>
 
+#include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
+
+#include <algorithm>
 
 using namespace cuefusion;
 using cuefusion::test::TempDir;
@@ -118,4 +121,94 @@ TEST (PoseIO, RejectsNonRigidMatrix)
   TempDir dir;
   test::writeFile (dir / "p.txt", "2 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n");
   EXPECT_THROW (io::readPoseMatrixFile (dir / "p.txt"), Error);
+}
+
+namespace
+{
+std::vector<std::string>
+entries (const std::string& dir)
+{
+  std::vector<std::string> names;
+  for (boost::filesystem::directory_iterator it (dir), end; it != end; ++it)
+    names.push_back (it->path ().filename ().string ());
+  std::sort (names.begin (), names.end ());
+  return names;
+}
+}  // namespace
+
+TEST (FileIO, AtomicWriteThatThrowsLeavesNoTemporaryAndRefusesDevices)
+{
+  TempDir dir;
+  test::writeFile (dir / "a.txt", "old");
+  EXPECT_THROW (io::writeFileAtomic (dir / "a.txt",
+                                     [] (const std::string& tmp) -> bool {
+                                       test::writeFile (tmp, "half");
+                                       throw std::runtime_error ("writer failed");
+                                     }),
+                std::runtime_error);
+  EXPECT_EQ (test::readFile (dir / "a.txt"), "old");
+  EXPECT_EQ (entries (dir.str ()), std::vector<std::string> ({"a.txt"}));
+  // A device is never replaced by a regular file, nor a folder.
+  test::expectError ([] { io::writeTextAtomic ("/dev/null", "x"); }, "/dev/null", "not a regular file");
+  boost::filesystem::create_directory (dir / "folder");
+  test::expectError ([&] { io::writeTextAtomic (dir / "folder", "x"); }, "folder", "is a folder");
+}
+
+TEST (FileIO, OutputSetReplacesThePreviousSetAsAWhole)
+{
+  TempDir dir;
+  const std::string out = dir / "out";
+  const std::vector<std::string> owned = {"a.txt", "b.txt", "extra", "done.json"};
+  {
+    io::OutputSet set (out, owned, "done.json");
+    io::writeTextAtomic (set.stagingPath ("a.txt"), "a1");
+    io::writeTextAtomic (set.stagingPath ("extra/x.txt"), "x1");
+    // Nothing is visible before the commit.
+    EXPECT_FALSE (boost::filesystem::exists (set.finalPath ("a.txt")));
+    io::writeTextAtomic (set.stagingPath ("done.json"), "1");
+    set.commit ();
+  }
+  test::writeFile (dir / "out/user.txt", "mine");  // not the command's: never touched
+  EXPECT_EQ (entries (out), std::vector<std::string> ({"a.txt", "done.json", "extra", "user.txt"}));
+
+  // Abandoned (an error, a second signal): the previous set stays, the staging folder goes.
+  {
+    io::OutputSet set (out, owned, "done.json");
+    io::writeTextAtomic (set.stagingPath ("a.txt"), "a2");
+    EXPECT_EQ (entries (out).size (), 5u);  // the staging folder
+  }
+  EXPECT_EQ (entries (out), std::vector<std::string> ({"a.txt", "done.json", "extra", "user.txt"}));
+  EXPECT_EQ (test::readFile (dir / "out/a.txt"), "a1");
+
+  // A new set without "extra" removes the old one's: no files of two sets side by side.
+  {
+    io::OutputSet set (out, owned, "done.json");
+    io::writeTextAtomic (set.stagingPath ("a.txt"), "a3");
+    io::writeTextAtomic (set.stagingPath ("b.txt"), "b3");
+    io::writeTextAtomic (set.stagingPath ("done.json"), "3");
+    set.commit ();
+  }
+  EXPECT_EQ (entries (out), std::vector<std::string> ({"a.txt", "b.txt", "done.json", "user.txt"}));
+  EXPECT_EQ (test::readFile (dir / "out/a.txt"), "a3");
+  EXPECT_EQ (test::readFile (dir / "out/done.json"), "3");
+
+  // A staging folder of a process that no longer runs (killed while writing) is removed.
+  boost::filesystem::create_directories (dir / "out/.cuefusion-staging-999999999-abcdef/sub");
+  {
+    io::OutputSet set (out, owned, "done.json");
+  }
+  EXPECT_EQ (entries (out), std::vector<std::string> ({"a.txt", "b.txt", "done.json", "user.txt"}));
+
+  // An output that would replace a folder with a file is refused before anything moves.
+  boost::filesystem::remove (dir / "out/b.txt");
+  boost::filesystem::create_directory (dir / "out/b.txt");
+  {
+    io::OutputSet set (out, owned, "done.json");
+    io::writeTextAtomic (set.stagingPath ("a.txt"), "a4");
+    io::writeTextAtomic (set.stagingPath ("b.txt"), "b4");
+    io::writeTextAtomic (set.stagingPath ("done.json"), "4");
+    test::expectError ([&] { set.commit (); }, "b.txt", "refusing to replace it");
+  }
+  EXPECT_EQ (test::readFile (dir / "out/a.txt"), "a3");
+  EXPECT_EQ (test::readFile (dir / "out/done.json"), "3");
 }

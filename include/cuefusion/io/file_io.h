@@ -39,8 +39,9 @@ writeImageAtomic (const std::string& path, const cv::Mat& image, const std::vect
 
 /** \brief Atomic replacement of \a path: \a write fills a temporary file in the same
   * folder (returning false on failure), which is then renamed over \a path. On any
-  * failure the temporary file is removed, \a path is untouched, and cuefusion::Error
-  * names \a path.
+  * failure (including \a write throwing) the temporary file is removed, \a path is
+  * untouched, and cuefusion::Error names \a path. An existing \a path that is not a
+  * regular file (a folder, a device such as /dev/full, a pipe) is refused, not replaced.
   */
 void
 writeFileAtomic (const std::string& path, const std::function<bool (const std::string& temporary)>& write);
@@ -52,6 +53,58 @@ writeFileAtomic (const std::string& path, const std::function<bool (const std::s
   */
 void
 writeFolderAtomic (const std::string& dir, bool overwrite, const std::function<void (const std::string& staging)>& fill);
+
+/** \brief A command's output files in a folder, replaced as one set.
+  *
+  * Every output is first written below a staging folder inside \a dir
+  * (`.cuefusion-staging-XXXXXX`, on the same file system, so moving is renaming); until
+  * commit() nothing in \a dir changes, and an OutputSet destroyed without commit()
+  * removes its staging folder — an error or an interruption while writing leaves the
+  * previous set untouched. commit() first moves the previous set's \a marker file
+  * aside, then replaces each staged entry, removes the previous set's \a owned entries
+  * the new set does not have (so files of two runs are never mixed), and moves the new
+  * \a marker into place last: a folder whose marker is present holds one complete set.
+  * SIGINT and SIGTERM are held back during commit() (a few renames). Staging folders
+  * left by a killed process are removed when the next OutputSet opens the folder.
+  * Other files in \a dir (renders, reports, the user's own) are never touched.
+  */
+class OutputSet
+{
+public:
+  /** Creates \a dir when missing and a staging folder in it; cuefusion::Error naming
+    * \a dir when that fails. \a owned: the top-level names this command writes;
+    * \a marker: the one among them written last (it marks the set complete). */
+  OutputSet (const std::string& dir, std::vector<std::string> owned, std::string marker);
+  ~OutputSet ();
+  OutputSet (const OutputSet&) = delete;
+  OutputSet& operator= (const OutputSet&) = delete;
+
+  /** Where to write \a name (a path relative to the folder, e.g. "labels/000010.png"):
+    * inside the staging folder, its parent folders created. The final location is
+    * finalPath (\a name). */
+  std::string
+  stagingPath (const std::string& name) const;
+
+  /** Where \a name will be once committed. */
+  std::string
+  finalPath (const std::string& name) const;
+
+  /** Moves the staged set into place as described above; cuefusion::Error naming the
+    * entry that could not be moved (the staging folder is removed either way). */
+  void
+  commit ();
+
+  const std::string&
+  folder () const
+  {
+    return dir_;
+  }
+
+private:
+  std::string dir_, staging_, marker_;
+  std::vector<std::string> owned_;
+  bool committed_ = false;
+};
 
 /** \brief Writes text atomically (temporary file, then rename). */
 void

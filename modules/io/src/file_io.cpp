@@ -6,12 +6,18 @@
 
 #include <boost/filesystem.hpp>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
+
+#include <pthread.h>
+#include <unistd.h>
 
 namespace fs = boost::filesystem;
 
@@ -124,13 +130,37 @@ depthToRaw (const cv::Mat& depth_m, double units_per_metre)
   return raw;
 }
 
+namespace
+{
+void
+refuseNonRegularTarget (const std::string& path)
+{
+  boost::system::error_code ec;
+  const fs::file_status status = fs::status (path, ec);
+  if (!ec && fs::exists (status) && !fs::is_regular_file (status))
+    throw Error (path, fs::is_directory (status) ? "is a folder; refusing to replace it with a file"
+                                                 : "exists and is not a regular file (a device, pipe or socket?); refusing to replace it");
+}
+}  // namespace
+
 void
 writeFileAtomic (const std::string& path, const std::function<bool (const std::string& temporary)>& write)
 {
+  refuseNonRegularTarget (path);
   const fs::path target (path);
   const fs::path tmp = target.parent_path () / fs::unique_path (".tmp-%%%%%%%%-" + target.filename ().string ());
   boost::system::error_code ec;
-  if (!write (tmp.string ()))
+  bool written = false;
+  try
+  {
+    written = write (tmp.string ());
+  }
+  catch (...)  // a writer that throws (PCL's, out of memory) leaves no temporary file either
+  {
+    fs::remove (tmp, ec);
+    throw;
+  }
+  if (!written)
   {
     fs::remove (tmp, ec);
     throw Error (path, "write failed (folder missing or read-only, or disk full?)");
@@ -182,6 +212,152 @@ writeFolderAtomic (const std::string& dir, bool overwrite, const std::function<v
   }
   if (had_old)
     fs::remove_all (old, ec);
+}
+
+namespace
+{
+const std::string kStagingPrefix = ".cuefusion-staging-";
+
+/** Staging folders of processes that no longer run (killed while writing). */
+void
+removeStaleStaging (const fs::path& dir)
+{
+  boost::system::error_code ec;
+  for (fs::directory_iterator it (dir, ec), end; !ec && it != end; it.increment (ec))
+  {
+    const std::string name = it->path ().filename ().string ();
+    if (name.compare (0, kStagingPrefix.size (), kStagingPrefix) != 0)
+      continue;
+    const long pid = std::strtol (name.c_str () + kStagingPrefix.size (), nullptr, 10);
+    if (pid > 0 && ::kill (static_cast<pid_t> (pid), 0) != 0 && errno == ESRCH)
+    {
+      boost::system::error_code ignored;
+      fs::remove_all (it->path (), ignored);
+    }
+  }
+}
+
+/** SIGINT and SIGTERM held back in this thread for the object's lifetime. */
+class SignalHold
+{
+public:
+  SignalHold ()
+  {
+    sigset_t held;
+    sigemptyset (&held);
+    sigaddset (&held, SIGINT);
+    sigaddset (&held, SIGTERM);
+    pthread_sigmask (SIG_BLOCK, &held, &previous_);
+  }
+  ~SignalHold () { pthread_sigmask (SIG_SETMASK, &previous_, nullptr); }
+
+private:
+  sigset_t previous_;
+};
+}  // namespace
+
+OutputSet::OutputSet (const std::string& dir, std::vector<std::string> owned, std::string marker)
+  : dir_ (dir), marker_ (std::move (marker)), owned_ (std::move (owned))
+{
+  boost::system::error_code ec;
+  fs::create_directories (dir_, ec);
+  if (ec || !fs::is_directory (dir_))
+    throw Error (dir_, "cannot create output folder" + (ec ? ": " + ec.message () : std::string ()));
+  removeStaleStaging (dir_);
+  const fs::path staging =
+    fs::path (dir_) / fs::unique_path (kStagingPrefix + std::to_string (::getpid ()) + "-%%%%%%");
+  if (!fs::create_directory (staging, ec) || ec)
+    throw Error (dir_, "cannot create a staging folder in it" + (ec ? ": " + ec.message () : std::string ()));
+  staging_ = staging.string ();
+}
+
+OutputSet::~OutputSet ()
+{
+  boost::system::error_code ec;
+  fs::remove_all (staging_, ec);
+}
+
+std::string
+OutputSet::stagingPath (const std::string& name) const
+{
+  const fs::path path = fs::path (staging_) / name;
+  boost::system::error_code ec;
+  fs::create_directories (path.parent_path (), ec);
+  if (ec)
+    throw Error (finalPath (name), "cannot create its folder: " + ec.message ());
+  return path.string ();
+}
+
+std::string
+OutputSet::finalPath (const std::string& name) const
+{
+  return (fs::path (dir_) / name).string ();
+}
+
+void
+OutputSet::commit ()
+{
+  if (committed_)
+    throw Error (dir_, "output set committed twice");
+  committed_ = true;
+  const SignalHold hold;
+  const fs::path dir (dir_), staging (staging_), aside = staging / ".previous";
+  boost::system::error_code ec;
+
+  std::vector<std::string> staged;
+  for (fs::directory_iterator it (staging, ec), end; !ec && it != end; it.increment (ec))
+    if (it->path ().filename () != marker_)
+      staged.push_back (it->path ().filename ().string ());
+  if (ec)
+    throw Error (dir_, "cannot list the staged outputs: " + ec.message ());
+  std::sort (staged.begin (), staged.end ());
+  const bool has_marker = fs::exists (staging / marker_);
+  // Refuse before anything moves: a file never replaces a folder or a device, nor the other way round.
+  for (const std::string& name : staged)
+  {
+    const fs::file_status target = fs::symlink_status (dir / name, ec);
+    if (!fs::exists (target))
+      continue;
+    const bool folder = fs::is_directory (staging / name);
+    if (folder ? !fs::is_directory (target) : !fs::is_regular_file (target))
+      throw Error ((dir / name).string (), std::string ("exists and is not a ") + (folder ? "folder" : "regular file") +
+                                             "; refusing to replace it");
+  }
+  if (!fs::create_directory (aside, ec) || ec)
+    throw Error (dir_, "cannot create a folder for the previous outputs: " + ec.message ());
+
+  // A journal of what moved, to put everything back if a rename fails half-way.
+  std::vector<std::pair<fs::path, fs::path>> moved;  // (from, to)
+  const auto move = [&] (const fs::path& from, const fs::path& to) {
+    fs::rename (from, to, ec);
+    if (ec)
+    {
+      const std::string reason = ec.message ();
+      for (auto it = moved.rbegin (); it != moved.rend (); ++it)
+      {
+        boost::system::error_code ignored;
+        fs::rename (it->second, it->first, ignored);
+      }
+      throw Error (to.string (), "cannot move into place: " + reason + " (the previous outputs are kept)");
+    }
+    moved.emplace_back (from, to);
+  };
+  const auto move_aside = [&] (const std::string& name) {
+    if (fs::exists (fs::symlink_status (dir / name, ec)))
+      move (dir / name, aside / name);
+  };
+  move_aside (marker_);  // from here until the new marker is in place, the folder is marked incomplete
+  for (const std::string& name : owned_)
+    if (name != marker_ && std::find (staged.begin (), staged.end (), name) == staged.end ())
+      move_aside (name);
+  for (const std::string& name : staged)
+  {
+    move_aside (name);
+    move (staging / name, dir / name);
+  }
+  if (has_marker)
+    move (staging / marker_, dir / marker_);
+  fs::remove_all (staging, ec);
 }
 
 namespace
