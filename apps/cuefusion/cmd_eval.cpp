@@ -26,6 +26,7 @@
 #include <functional>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -47,7 +48,7 @@ struct RunData
   std::map<long long, Eigen::Isometry3d, std::less<long long>,
            Eigen::aligned_allocator<std::pair<const long long, Eigen::Isometry3d>>> pose_at;  ///< µs timestamp → pose
   io::TriangleMesh mesh;
-  nlohmann::json segments;
+  std::map<std::uint32_t, evaluation::PredictedInstance> segments;  ///< segments.json: id → class, score
   double voxel_size = 0.01;
   // results
   std::vector<std::vector<evaluation::ObjectIoU>> frame_iou;
@@ -90,14 +91,37 @@ loadRun (const std::string& spec, bool need_mesh)
     if (run.mesh.labels.empty ())
       throw Error ((dir / "mesh.ply").string (), "mesh has no per-vertex label (not written by `cuefusion run`?)");
   }
+  else if (!fs::is_directory (dir / "labels") || fs::is_empty (dir / "labels"))
+    throw Error ((dir / "labels").string (), "no per-frame labels to score (write them with `cuefusion run --save-every K`)");
   const fs::path segments = dir / "segments.json";
-  try
+  const nlohmann::json list = io::readJsonFile (segments.string ());
+  if (!list.is_object () || !list.contains ("segments") || !list.at ("segments").is_array ())
+    throw Error (segments.string (), "malformed segments.json: no list \"segments\"");
+  for (const nlohmann::json& s : list.at ("segments"))
   {
-    run.segments = io::readJsonFile (segments.string ()).at ("segments");
-  }
-  catch (const nlohmann::json::exception& e)
-  {
-    throw Error (segments.string (), std::string ("malformed segments.json: ") + e.what ());
+    // Checked here, so a bad entry is named with its file, and ids and scores are what they claim.
+    const auto bad = [&] (const std::string& what) { return Error (segments.string (), "malformed segments.json: " + what); };
+    if (!s.is_object () || !s.contains ("id") || !s.at ("id").is_number_unsigned () || s.at ("id").get<std::uint64_t> () == 0 ||
+        s.at ("id").get<std::uint64_t> () > std::numeric_limits<std::uint32_t>::max ())
+      throw bad ("every segment needs an integer \"id\" in [1, 2^32), got " + (s.is_object () && s.contains ("id") ? s.at ("id").dump () : std::string ("none")));
+    const std::uint32_t id = s.at ("id").get<std::uint32_t> ();
+    evaluation::PredictedInstance p;
+    if (s.contains ("class") && !s.at ("class").is_null ())
+    {
+      if (!s.at ("class").is_string ())
+        throw bad ("segment " + std::to_string (id) + ": \"class\" must be a string or null");
+      p.class_name = s.at ("class").get<std::string> ();
+    }
+    // Segments with a detector score are ranked by it; the rest (geometry only) tie at 1.
+    if (s.contains ("score") && !s.at ("score").is_null ())
+    {
+      const double score = s.at ("score").is_number () ? s.at ("score").get<double> () : -1.0;
+      if (!(score >= 0.0 && score <= 1.0))
+        throw bad ("segment " + std::to_string (id) + ": \"score\" must be a number in [0, 1] or null, got " + s.at ("score").dump ());
+      p.confidence = score;
+    }
+    if (!run.segments.emplace (id, p).second)
+      throw bad ("segment id " + std::to_string (id) + " appears twice");
   }
   const fs::path tracking = dir / "tracking.json";
   if (fs::exists (tracking))
@@ -424,16 +448,7 @@ runEval (const std::vector<std::string>& args)
       input.predicted = transferLabels (*gt_cloud->cloud, map, match_radius > 0.0 ? match_radius : 2.0 * run.voxel_size);
       for (const auto& [id, name] : gt_cloud->class_names)
         input.truth_instances[id] = {name, gt_cloud->ignored.count (id) > 0};
-      for (const nlohmann::json& s : run.segments)
-      {
-        evaluation::PredictedInstance p;
-        if (s.contains ("class") && s.at ("class").is_string ())
-          p.class_name = s.at ("class").get<std::string> ();
-        // Segments with a detector score are ranked by it; the rest (geometry only) tie at 1.
-        if (s.contains ("score") && s.at ("score").is_number ())
-          p.confidence = s.at ("score").get<double> ();
-        input.predicted_instances[s.at ("id").get<std::uint32_t> ()] = p;
-      }
+      input.predicted_instances.insert (run.segments.begin (), run.segments.end ());
       evaluation::InstanceAPConfig ap_config;
       ap_config.min_region_size = min_region;
       const evaluation::InstanceAPResult ap = evaluation::evaluateInstanceAP (input, ap_config);

@@ -438,7 +438,7 @@ runRun (const std::vector<std::string>& args)
     }
     catch (const std::exception& e)  // a live camera's thread must not die with an exception
     {
-      callback_error = e.what ();
+      callback_error = describeException (e);
     }
   };
   const boost::signals2::connection connection = grabber->registerCallback (on_frame);
@@ -479,7 +479,7 @@ runRun (const std::vector<std::string>& args)
       catch (const std::exception& e)
       {
         const std::lock_guard<std::mutex> lock (mutex);
-        callback_error = e.what ();
+        callback_error = describeException (e);
       }
       done = true;
     });

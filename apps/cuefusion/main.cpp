@@ -90,9 +90,9 @@ main (int argc, char** argv)
     std::cerr << "cuefusion " << command << ": " << e.what () << "\n";
     return 1;
   }
-  catch (const std::exception& e)
+  catch (const std::exception& e)  // PCL's, the standard library's, out of memory: named by FileContext
   {
-    std::cerr << "cuefusion " << command << ": unexpected error: " << e.what () << "\n";
+    std::cerr << "cuefusion " << command << ": " << cuefusion::describeException (e) << "\n";
     return 1;
   }
 }

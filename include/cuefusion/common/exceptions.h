@@ -39,3 +39,37 @@ private:
   std::string parameter_, reason_;
 };
 }  // namespace cuefusion
+
+namespace cuefusion
+{
+/** \brief Names the file an operation reads or writes, for errors raised by code that
+  * cannot name it (PCL's readers and writers, the standard library, nlohmann::json, an
+  * allocation that fails).
+  *
+  * Put one at the top of a function that works on a file. When an exception leaves its
+  * scope, the innermost such file is recorded (per thread) and describeException()
+  * puts it in front of the message; a new outermost FileContext forgets an older record.
+  */
+class FileContext
+{
+public:
+  explicit FileContext (std::string path);
+  ~FileContext ();
+  FileContext (const FileContext&) = delete;
+  FileContext& operator= (const FileContext&) = delete;
+
+  /** The file of the last exception that left a FileContext in this thread, or "". */
+  static const std::string&
+  failingFile ();
+
+private:
+  std::string path_;
+  int exceptions_;
+};
+
+/** \brief One line for any exception: cuefusion::Error as it is (it names its file or
+  * option), others prefixed by FileContext::failingFile() when there is one; out of
+  * memory says so. Line breaks in third-party messages become "; ". */
+std::string
+describeException (const std::exception& e);
+}  // namespace cuefusion

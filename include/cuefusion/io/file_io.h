@@ -59,8 +59,8 @@ writeFolderAtomic (const std::string& dir, bool overwrite, const std::function<v
   * Every output is first written below a staging folder inside \a dir
   * (`.cuefusion-staging-XXXXXX`, on the same file system, so moving is renaming); until
   * commit() nothing in \a dir changes, and an OutputSet destroyed without commit()
-  * removes its staging folder — an error or an interruption while writing leaves the
-  * previous set untouched. commit() first moves the previous set's \a marker file
+  * removes its staging folder (and \a dir, when it created it and it is empty) — an
+  * error or an interruption while writing leaves the previous set untouched. commit() first moves the previous set's \a marker file
   * aside, then replaces each staged entry, removes the previous set's \a owned entries
   * the new set does not have (so files of two runs are never mixed), and moves the new
   * \a marker into place last: a folder whose marker is present holds one complete set.
@@ -104,6 +104,7 @@ private:
   std::string dir_, staging_, marker_;
   std::vector<std::string> owned_;
   bool committed_ = false;
+  bool created_ = false;  ///< dir_ did not exist before: removed again (when empty) if never committed
 };
 
 /** \brief Writes text atomically (temporary file, then rename). */

@@ -49,6 +49,7 @@ readIntrinsicsJson (const std::string& path)
 PinholeCamera
 readIntrinsics (const std::string& path)
 {
+  const FileContext context (path);
   PinholeCamera camera;
   if (boost::algorithm::iends_with (path, ".json"))
     camera = readIntrinsicsJson (path);

@@ -235,7 +235,7 @@ DatasetGrabber::playRealTime ()
   catch (const std::exception& e)
   {
     std::lock_guard<std::mutex> lock (error_mutex_);
-    last_error_ = e.what ();
+    last_error_ = describeException (e);
   }
   running_ = false;
 }

@@ -44,10 +44,21 @@ listImages (const fs::path& dir)
   for (const fs::directory_entry& e : fs::directory_iterator (dir))
     if (fs::is_regular_file (e.path ()) && isImageFile (e.path ()) && e.path ().filename ().string ()[0] != '.')
       files.push_back (e.path ());
-  std::sort (files.begin (), files.end (), [] (const fs::path& a, const fs::path& b) {
+  // Numbers compared as digit strings (no conversion: a stem of 30 digits is still a name).
+  const auto significant = [] (const std::string& s) {
+    const std::size_t first = s.find_first_not_of ('0');
+    return first == std::string::npos ? std::string () : s.substr (first);
+  };
+  std::sort (files.begin (), files.end (), [&] (const fs::path& a, const fs::path& b) {
     const std::string sa = a.stem ().string (), sb = b.stem ().string ();
     if (allDigits (sa) && allDigits (sb) && sa.size () != sb.size ())
-      return std::stoull (sa) < std::stoull (sb);
+    {
+      const std::string na = significant (sa), nb = significant (sb);
+      if (na.size () != nb.size ())
+        return na.size () < nb.size ();
+      if (na != nb)
+        return na < nb;
+    }
     return sa < sb;
   });
   return files;
@@ -288,8 +299,8 @@ ScanNetGrabber::ScanNetGrabber (const std::string& root, const Config& config) :
   {
     FrameRecord r;
     r.name = d.stem ().string ();
-    if (!allDigits (r.name))
-      throw Error (d.string (), "ScanNet frames are named by number (e.g. depth/12.png)");
+    if (!allDigits (r.name) || r.name.size () > 15)
+      throw Error (d.string (), "ScanNet frames are named by a number of at most 15 digits (e.g. depth/12.png)");
     r.timestamp = std::stoull (r.name) / config.fps;
     r.depth_path = d.string ();
     r.color_path = siblingImage (dir / "color", r.name);

@@ -14,8 +14,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iostream>
+#include <mutex>
 #include <sstream>
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <unistd.h>
 
@@ -30,6 +33,7 @@ namespace
 std::vector<uchar>
 readBytes (const std::string& path)
 {
+  const FileContext context (path);
   if (!fs::exists (path))
     throw Error (path, "no such file");
   if (fs::is_directory (path))
@@ -63,27 +67,116 @@ isTruncatedJpeg (const std::vector<uchar>& bytes)
     --end;  // some writers pad after EOI
   return !(bytes[end - 2] == 0xff && bytes[end - 1] == 0xd9);
 }
+/** What third-party code (libpng, libjpeg inside OpenCV) prints to stderr while an
+  * object lives, captured, so an error reaches the user as one line that includes it.
+  * File descriptor 2 points at a pipe meanwhile; captures are serialised. Output of
+  * other threads in that window is captured too and handed back by release(). */
+class StderrCapture
+{
+public:
+  StderrCapture () : lock_ (mutex ())
+  {
+    std::fflush (stderr);
+    if (::pipe2 (pipe_, O_NONBLOCK | O_CLOEXEC) != 0)
+      return;
+    saved_ = ::dup (2);
+    if (saved_ < 0 || ::dup2 (pipe_[1], 2) < 0)
+      restore ();
+  }
+  ~StderrCapture () { release (); }
+
+  /** Restores stderr; returns what was printed meanwhile (at most one pipe's worth). */
+  std::string
+  release ()
+  {
+    restore ();
+    std::string text;
+    if (pipe_[0] >= 0)
+    {
+      char buffer[4096];
+      ssize_t n;
+      while ((n = ::read (pipe_[0], buffer, sizeof (buffer))) > 0)
+        text.append (buffer, static_cast<std::size_t> (n));
+      ::close (pipe_[0]);
+      pipe_[0] = -1;
+    }
+    return text;
+  }
+
+private:
+  static std::mutex&
+  mutex ()
+  {
+    static std::mutex m;
+    return m;
+  }
+  void
+  restore ()
+  {
+    std::fflush (stderr);
+    if (saved_ >= 0)
+    {
+      ::dup2 (saved_, 2);
+      ::close (saved_);
+      saved_ = -1;
+    }
+    if (pipe_[1] >= 0)
+    {
+      ::close (pipe_[1]);
+      pipe_[1] = -1;
+    }
+  }
+  std::lock_guard<std::mutex> lock_;
+  int pipe_[2] = {-1, -1};
+  int saved_ = -1;
+};
+
+/** Captured library messages as one clause: lines joined by "; ", library warnings
+  * ("libpng warning: ...") kept only when \a failed. */
+std::string
+libraryMessages (const std::string& captured, bool failed)
+{
+  std::string joined;
+  std::istringstream lines (captured);
+  for (std::string line; std::getline (lines, line);)
+  {
+    if (line.empty () || (!failed && line.find ("warning") != std::string::npos))
+      continue;
+    joined += (joined.empty () ? "" : "; ") + line;
+  }
+  return joined;
+}
 }  // namespace
 
 cv::Mat
 readImage (const std::string& path, int flags)
 {
+  const FileContext context (path);
   const std::vector<uchar> bytes = readBytes (path);
   if (bytes.empty ())
     throw Error (path, "file is empty");
   if (isTruncatedPng (bytes) || isTruncatedJpeg (bytes))
     throw Error (path, "image file is truncated");
   cv::Mat image;
+  std::string failure;
+  StderrCapture capture;  // libpng reports "libpng error: ..." on stderr, not to OpenCV
   try
   {
     image = cv::imdecode (bytes, flags);
   }
   catch (const cv::Exception& e)
   {
-    throw Error (path, "cannot decode image (" + std::string (e.err) + ")");
+    failure = e.err;
   }
-  if (image.empty ())
-    throw Error (path, "cannot decode image (corrupt or not an image)");
+  const bool failed = image.empty ();
+  const std::string messages = libraryMessages (capture.release (), failed);
+  if (failed)
+  {
+    std::string reason = failure.empty () ? messages : failure + (messages.empty () ? "" : "; " + messages);
+    throw Error (path, "cannot decode image (" + (reason.empty () ? std::string ("corrupt or not an image") : reason) + ")");
+  }
+  if (!messages.empty ())  // not ours to swallow: another thread's output, or a library's
+    std::cerr << messages << "\n";
   return image;
 }
 
@@ -146,6 +239,7 @@ refuseNonRegularTarget (const std::string& path)
 void
 writeFileAtomic (const std::string& path, const std::function<bool (const std::string& temporary)>& write)
 {
+  const FileContext context (path);
   refuseNonRegularTarget (path);
   const fs::path target (path);
   const fs::path tmp = target.parent_path () / fs::unique_path (".tmp-%%%%%%%%-" + target.filename ().string ());
@@ -260,6 +354,7 @@ OutputSet::OutputSet (const std::string& dir, std::vector<std::string> owned, st
   : dir_ (dir), marker_ (std::move (marker)), owned_ (std::move (owned))
 {
   boost::system::error_code ec;
+  created_ = !fs::exists (fs::symlink_status (dir_, ec));
   fs::create_directories (dir_, ec);
   if (ec || !fs::is_directory (dir_))
     throw Error (dir_, "cannot create output folder" + (ec ? ": " + ec.message () : std::string ()));
@@ -275,6 +370,8 @@ OutputSet::~OutputSet ()
 {
   boost::system::error_code ec;
   fs::remove_all (staging_, ec);
+  if (!committed_ && created_)
+    fs::remove (dir_, ec);  // only when still empty: a failed command leaves no trace
 }
 
 std::string
@@ -436,12 +533,14 @@ parseJson (const std::string& text, const std::string& source)
 nlohmann::json
 readJsonFile (const std::string& path)
 {
+  const FileContext context (path);
   return parseJson (readTextFile (path), path);
 }
 
 std::vector<double>
 readNumbers (const std::string& path)
 {
+  const FileContext context (path);
   std::istringstream in (readTextFile (path));
   std::vector<double> values;
   std::string token;

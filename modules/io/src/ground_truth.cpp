@@ -128,6 +128,7 @@ syntheticStuffInstances (const std::string& folder)
 GroundTruthCloud
 readSyntheticGroundTruth (const std::string& folder)
 {
+  const FileContext context (folder);
   const fs::path cloud_path = fs::path (folder) / "gt_cloud.pcd";
   const pcl::PCLPointCloud2 blob = readPCD (cloud_path.string (), {"x", "y", "z", "label"});
   GroundTruthCloud gt;

@@ -163,6 +163,7 @@ checkPCDHeader (const std::string& path)
 pcl::PCLPointCloud2
 readPCD (const std::string& path, const std::vector<std::string>& required_fields)
 {
+  const FileContext context (path);
   const PCDHeader header = checkPCDHeader (path);
   for (const std::string& field : required_fields)
   {
@@ -196,6 +197,7 @@ readPCD (const std::string& path, const std::vector<std::string>& required_field
 void
 saveMapPCD (const std::string& path, const pcl::PointCloud<pcl::PointXYZRGBL>& cloud)
 {
+  const FileContext context (path);
   writeFileAtomic (path, [&cloud] (const std::string& tmp) {
     // PCL refuses to write an empty cloud in binary; an empty map is still a valid answer.
     return (cloud.empty () ? pcl::io::savePCDFileASCII (tmp, cloud) : pcl::io::savePCDFileBinaryCompressed (tmp, cloud)) == 0;
@@ -217,6 +219,7 @@ put (std::ostream& out, const T& value)
 void
 saveMeshPLY (const std::string& path, const pcl::PolygonMesh& mesh)
 {
+  const FileContext context (path);
   if (!hasField (mesh.cloud, "x") || !hasField (mesh.cloud, "y") || !hasField (mesh.cloud, "z"))
     throw Error (path, "mesh has no vertex positions");
   pcl::PointCloud<pcl::PointXYZRGBL> points;

@@ -94,6 +94,7 @@ struct Element
 TriangleMesh
 readMeshPLY (const std::string& path)
 {
+  const FileContext context (path);
   std::ifstream in (path, std::ios::binary);
   if (!in)
     throw Error (path, "cannot open mesh");

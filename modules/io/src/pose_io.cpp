@@ -44,6 +44,7 @@ rigidFromMatrix (const Eigen::Matrix4d& m, const std::string& where)
 std::optional<Eigen::Isometry3d>
 readPoseMatrixFile (const std::string& path)
 {
+  const FileContext context (path);
   const std::vector<double> n = readNumbers (path);
   if (n.size () != 16)
     throw Error (path, "expected a 4x4 pose matrix (16 numbers), found " + std::to_string (n.size ()));
@@ -64,6 +65,7 @@ writePoseMatrixFile (const std::string& path, const Eigen::Isometry3d& pose)
 Trajectory
 readTumTrajectory (const std::string& path)
 {
+  const FileContext context (path);
   std::istringstream in (readTextFile (path));
   Trajectory trajectory;
   std::string line;
@@ -145,6 +147,7 @@ interpolatePose (const Trajectory& trajectory, double t, double max_gap, double 
 PoseList
 readRedwoodLog (const std::string& path)
 {
+  const FileContext context (path);
   std::istringstream in (readTextFile (path));
   PoseList poses;
   std::string line;

@@ -491,6 +491,7 @@ SyntheticScene::parse (const std::string& text, const std::string& source)
 SyntheticScene
 SyntheticScene::load (const std::string& path)
 {
+  const FileContext context (path);
   return parse (readTextFile (path), path);
 }
 

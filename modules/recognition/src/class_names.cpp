@@ -14,6 +14,7 @@ namespace recognition
 std::vector<std::string>
 readClassNames (const std::string& path)
 {
+  const FileContext context (path);
   std::ifstream in (path);
   if (!in)
     throw Error (path, "cannot read class names");

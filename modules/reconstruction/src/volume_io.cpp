@@ -42,6 +42,7 @@ static_assert (sizeof (float) == 4 && sizeof (double) == 8, "volume files assume
 void
 TSDFVolume::save (const std::string& path) const
 {
+  const FileContext context (path);
   VolumeHeader header{};
   std::memcpy (header.magic, kMagic, sizeof kMagic);
   header.version = kVersion;
@@ -77,6 +78,7 @@ TSDFVolume::save (const std::string& path) const
 TSDFVolume
 TSDFVolume::load (const std::string& path)
 {
+  const FileContext context (path);
   std::ifstream in (path, std::ios::binary);
   if (!in)
     throw Error (path, "cannot open volume file");

@@ -1,0 +1,51 @@
+#include <cuefusion/common/exceptions.h>
+
+#include <exception>
+#include <new>
+
+namespace cuefusion
+{
+namespace
+{
+thread_local std::string g_failing_file;
+thread_local int g_depth = 0;
+}  // namespace
+
+FileContext::FileContext (std::string path) : path_ (std::move (path)), exceptions_ (std::uncaught_exceptions ())
+{
+  if (g_depth++ == 0)
+    g_failing_file.clear ();
+}
+
+FileContext::~FileContext ()
+{
+  --g_depth;
+  // Unwinding an exception thrown inside: the innermost file is recorded first.
+  if (std::uncaught_exceptions () > exceptions_ && g_failing_file.empty ())
+    g_failing_file = path_;
+}
+
+const std::string&
+FileContext::failingFile ()
+{
+  return g_failing_file;
+}
+
+std::string
+describeException (const std::exception& e)
+{
+  std::string what;
+  if (dynamic_cast<const std::bad_alloc*> (&e))
+    what = "out of memory (the input asks for more than this machine has)";
+  else
+    what = e.what ();
+  for (std::size_t i = 0; i < what.size (); ++i)
+    if (what[i] == '\n' || what[i] == '\r')
+      what.replace (i, 1, i + 1 < what.size () ? "; " : "");
+  while (!what.empty () && (what.back () == ' ' || what.back () == ';'))
+    what.pop_back ();
+  if (dynamic_cast<const Error*> (&e) || FileContext::failingFile ().empty ())
+    return what;
+  return FileContext::failingFile () + ": " + what;
+}
+}  // namespace cuefusion
