@@ -1,1 +1,25 @@
 option(CUEFUSION_BUILD_TESTS "Build the GoogleTest suites" ON)
+
+# Sanitizer builds (scripts/test --sanitize, --tsan): "address,undefined" or "thread".
+# Every target gets the flags; EIGEN_MALLOC_ALREADY_ALIGNED=1 keeps Eigen's allocator
+# the one Debian's PCL was built with (under ASan Eigen would otherwise switch to its
+# hand-made aligned malloc, and memory PCL allocates would be freed by the other one).
+set(CUEFUSION_SANITIZE "" CACHE STRING "Build with sanitizers: address,undefined or thread (empty: none)")
+if(CUEFUSION_SANITIZE)
+  add_compile_options(-fsanitize=${CUEFUSION_SANITIZE} -fno-omit-frame-pointer -fno-sanitize-recover=all -g1)
+  add_link_options(-fsanitize=${CUEFUSION_SANITIZE})
+  if(CUEFUSION_SANITIZE MATCHES "address")
+    add_compile_definitions(EIGEN_MALLOC_ALREADY_ALIGNED=1)
+  endif()
+endif()
+
+# libFuzzer harnesses (fuzz/, scripts/fuzz): clang only; off by default.
+option(CUEFUSION_FUZZ "Build the libFuzzer harnesses in fuzz/ (needs clang)" OFF)
+if(CUEFUSION_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "CUEFUSION_FUZZ needs clang (CC=clang-14 CXX=clang++-14)")
+  endif()
+  add_compile_options(-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -g1)
+  add_link_options(-fsanitize=address,undefined)
+  add_compile_definitions(EIGEN_MALLOC_ALREADY_ALIGNED=1)
+endif()

@@ -26,7 +26,6 @@
 #include <functional>
 #include <iomanip>
 #include <iostream>
-#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -94,34 +93,14 @@ loadRun (const std::string& spec, bool need_mesh)
   else if (!fs::is_directory (dir / "labels") || fs::is_empty (dir / "labels"))
     throw Error ((dir / "labels").string (), "no per-frame labels to score (write them with `cuefusion run --save-every K`)");
   const fs::path segments = dir / "segments.json";
-  const nlohmann::json list = io::readJsonFile (segments.string ());
-  if (!list.is_object () || !list.contains ("segments") || !list.at ("segments").is_array ())
-    throw Error (segments.string (), "malformed segments.json: no list \"segments\"");
-  for (const nlohmann::json& s : list.at ("segments"))
+  for (const io::SegmentEntry& entry : io::readSegmentsJson (segments.string ()))
   {
-    // Checked here, so a bad entry is named with its file, and ids and scores are what they claim.
-    const auto bad = [&] (const std::string& what) { return Error (segments.string (), "malformed segments.json: " + what); };
-    if (!s.is_object () || !s.contains ("id") || !s.at ("id").is_number_unsigned () || s.at ("id").get<std::uint64_t> () == 0 ||
-        s.at ("id").get<std::uint64_t> () > std::numeric_limits<std::uint32_t>::max ())
-      throw bad ("every segment needs an integer \"id\" in [1, 2^32), got " + (s.is_object () && s.contains ("id") ? s.at ("id").dump () : std::string ("none")));
-    const std::uint32_t id = s.at ("id").get<std::uint32_t> ();
-    evaluation::PredictedInstance p;
-    if (s.contains ("class") && !s.at ("class").is_null ())
-    {
-      if (!s.at ("class").is_string ())
-        throw bad ("segment " + std::to_string (id) + ": \"class\" must be a string or null");
-      p.class_name = s.at ("class").get<std::string> ();
-    }
     // Segments with a detector score are ranked by it; the rest (geometry only) tie at 1.
-    if (s.contains ("score") && !s.at ("score").is_null ())
-    {
-      const double score = s.at ("score").is_number () ? s.at ("score").get<double> () : -1.0;
-      if (!(score >= 0.0 && score <= 1.0))
-        throw bad ("segment " + std::to_string (id) + ": \"score\" must be a number in [0, 1] or null, got " + s.at ("score").dump ());
-      p.confidence = score;
-    }
-    if (!run.segments.emplace (id, p).second)
-      throw bad ("segment id " + std::to_string (id) + " appears twice");
+    evaluation::PredictedInstance p;
+    p.class_name = entry.class_name;
+    if (entry.score >= 0.0)
+      p.confidence = entry.score;
+    run.segments[entry.id] = p;
   }
   const fs::path tracking = dir / "tracking.json";
   if (fs::exists (tracking))

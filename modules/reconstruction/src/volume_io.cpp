@@ -104,8 +104,11 @@ TSDFVolume::load (const std::string& path)
   config.min_depth = header.min_depth;
   config.max_depth = header.max_depth;
   if (header.has_bounds)
-    config.bounds = Eigen::AlignedBox3d (Eigen::Vector3d (header.bounds[0], header.bounds[1], header.bounds[2]),
-                                         Eigen::Vector3d (header.bounds[3], header.bounds[4], header.bounds[5]));
+  {
+    double b[6];  // the header is packed: its doubles are not aligned, Eigen takes them by reference
+    std::memcpy (b, header.bounds, sizeof b);
+    config.bounds = Eigen::AlignedBox3d (Eigen::Vector3d (b[0], b[1], b[2]), Eigen::Vector3d (b[3], b[4], b[5]));
+  }
   try
   {
     config.validate ();

@@ -15,6 +15,14 @@
 #include <array>
 #include <vector>
 
+// target_clones makes an ifunc whose resolver runs while the program is loaded, before
+// ThreadSanitizer's runtime is ready (a TSan build crashes at start-up): no clones there.
+#if defined(__SANITIZE_THREAD__)
+#define CUEFUSION_AVX2_CLONES
+#else
+#define CUEFUSION_AVX2_CLONES __attribute__ ((target_clones ("avx2", "default")))
+#endif
+
 namespace cuefusion
 {
 namespace segmentation
@@ -34,7 +42,7 @@ constexpr int kPhi = 1, kGamma = 2;
   * points and normals, so GeometricSegmentation runs them in one pass.
   */
 template <int kWhich, bool kSymmetric>
-__attribute__ ((target_clones ("avx2", "default"))) void
+CUEFUSION_AVX2_CLONES void
 edgeRowPass (const SurfacePlanes& p, int y, int dx, int dy, float* __restrict phi, float* __restrict gamma)
 {
   const int w = p.width;
@@ -113,7 +121,7 @@ edgeRow (const SurfacePlanes& planes, int y, int step, ConvexityTest test, float
   * normals' noise exceeds it (ConcavityEdgeConfig::noise_slope): with θ = s·σ_z(z)/z,
   * 1 − θ²/2 (the cosine to second order, so the loop vectorises).
   */
-__attribute__ ((target_clones ("avx2", "default"))) void
+CUEFUSION_AVX2_CLONES void
 concavityEdgeRow (const float* __restrict phi, const float* __restrict z, int w, float threshold, float noise_slope,
                   std::uint8_t* __restrict out)
 {
@@ -146,7 +154,7 @@ discontinuityEdgeRow (const SurfacePlanes& planes, int y, const float* gamma, fl
 /** Central-difference normals of row y (see computeNormalPlanes); a function of its own
   * with everything passed by value, so that GCC vectorises the loop.
   */
-__attribute__ ((target_clones ("avx2", "default"))) void
+CUEFUSION_AVX2_CLONES void
 normalRow (const SurfacePlanes& planes, int y, int step, float max_depth_jump, float* __restrict NX, float* __restrict NY,
            float* __restrict NZ)
 {
