@@ -90,6 +90,9 @@ TEST (BadPCD, ValidFilesStillRead)
   for (std::size_t i = 0; i < cloud.size (); ++i)
   {
     cloud[i].x = static_cast<float> (i);
+    cloud[i].y = -0.25f * static_cast<float> (i);
+    cloud[i].z = 1.f / static_cast<float> (i + 1);
+    cloud[i].rgba = 0x01020304u * static_cast<std::uint32_t> (i + 1);
     cloud[i].label = static_cast<std::uint32_t> (i + 1);
   }
   for (const std::string kind : {"ascii", "binary", "compressed"})
@@ -108,6 +111,20 @@ TEST (BadPCD, ValidFilesStillRead)
     pcl::fromPCLPointCloud2 (blob, back);
     EXPECT_EQ (back[5].label, 6u) << kind;
     EXPECT_FLOAT_EQ (back[4].x, 4.f) << kind;
+    // cuefusion reads PCDs itself (PCL's reader crashes on malformed files): the same
+    // fields and bytes as PCL's reader on every valid file.
+    pcl::PCLPointCloud2 by_pcl;
+    ASSERT_EQ (pcl::io::loadPCDFile (path, by_pcl), 0);
+    ASSERT_EQ (blob.fields.size (), by_pcl.fields.size ()) << kind;
+    for (std::size_t f = 0; f < blob.fields.size (); ++f)
+    {
+      EXPECT_EQ (blob.fields[f].name, by_pcl.fields[f].name) << kind;
+      EXPECT_EQ (blob.fields[f].offset, by_pcl.fields[f].offset) << kind;
+      EXPECT_EQ (blob.fields[f].datatype, by_pcl.fields[f].datatype) << kind;
+      EXPECT_EQ (blob.fields[f].count, by_pcl.fields[f].count) << kind;
+    }
+    EXPECT_EQ (blob.point_step, by_pcl.point_step) << kind;
+    EXPECT_TRUE (blob.data == by_pcl.data) << kind;
   }
 }
 

@@ -3,11 +3,16 @@
 
 #include <cuefusion/common/exceptions.h>
 
-#include <pcl/conversions.h>
 #include <nlohmann/json.hpp>
+#include <pcl/conversions.h>
+#include <pcl/io/lzf.h>
 #include <pcl/io/pcd_io.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <cstdint>
 #include <fstream>
 #include <limits>
@@ -56,19 +61,42 @@ checkPCDHeader (const std::string& path)
   auto fail = [&path] (const std::string& what) { throw Error (path, "not a valid PCD file: " + what); };
   std::string line;
   bool have_points = false;
+  std::set<std::string> seen;
   for (int lines = 0; std::getline (in, line); ++lines)
   {
     if (lines > 64 || line.size () > 4096)
       fail ("no DATA line in its header");
     if (!line.empty () && line.back () == '\r')
       line.pop_back ();
+    // PCL reads the header its own way (prefix matches, its own separators): only plain
+    // text lines with known keys are accepted, so both readers see the same header.
+    if (std::any_of (line.begin (), line.end (), [] (char c) { return c != '\t' && (c < 0x20 || c > 0x7e); }))
+      fail ("header line " + std::to_string (lines + 1) + " is not text");
     std::istringstream words (line);
     std::string key;
     if (!(words >> key) || key[0] == '#')
       continue;
+    static const char* const known[] = {"VERSION", "FIELDS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
+    if (std::find_if (std::begin (known), std::end (known), [&key] (const char* k) { return key == k; }) == std::end (known))
+      fail ("unknown header line '" + key.substr (0, 20) + "'");
+    if (!seen.insert (key).second)
+      fail ("header line " + key + " appears twice");
+    if ((key == "SIZE" || key == "TYPE" || key == "COUNT") && h.fields.empty ())
+      fail (key + " before FIELDS");
     std::vector<std::string> values;
     for (std::string v; words >> v;)
       values.push_back (v);
+    const std::size_t expected_values = key == "VIEWPOINT" ? 7 : (key == "WIDTH" || key == "HEIGHT" || key == "POINTS" || key == "DATA" || key == "VERSION") ? 1 : 0;
+    if (expected_values > 0 && values.size () != expected_values)
+      fail (key + " needs " + std::to_string (expected_values) + " value(s), has " + std::to_string (values.size ()));
+    if (key == "VIEWPOINT")
+      for (const std::string& v : values)
+      {
+        char* end = nullptr;
+        const double x = std::strtod (v.c_str (), &end);
+        if (end != v.c_str () + v.size () || !std::isfinite (x))
+          fail ("VIEWPOINT value '" + v.substr (0, 20) + "' is not a number");
+      }
     auto number = [&] (const std::string& text, long long lo, long long hi) {
       std::size_t used = 0;
       long long v = 0;
@@ -153,13 +181,158 @@ checkPCDHeader (const std::string& path)
     in.read (reinterpret_cast<char*> (sizes), sizeof sizes);
     if (!in || sizes[0] == 0 || h.data_offset + 8 + sizes[0] > file_size)
       fail ("its compressed data is missing or shorter than its size field says (truncated?)");
+    if (body > 100 * static_cast<std::uint64_t> (sizes[0]) + 64)  // LZF packs at most ~88:1
+      fail ("its compressed data (" + std::to_string (sizes[0]) + " bytes) cannot hold " + std::to_string (body) + " bytes");
     if (sizes[1] != body)
       fail ("its compressed data unpacks to " + std::to_string (sizes[1]) + " bytes, the header promises " +
             std::to_string (body));
   }
-  if (h.data == "ascii" && file_size - h.data_offset < h.points * h.fields.size ())
+  std::uint64_t elements = 0;  // numbers per point
+  for (const int count : h.counts)
+    elements += static_cast<std::uint64_t> (count);
+  if (h.data == "ascii" && file_size - h.data_offset < h.points * elements)  // at least one character a number
     fail ("its text data is too short for " + std::to_string (h.points) + " points (truncated?)");
   return h;
+}
+
+/** An empty blob with the fields, sizes and data buffer \a h describes. The allocation
+  * (points × point_step) is bounded by the file: checkPCDHeader made the body hold it
+  * (binary), its compressed size hold it (at most ~100× for LZF) or one character a
+  * number (ASCII). */
+pcl::PCLPointCloud2
+blobFromHeader (const PCDHeader& h)
+{
+  pcl::PCLPointCloud2 blob;
+  blob.width = static_cast<std::uint32_t> (h.width);
+  blob.height = static_cast<std::uint32_t> (h.height);
+  blob.is_dense = false;
+  std::uint32_t offset = 0;
+  for (std::size_t i = 0; i < h.fields.size (); ++i)
+  {
+    pcl::PCLPointField field;
+    field.name = h.fields[i];
+    field.offset = offset;
+    field.count = static_cast<std::uint32_t> (h.counts[i]);
+    const int size = h.sizes[i];
+    const char type = h.types[i];
+    field.datatype = type == 'F' ? (size == 4 ? pcl::PCLPointField::FLOAT32 : pcl::PCLPointField::FLOAT64)
+                     : type == 'I' ? (size == 1 ? pcl::PCLPointField::INT8 : size == 2 ? pcl::PCLPointField::INT16
+                                      : size == 4 ? pcl::PCLPointField::INT32 : pcl::PCLPointField::INT64)
+                                   : (size == 1 ? pcl::PCLPointField::UINT8 : size == 2 ? pcl::PCLPointField::UINT16
+                                      : size == 4 ? pcl::PCLPointField::UINT32 : pcl::PCLPointField::UINT64);
+    blob.fields.push_back (field);
+    offset += static_cast<std::uint32_t> (size * h.counts[i]);
+  }
+  blob.point_step = offset;
+  blob.row_step = blob.point_step * blob.width;
+  blob.data.assign (static_cast<std::size_t> (h.points * h.point_step), 0);
+  return blob;
+}
+
+/** The body of a binary PCD: the points as stored, or LZF-compressed with each field's
+  * values together (PCL's binary_compressed layout), unpacked here. */
+void
+readBinaryBody (const std::string& path, const PCDHeader& h, pcl::PCLPointCloud2& blob)
+{
+  std::ifstream in (path, std::ios::binary);
+  in.seekg (static_cast<std::streamoff> (h.data_offset));
+  if (h.data == "binary")
+  {
+    in.read (reinterpret_cast<char*> (blob.data.data ()), static_cast<std::streamsize> (blob.data.size ()));
+    if (!in)
+      throw Error (path, "PCD binary data is truncated");
+    return;
+  }
+  std::uint32_t sizes[2] = {0, 0};
+  in.read (reinterpret_cast<char*> (sizes), sizeof sizes);
+  std::vector<char> compressed (sizes[0]);
+  in.read (compressed.data (), static_cast<std::streamsize> (compressed.size ()));
+  if (!in)
+    throw Error (path, "PCD compressed data is truncated");
+  std::vector<std::uint8_t> fields_major (blob.data.size ());
+  if (!fields_major.empty () &&
+      pcl::lzfDecompress (compressed.data (), sizes[0], fields_major.data (), static_cast<unsigned int> (fields_major.size ())) !=
+        fields_major.size ())
+    throw Error (path, "PCD compressed data is corrupt (it does not unpack to " + std::to_string (fields_major.size ()) + " bytes)");
+  std::size_t from = 0;
+  for (const pcl::PCLPointField& field : blob.fields)
+  {
+    const std::size_t bytes = static_cast<std::size_t> (pcl::getFieldSize (field.datatype)) * field.count;
+    for (std::size_t p = 0; p < h.points; ++p, from += bytes)
+      std::memcpy (blob.data.data () + p * h.point_step + field.offset, fields_major.data () + from, bytes);
+  }
+}
+
+/** The body of an ASCII PCD. Every number must parse completely and fit its field's type. */
+void
+readAsciiBody (const std::string& path, const PCDHeader& h, pcl::PCLPointCloud2& blob)
+{
+  std::ifstream in (path, std::ios::binary);
+  in.seekg (static_cast<std::streamoff> (h.data_offset));
+  std::string line;
+  std::uint64_t point = 0;
+  for (std::uint64_t line_number = 1; point < h.points && std::getline (in, line); ++line_number)
+  {
+    std::istringstream words (line);
+    std::vector<std::string> tokens;
+    for (std::string t; words >> t;)
+      tokens.push_back (t);
+    if (tokens.empty ())
+      continue;
+    const auto bad = [&] (const std::string& what) {
+      return Error (path, "PCD data line " + std::to_string (line_number) + ": " + what);
+    };
+    std::size_t token = 0;
+    std::uint8_t* out = blob.data.data () + point * h.point_step;
+    for (std::size_t i = 0; i < h.fields.size (); ++i)
+      for (int c = 0; c < h.counts[i]; ++c, ++token)
+      {
+        if (token >= tokens.size ())
+          throw bad ("has " + std::to_string (tokens.size ()) + " numbers, a point has more");
+        const std::string& text = tokens[token];
+        char* end = nullptr;
+        errno = 0;
+        const int size = h.sizes[i];
+        if (h.types[i] == 'F')
+        {
+          const double v = std::strtod (text.c_str (), &end);
+          if (end != text.c_str () + text.size ())
+            throw bad ("'" + text.substr (0, 20) + "' is not a number");
+          if (size == 4)
+          {
+            const float f = static_cast<float> (v);  // out-of-range values become ±inf
+            std::memcpy (out, &f, 4);
+          }
+          else
+            std::memcpy (out, &v, 8);
+        }
+        else if (h.types[i] == 'I')
+        {
+          const long long v = std::strtoll (text.c_str (), &end, 10);
+          const long long limit = size == 8 ? std::numeric_limits<long long>::max () : (1LL << (8 * size - 1)) - 1;
+          if (end != text.c_str () + text.size () || errno == ERANGE || v > limit || v < -limit - 1)
+            throw bad ("'" + text.substr (0, 20) + "' is not an integer of " + std::to_string (size) + " bytes");
+          const std::int64_t value = v;  // little-endian: the low bytes are the value
+          std::memcpy (out, &value, static_cast<std::size_t> (size));
+        }
+        else
+        {
+          const unsigned long long v = std::strtoull (text.c_str (), &end, 10);
+          const unsigned long long limit = size == 8 ? std::numeric_limits<unsigned long long>::max () : (1ULL << (8 * size)) - 1;
+          if (end != text.c_str () + text.size () || errno == ERANGE || text[0] == '-' || v > limit)
+            throw bad ("'" + text.substr (0, 20) + "' is not an unsigned integer of " + std::to_string (size) + " bytes");
+          const std::uint64_t value = v;
+          std::memcpy (out, &value, static_cast<std::size_t> (size));
+        }
+        out += size;
+      }
+    if (token != tokens.size ())
+      throw bad ("has " + std::to_string (tokens.size ()) + " numbers, a point has " + std::to_string (token));
+    ++point;
+  }
+  if (point < h.points)
+    throw Error (path, "PCD text data holds " + std::to_string (point) + " points, the header promises " +
+                         std::to_string (h.points) + " (truncated?)");
 }
 }  // namespace
 
@@ -180,20 +353,15 @@ readPCD (const std::string& path, const std::vector<std::string>& required_field
     if (field == "label" && (header.types[i] == 'F' || header.sizes[i] != 4 || header.counts[i] != 1))
       throw Error (path, "PCD field 'label' must be one 4-byte integer (TYPE U or I, SIZE 4, COUNT 1)");
   }
-  pcl::PCLPointCloud2 blob;
-  int status = -1;
-  try
-  {
-    status = pcl::io::loadPCDFile (path, blob);
-  }
-  catch (const std::exception& e)
-  {
-    throw Error (path, std::string ("cannot read PCD file (") + e.what () + ")");
-  }
-  if (status < 0)
-    throw Error (path, "cannot read PCD file (truncated or corrupt)");
-  if (blob.data.size () != static_cast<std::size_t> (blob.width) * blob.height * blob.point_step)
-    throw Error (path, "PCD data does not match its header (" + std::to_string (blob.data.size ()) + " bytes read)");
+  // Read here, not with pcl::io::loadPCDFile: PCL 1.13's reader dereferences null or
+  // overruns its buffers on headers and bodies it does not expect (fuzz_pcd found lines of
+  // whitespace before the header and malformed ASCII bodies), and PCL has no way to
+  // bound what it allocates. The format is simple: ASCII, raw binary, or LZF-compressed.
+  pcl::PCLPointCloud2 blob = blobFromHeader (header);
+  if (header.data == "ascii")
+    readAsciiBody (path, header, blob);
+  else
+    readBinaryBody (path, header, blob);
   return blob;
 }
 

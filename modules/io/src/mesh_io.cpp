@@ -2,6 +2,7 @@
 #include <cuefusion/io/mesh_io.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -89,6 +90,12 @@ struct Element
   std::size_t count = 0;
   std::vector<Property> properties;
 };
+/** A colour channel of any stored type as a byte: rounded and clamped (NaN → 0). */
+std::uint8_t
+colorByte (double value)
+{
+  return value >= 0.0 ? static_cast<std::uint8_t> (std::min (255.0, std::round (value))) : 0;
+}
 }  // namespace
 
 TriangleMesh
@@ -215,10 +222,15 @@ readMeshPLY (const std::string& path)
         mesh.vertices[v] = Eigen::Vector3f (static_cast<float> (value (v, ix)), static_cast<float> (value (v, iy)),
                                             static_cast<float> (value (v, iz)));
         if (color)
-          mesh.colors[v] = {static_cast<std::uint8_t> (value (v, ir)), static_cast<std::uint8_t> (value (v, ig)),
-                            static_cast<std::uint8_t> (value (v, ib))};
+          mesh.colors[v] = {colorByte (value (v, ir)), colorByte (value (v, ig)), colorByte (value (v, ib))};
         if (il >= 0)
-          mesh.labels[v] = static_cast<std::uint32_t> (value (v, il));
+        {
+          const double label = value (v, il);
+          if (!(label >= 0.0 && label <= 4294967295.0) || label != std::floor (label))
+            throw Error (path, "vertex " + std::to_string (v) + " has label " + std::to_string (label) +
+                                 ", not an integer in [0, 2^32)");
+          mesh.labels[v] = static_cast<std::uint32_t> (label);
+        }
       }
     }
     else if (e.name == "face")
