@@ -409,9 +409,14 @@ SyntheticScene::parse (const std::string& text, const std::string& source)
       const auto& v = p.positional ();
       if (v.size () != 6)
         throw Error (where, "expected 'camera WIDTH HEIGHT FX FY CX CY'");
+      const auto size = [&] (const std::string& text, const char* name) {  // checked before the cast to int
+        const double value = p.number (text, name);
+        if (!(value >= 1.0 && value <= 65536.0) || value != std::floor (value))
+          throw Error (where, std::string (name) + " must be an integer in [1, 65536], got " + text);
+        return static_cast<int> (value);
+      };
       scene.camera = PinholeCamera (p.number (v[2], "fx"), p.number (v[3], "fy"), p.number (v[4], "cx"),
-                                    p.number (v[5], "cy"), static_cast<int> (p.number (v[0], "width")),
-                                    static_cast<int> (p.number (v[1], "height")));
+                                    p.number (v[5], "cy"), size (v[0], "width"), size (v[1], "height"));
       scene.camera.validate (where);
     }
     else if (kind == "trajectory")
@@ -438,7 +443,7 @@ SyntheticScene::parse (const std::string& text, const std::string& source)
       const Eigen::Vector3d c = p.vector3 ("color", Eigen::Vector3d (128, 128, 128));
       for (int i = 0; i < 3; ++i)
       {
-        if (c[i] < 0 || c[i] > 255)
+        if (!(c[i] >= 0 && c[i] <= 255))
           throw Error (where, "color components must lie in 0..255");
         o.rgb[static_cast<std::size_t> (i)] = static_cast<std::uint8_t> (c[i]);
       }
@@ -474,6 +479,10 @@ SyntheticScene::parse (const std::string& text, const std::string& source)
       }
       if (!(prim.half_size.minCoeff () > 0.0))
         throw Error (where, kind + " dimensions must be positive");
+      // Scenes are rooms: a primitive of kilometres is a typo, and sampling it (the ground-
+      // truth cloud, at millimetres) would not fit in memory.
+      if (!(prim.half_size.maxCoeff () <= 50.0) || !(prim.center.cwiseAbs ().maxCoeff () <= 1000.0))
+        throw Error (where, kind + " must lie within 1 km of the origin and measure at most 100 m");
       scene.objects.back ().parts.push_back (prim);
     }
     else

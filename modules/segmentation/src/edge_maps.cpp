@@ -269,6 +269,7 @@ computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeConfig& concav
 {
   concave.create (planes.height, planes.width, CV_8U);
   depth_edges.create (planes.height, planes.width, CV_8U);
+  cuefusion::detail::serialUnderThreadSanitizer ();  // see common/parallel.h
   cv::parallel_for_ (cv::Range (0, planes.height), [&] (const cv::Range& rows) {
     std::vector<float> phi (static_cast<std::size_t> (planes.width)), gamma (phi.size ());
     for (int y = rows.start; y < rows.end; ++y)
