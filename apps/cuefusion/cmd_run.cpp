@@ -154,6 +154,10 @@ public:
     else
       throw ParameterError ("--video", "the file must end in .avi or .mp4, not '" + ext + "'");
     const fs::path target (path);
+    boost::system::error_code ec;
+    const fs::file_status status = fs::status (target, ec);
+    if (fs::exists (status) && !fs::is_regular_file (status))  // renaming over it would replace a device or folder
+      throw Error (path, "exists and is not a regular file; refusing to replace it");
     temporary_ = (target.parent_path () / fs::unique_path ("." + target.stem ().string () + ".tmp-%%%%%%" + ext)).string ();
   }
   ~VideoOutput ()

@@ -259,6 +259,9 @@ TEST_F (BadInputCli, EveryCaseIsOneLineNamingTheCulpritAndWritesNothing)
      "segment-frame {D}/c.pcd --out {D}/o.pcd", 1, "o.pcd"},
     {"eval --out is a file", file ("rep", "x"), "eval --run {R} --gt {S} --out {D}/rep --no-plots", 1, "rep"},
     {"run --video bad extension", nothing, "run {S} --out {D}/o --video {D}/v.gif", 2, "--video"},
+    {"run --video over a folder", [] (const std::string& d) { fs::create_directories (d + "/v.avi"); }, "run {S} --out {D}/o --video {D}/v.avi", 1, "v.avi"},
+    {"synth --out is a file", file ("o", "x"), "synth --scene tabletop --frames 2 --size 32x24 --out {D}/o --overwrite", 1, "/o"},
+    {"synth --out /dev/null", nothing, "synth --scene tabletop --frames 2 --size 32x24 --out /dev/null --overwrite", 1, "/dev/null"},
     // --- every command's usual mistakes
     {"info missing", nothing, "info {D}/nope", 1, "nope"},
     {"info empty folder", [] (const std::string& d) { fs::create_directories (d + "/empty"); }, "info {D}/empty", 1, "empty"},

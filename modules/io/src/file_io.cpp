@@ -273,6 +273,9 @@ writeFolderAtomic (const std::string& dir, bool overwrite, const std::function<v
 {
   const fs::path target = fs::absolute (dir);
   boost::system::error_code ec;
+  const fs::file_status status = fs::symlink_status (target, ec);
+  if (fs::exists (status) && !fs::is_directory (status))  // a file, link or device is never moved aside
+    throw Error (dir, "exists and is not a folder; refusing to replace it");
   if (fs::exists (target, ec) && !(fs::is_directory (target, ec) && fs::is_empty (target, ec)) && !overwrite)
     throw Error (dir, "already exists and is not empty (use --overwrite to replace it)");
   fs::create_directories (target.parent_path (), ec);
