@@ -39,11 +39,15 @@ describeException (const std::exception& e)
     what = "out of memory (the input asks for more than this machine has)";
   else
     what = e.what ();
-  for (std::size_t i = 0; i < what.size (); ++i)
-    if (what[i] == '\n' || what[i] == '\r')
-      what.replace (i, 1, i + 1 < what.size () ? "; " : "");
-  while (!what.empty () && (what.back () == ' ' || what.back () == ';'))
-    what.pop_back ();
+  std::string line;  // each run of line breaks becomes "; "
+  for (const char c : what)
+    if (c != '\n' && c != '\r')
+      line += c;
+    else if (!line.empty () && line.back () != ' ')
+      line += "; ";
+  while (!line.empty () && (line.back () == ' ' || line.back () == ';'))
+    line.pop_back ();
+  what = line;
   if (dynamic_cast<const Error*> (&e) || FileContext::failingFile ().empty ())
     return what;
   return FileContext::failingFile () + ": " + what;

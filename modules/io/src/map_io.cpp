@@ -133,18 +133,18 @@ checkPCDHeader (const std::string& path)
     else if (key == "COUNT")
       for (const std::string& v : values)
         h.counts.push_back (static_cast<int> (number (v, 1, 1 << 20)));
-    else if (key == "WIDTH" && !values.empty ())
+    else if (key == "WIDTH")
       h.width = static_cast<std::uint64_t> (number (values[0], 1, 1LL << 31));
-    else if (key == "HEIGHT" && !values.empty ())
+    else if (key == "HEIGHT")
       h.height = static_cast<std::uint64_t> (number (values[0], 1, 1LL << 31));
-    else if (key == "POINTS" && !values.empty ())
+    else if (key == "POINTS")
     {
       h.points = static_cast<std::uint64_t> (number (values[0], 0, 1LL << 40));
       have_points = true;
     }
     else if (key == "DATA")
     {
-      h.data = values.empty () ? "" : values[0];
+      h.data = values[0];
       h.data_offset = static_cast<std::uint64_t> (in.tellg ());
       break;
     }
