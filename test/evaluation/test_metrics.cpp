@@ -337,3 +337,71 @@ TEST (InstanceAP, HandBuiltCases)
   in.predicted.pop_back ();
   EXPECT_THROW (evaluateInstanceAP (in), Error);
 }
+
+TEST (InstanceAP, PooledOverScenesIsNotTheMeanOfSceneAPs)
+{
+  // Scene A: object 1 found exactly by segment 11 (confidence 0.9) → AP 1.
+  InstanceEvaluationInput a = twoInstances ();
+  a.truth_instances[2] = {"", true};  // only object 1 counts in A
+  predict (a, 0, 200, 11);
+  a.predicted_instances[11] = {"", 0.9};
+  // Scene B: object 1 found exactly by segment 21 (0.3); segment 22 (0.95) lies on
+  // object 2 but covers only a quarter of it (IoU 0.25 < every threshold) → a false positive
+  // ranked first; object 2 stays missed.
+  InstanceEvaluationInput b = twoInstances ();
+  predict (b, 0, 200, 21);
+  predict (b, 200, 250, 22);
+  b.predicted_instances[21] = {"", 0.3};
+  b.predicted_instances[22] = {"", 0.95};
+  InstanceAPConfig small;
+  small.min_region_size = 10;  // segment 22 has 50 points
+  const InstanceAPResult ra = evaluateInstanceAP (a, small);
+  const InstanceAPResult rb = evaluateInstanceAP (b, small);
+  EXPECT_DOUBLE_EQ (ra.class_agnostic.ap50, 1.0);
+  // B by ScanNet's steps (scores ascending 0.3 TP, 0.95 FP; 2 truths, 1 missed):
+  //   at 0.3:  tp 1, fp 1, fn 1 → p ½, r ½;  at 0.95: tp 0, fp 1, fn 2 → p 0, r 0;  then (1, 0).
+  //   recall padded [½, ½, 0, 0, 0] → widths ¼, ¼, 0 → AP = ½·¼ + 0·¼ = ⅛.
+  EXPECT_DOUBLE_EQ (rb.class_agnostic.ap50, 0.125);
+  // Pooled (3 truths; detections 0.3 TP, 0.9 TP, 0.95 FP; 1 missed):
+  //   at 0.3:  tp 2, fp 1, fn 1 → p ⅔, r ⅔;  at 0.9: tp 1, fp 1, fn 2 → p ½, r ⅓;
+  //   at 0.95: tp 0, fp 1, fn 3 → p 0, r 0;  then (1, 0).
+  //   recall padded [⅔, ⅔, ⅓, 0, 0, 0] → widths ⅙, ⅓, ⅙, 0
+  //   → AP = ⅔·⅙ + ½·⅓ + 0·⅙ = 1/9 + 1/6 = 5/18 ≈ 0.278, not the mean (1 + ⅛)/2 = 0.5625.
+  const InstanceAPResult pooled = pooledInstanceAP ({ra.matches, rb.matches});
+  EXPECT_NEAR (pooled.class_agnostic.ap50, 5.0 / 18.0, 1e-12);
+  EXPECT_NEAR (pooled.class_agnostic.ap, 5.0 / 18.0, 1e-12);  // every overlap is exact or 0.25
+  EXPECT_NEAR (pooled.class_agnostic.ap25, 5.0 / 18.0, 1e-12);  // 0.25 is not > 0.25
+  EXPECT_EQ (pooled.truth_instances, 3u);
+  EXPECT_EQ (pooled.predicted_instances, 3u);
+  // Pooling one scene gives that scene's own AP.
+  EXPECT_DOUBLE_EQ (pooledInstanceAP ({rb.matches}).class_agnostic.ap50, rb.class_agnostic.ap50);
+  EXPECT_DOUBLE_EQ (pooledInstanceAP ({ra.matches, ra.matches}).class_agnostic.ap50, 1.0);
+  // No scenes: no truth, AP undefined.
+  EXPECT_TRUE (std::isnan (pooledInstanceAP ({}).class_agnostic.ap50));
+
+  // Classes: a scene whose only "cup" prediction has no cup truth adds a false positive to
+  // the cups of the other scene, ranked above its true positive.
+  InstanceEvaluationInput c = twoInstances ();
+  predict (c, 0, 200, 31);
+  c.truth_instances[1] = {"cup", false};
+  c.truth_instances[2] = {"book", true};
+  c.predicted_instances[31] = {"cup", 0.5};
+  InstanceEvaluationInput d = twoInstances ();
+  predict (d, 0, 200, 41);
+  d.truth_instances[1] = {"book", false};
+  d.truth_instances[2] = {"lamp", true};
+  d.predicted_instances[41] = {"cup", 0.8};
+  const InstanceAPResult rd = evaluateInstanceAP (d);
+  EXPECT_EQ (rd.per_class.count ("cup"), 0u);  // no cup truth in d: no AP of its own
+  ASSERT_EQ (rd.matches.per_class.count ("cup"), 1u);
+  const InstanceAPResult classes = pooledInstanceAP ({evaluateInstanceAP (c).matches, rd.matches});
+  // cup: 0.5 TP, 0.8 FP, 1 truth → at 0.5: p ½, r 1; at 0.8: p 0, r 0 → widths ½, ½ → ¼.
+  EXPECT_DOUBLE_EQ (classes.per_class.at ("cup").ap50, 0.25);
+  EXPECT_DOUBLE_EQ (classes.per_class.at ("book").ap50, 0.0);  // d's book has no prediction
+  EXPECT_DOUBLE_EQ (classes.class_mean.ap50, 0.125);
+
+  // Lists at other thresholds do not pool.
+  ThresholdMatches at50, at25;
+  at25.threshold = 0.25;
+  EXPECT_THROW (poolMatches (at50, at25), Error);
+}

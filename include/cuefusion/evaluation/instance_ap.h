@@ -65,6 +65,30 @@ struct SegmentationCounts
   std::size_t under_segmented = 0;
 };
 
+/** \brief The ranked detections of one class at one IoU threshold: what ScanNet's
+  * evaluate_matches accumulates scene after scene before it computes one AP. Lists of
+  * several scenes pool by concatenation (poolMatches), which is how the benchmark's
+  * dataset-level AP is defined; a mean of per-scene APs is a different number.
+  */
+struct ThresholdMatches
+{
+  double threshold = 0.5;
+  std::size_t truths = 0;        ///< evaluated truth instances (AP is NaN without any)
+  std::size_t predictions = 0;   ///< evaluated predictions (AP is 0 without any)
+  std::size_t missed = 0;        ///< truth instances no prediction matched (hard false negatives)
+  std::vector<double> scores;    ///< one per true or false positive, unordered
+  std::vector<bool> true_positive;
+};
+
+/** \brief Matches at the thresholds of matchThresholds(), class-agnostic and per class. */
+struct InstanceMatches
+{
+  std::vector<ThresholdMatches> class_agnostic;
+  /** Classes of the truth and of the predictions: a scene's predictions of a class it has
+    * no truth of are false positives once pooled with scenes that have. */
+  std::map<std::string, std::vector<ThresholdMatches>> per_class;
+};
+
 struct InstanceAPResult
 {
   APScores class_agnostic;                 ///< every instance as one class "object"
@@ -73,6 +97,7 @@ struct InstanceAPResult
   std::size_t truth_instances = 0;         ///< evaluated (not ignored, ≥ min_region_size)
   std::size_t predicted_instances = 0;     ///< ≥ min_region_size points
   SegmentationCounts counts;
+  InstanceMatches matches;                 ///< for pooling with other scenes (pooledInstanceAP)
 };
 
 /** \brief 3D instance segmentation AP with the ScanNet benchmark's definition
@@ -90,5 +115,32 @@ evaluateInstanceAP (const InstanceEvaluationInput& input, const InstanceAPConfig
 /** \brief The IoU thresholds AP averages: 0.50, 0.55, …, 0.90 (9 values, as ScanNet). */
 std::vector<double>
 apThresholds ();
+
+/** \brief The thresholds InstanceMatches lists: apThresholds(), then 0.25. */
+std::vector<double>
+matchThresholds ();
+
+/** \brief ScanNet's average precision of ranked detections: NaN without truth, 0 without
+  * predictions, else the precision–recall curve at every distinct score integrated by the
+  * benchmark's step rule. */
+double
+averagePrecision (const ThresholdMatches& matches);
+
+/** \brief AP, AP50 and AP25 of one class from its matches at matchThresholds(). Throws
+  * cuefusion::Error when the list does not hold those thresholds. */
+APScores
+apFromMatches (const std::vector<ThresholdMatches>& matches);
+
+/** \brief Appends \a scene's matches to \a pooled (same threshold; the counts add up).
+  * Throws cuefusion::Error when the thresholds differ. */
+void
+poolMatches (ThresholdMatches& pooled, const ThresholdMatches& scene);
+
+/** \brief Dataset-level AP the way the ScanNet benchmark computes it: each class's
+  * matches pooled over all scenes per threshold, then one AP per class and threshold
+  * (class_mean: NaN-ignoring mean over the classes with truth). Fills class_agnostic,
+  * per_class, class_mean, the instance counts and matches; not counts. */
+InstanceAPResult
+pooledInstanceAP (const std::vector<InstanceMatches>& scenes);
 }  // namespace evaluation
 }  // namespace cuefusion

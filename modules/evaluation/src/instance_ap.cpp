@@ -41,16 +41,17 @@ struct Overlaps
   std::unordered_map<std::uint32_t, std::size_t> pred_void;  ///< points on truth id 0
 };
 
-/** Average precision of one class at one IoU threshold, as ScanNet's evaluate_matches. */
-double
-averagePrecision (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds,
-                  const Overlaps& o, const InstanceEvaluationInput& input, std::size_t min_region_size,
-                  const std::set<std::uint32_t>& same_class_truth, double threshold)
+/** The ranked detections of one class at one IoU threshold, as ScanNet's evaluate_matches
+  * gathers them for one scene. */
+ThresholdMatches
+collectMatches (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds, const Overlaps& o,
+                const InstanceEvaluationInput& input, std::size_t min_region_size,
+                const std::set<std::uint32_t>& same_class_truth, double threshold)
 {
-  if (truths.empty ())
-    return kNaN;
-  if (preds.empty ())
-    return 0.0;
+  ThresholdMatches m;
+  m.threshold = threshold;
+  m.truths = truths.size ();
+  m.predictions = preds.size ();
   const auto confidence = [&] (std::uint32_t p) {
     const auto it = input.predicted_instances.find (p);
     return it == input.predicted_instances.end () ? 1.0 : it->second.confidence;
@@ -63,11 +64,13 @@ averagePrecision (const std::vector<std::uint32_t>& truths, const std::vector<st
     const double inter = static_cast<double> (it->second);
     return inter / (static_cast<double> (o.truth_size.at (t) + o.pred_size.at (p)) - inter);
   };
+  const auto add = [&m] (double score, bool true_positive) {
+    m.scores.push_back (score);
+    m.true_positive.push_back (true_positive);
+  };
   // ScanNet walks each ground-truth instance's overlapping predictions in the order the
   // predictions were listed; ours are listed by id (deterministic).
-  std::vector<double> y_true, y_score;
   std::set<std::uint32_t> visited;
-  std::size_t hard_false_negatives = 0;
   for (const std::uint32_t t : truths)
   {
     bool matched = false;
@@ -80,8 +83,7 @@ averagePrecision (const std::vector<std::uint32_t>& truths, const std::vector<st
       if (matched)
       {
         // A second prediction above the threshold: the lower-ranked one is a false positive.
-        y_true.push_back (0.0);
-        y_score.push_back (std::min (score, c));
+        add (std::min (score, c), false);
         score = std::max (score, c);
       }
       else
@@ -92,12 +94,9 @@ averagePrecision (const std::vector<std::uint32_t>& truths, const std::vector<st
       }
     }
     if (matched)
-    {
-      y_true.push_back (1.0);
-      y_score.push_back (score);
-    }
+      add (score, true);
     else
-      ++hard_false_negatives;
+      ++m.missed;
   }
   for (const std::uint32_t p : preds)
   {
@@ -124,45 +123,9 @@ averagePrecision (const std::vector<std::uint32_t>& truths, const std::vector<st
     if (found)
       continue;
     if (static_cast<double> (ignored) / static_cast<double> (o.pred_size.at (p)) <= threshold)
-    {
-      y_true.push_back (0.0);
-      y_score.push_back (confidence (p));
-    }
+      add (confidence (p), false);
   }
-
-  // Precision/recall at every distinct score, then ScanNet's step integration.
-  std::vector<std::size_t> order (y_score.size ());
-  std::iota (order.begin (), order.end (), 0);
-  std::stable_sort (order.begin (), order.end (), [&] (std::size_t a, std::size_t b) { return y_score[a] < y_score[b]; });
-  std::vector<double> cumsum (order.size ());
-  double running = 0.0;
-  for (std::size_t i = 0; i < order.size (); ++i)
-    cumsum[i] = running += y_true[order[i]];
-  const double total_true = running;
-  const double examples = static_cast<double> (order.size ());
-  std::vector<double> precision, recall;
-  for (std::size_t i = 0; i < order.size (); ++i)
-  {
-    if (i > 0 && y_score[order[i]] == y_score[order[i - 1]])
-      continue;  // first index of each distinct score, as np.unique(return_index=True)
-    const double below = i > 0 ? cumsum[i - 1] : 0.0;
-    const double tp = total_true - below;
-    const double fp = examples - static_cast<double> (i) - tp;
-    const double fn = below + static_cast<double> (hard_false_negatives);
-    precision.push_back (tp + fp > 0.0 ? tp / (tp + fp) : 0.0);
-    recall.push_back (tp + fn > 0.0 ? tp / (tp + fn) : 0.0);
-  }
-  precision.push_back (1.0);
-  recall.push_back (0.0);
-  // step widths: np.convolve([r0, r0, r1, …, r_last, 0], [-0.5, 0, 0.5], 'valid')
-  std::vector<double> padded;
-  padded.push_back (recall.front ());
-  padded.insert (padded.end (), recall.begin (), recall.end ());
-  padded.push_back (0.0);
-  double ap = 0.0;
-  for (std::size_t k = 0; k < precision.size (); ++k)
-    ap += precision[k] * 0.5 * (padded[k] - padded[k + 2]);
-  return ap;
+  return m;
 }
 
 double
@@ -179,20 +142,155 @@ nanMean (const std::vector<double>& values)
   return n ? sum / static_cast<double> (n) : kNaN;
 }
 
-APScores
-scoresFor (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds, const Overlaps& o,
-           const InstanceEvaluationInput& input, std::size_t min_region_size, const std::set<std::uint32_t>& same_class_truth)
+std::vector<ThresholdMatches>
+matchesFor (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds, const Overlaps& o,
+            const InstanceEvaluationInput& input, std::size_t min_region_size, const std::set<std::uint32_t>& same_class_truth)
 {
-  APScores s;
-  std::vector<double> aps;
-  for (const double t : apThresholds ())
-    aps.push_back (averagePrecision (truths, preds, o, input, min_region_size, same_class_truth, t));
-  s.ap = nanMean (aps);
-  s.ap50 = aps.front ();
-  s.ap25 = averagePrecision (truths, preds, o, input, min_region_size, same_class_truth, 0.25);
-  return s;
+  std::vector<ThresholdMatches> matches;
+  for (const double t : matchThresholds ())
+    matches.push_back (collectMatches (truths, preds, o, input, min_region_size, same_class_truth, t));
+  return matches;
 }
 }  // namespace
+
+std::vector<double>
+matchThresholds ()
+{
+  std::vector<double> t = apThresholds ();
+  t.push_back (0.25);
+  return t;
+}
+
+double
+averagePrecision (const ThresholdMatches& m)
+{
+  if (m.truths == 0)
+    return kNaN;
+  if (m.predictions == 0)
+    return 0.0;
+  if (m.scores.size () != m.true_positive.size ())
+    throw Error ("averagePrecision", "scores and true_positive differ in length");
+  // Precision/recall at every distinct score, then ScanNet's step integration.
+  std::vector<std::size_t> order (m.scores.size ());
+  std::iota (order.begin (), order.end (), 0);
+  std::stable_sort (order.begin (), order.end (), [&] (std::size_t a, std::size_t b) { return m.scores[a] < m.scores[b]; });
+  std::vector<double> cumsum (order.size ());
+  double running = 0.0;
+  for (std::size_t i = 0; i < order.size (); ++i)
+    cumsum[i] = running += m.true_positive[order[i]] ? 1.0 : 0.0;
+  const double total_true = running;
+  const double examples = static_cast<double> (order.size ());
+  std::vector<double> precision, recall;
+  for (std::size_t i = 0; i < order.size (); ++i)
+  {
+    if (i > 0 && m.scores[order[i]] == m.scores[order[i - 1]])
+      continue;  // first index of each distinct score, as np.unique(return_index=True)
+    const double below = i > 0 ? cumsum[i - 1] : 0.0;
+    const double tp = total_true - below;
+    const double fp = examples - static_cast<double> (i) - tp;
+    const double fn = below + static_cast<double> (m.missed);
+    precision.push_back (tp + fp > 0.0 ? tp / (tp + fp) : 0.0);
+    recall.push_back (tp + fn > 0.0 ? tp / (tp + fn) : 0.0);
+  }
+  precision.push_back (1.0);
+  recall.push_back (0.0);
+  // step widths: np.convolve([r0, r0, r1, …, r_last, 0], [-0.5, 0, 0.5], 'valid')
+  std::vector<double> padded;
+  padded.push_back (recall.front ());
+  padded.insert (padded.end (), recall.begin (), recall.end ());
+  padded.push_back (0.0);
+  double ap = 0.0;
+  for (std::size_t k = 0; k < precision.size (); ++k)
+    ap += precision[k] * 0.5 * (padded[k] - padded[k + 2]);
+  return ap;
+}
+
+APScores
+apFromMatches (const std::vector<ThresholdMatches>& matches)
+{
+  const std::vector<double> thresholds = matchThresholds ();
+  if (matches.size () != thresholds.size ())
+    throw Error ("apFromMatches", "expected matches at " + std::to_string (thresholds.size ()) + " thresholds, got " +
+                                      std::to_string (matches.size ()));
+  std::vector<double> aps;
+  for (std::size_t k = 0; k < matches.size (); ++k)
+  {
+    if (std::abs (matches[k].threshold - thresholds[k]) > 1e-9)
+      throw Error ("apFromMatches", "matches are not at the thresholds of matchThresholds()");
+    if (k + 1 < matches.size ())
+      aps.push_back (averagePrecision (matches[k]));
+  }
+  APScores s;
+  s.ap = nanMean (aps);
+  s.ap50 = aps.front ();
+  s.ap25 = averagePrecision (matches.back ());
+  return s;
+}
+
+void
+poolMatches (ThresholdMatches& pooled, const ThresholdMatches& scene)
+{
+  if (std::abs (pooled.threshold - scene.threshold) > 1e-9)
+    throw Error ("poolMatches", "cannot pool matches at IoU " + std::to_string (scene.threshold) + " into matches at " +
+                                    std::to_string (pooled.threshold));
+  if (scene.scores.size () != scene.true_positive.size ())
+    throw Error ("poolMatches", "scores and true_positive differ in length");
+  pooled.truths += scene.truths;
+  pooled.predictions += scene.predictions;
+  pooled.missed += scene.missed;
+  pooled.scores.insert (pooled.scores.end (), scene.scores.begin (), scene.scores.end ());
+  pooled.true_positive.insert (pooled.true_positive.end (), scene.true_positive.begin (), scene.true_positive.end ());
+}
+
+InstanceAPResult
+pooledInstanceAP (const std::vector<InstanceMatches>& scenes)
+{
+  const auto empty = [] {
+    std::vector<ThresholdMatches> m;
+    for (const double t : matchThresholds ())
+    {
+      m.emplace_back ();
+      m.back ().threshold = t;
+    }
+    return m;
+  };
+  const auto pool = [] (std::vector<ThresholdMatches>& into, const std::vector<ThresholdMatches>& scene) {
+    if (scene.size () != into.size ())
+      throw Error ("pooledInstanceAP", "a scene lists matches at " + std::to_string (scene.size ()) + " thresholds, not " +
+                                           std::to_string (into.size ()));
+    for (std::size_t k = 0; k < into.size (); ++k)
+      poolMatches (into[k], scene[k]);
+  };
+  InstanceAPResult result;
+  result.matches.class_agnostic = empty ();
+  for (const InstanceMatches& scene : scenes)
+  {
+    pool (result.matches.class_agnostic, scene.class_agnostic);
+    for (const auto& [name, matches] : scene.per_class)
+    {
+      auto it = result.matches.per_class.find (name);
+      if (it == result.matches.per_class.end ())
+        it = result.matches.per_class.emplace (name, empty ()).first;
+      pool (it->second, matches);
+    }
+  }
+  result.class_agnostic = apFromMatches (result.matches.class_agnostic);
+  result.truth_instances = result.matches.class_agnostic.front ().truths;
+  result.predicted_instances = result.matches.class_agnostic.front ().predictions;
+  std::vector<double> ap, ap50, ap25;
+  for (const auto& [name, matches] : result.matches.per_class)
+  {
+    if (matches.front ().truths == 0)
+      continue;  // predicted only: its false positives are in, but it is not a class of the truth
+    const APScores s = apFromMatches (matches);
+    result.per_class[name] = s;
+    ap.push_back (s.ap);
+    ap50.push_back (s.ap50);
+    ap25.push_back (s.ap25);
+  }
+  result.class_mean = {nanMean (ap), nanMean (ap50), nanMean (ap25)};
+  return result;
+}
 
 InstanceAPResult
 evaluateInstanceAP (const InstanceEvaluationInput& input, const InstanceAPConfig& config)
@@ -252,9 +350,25 @@ evaluateInstanceAP (const InstanceEvaluationInput& input, const InstanceAPConfig
   std::set<std::uint32_t> any_truth;
   for (const auto& [t, n] : o.truth_size)
     any_truth.insert (t);
-  result.class_agnostic = scoresFor (truths, preds, o, input, config.min_region_size, any_truth);
+  result.matches.class_agnostic = matchesFor (truths, preds, o, input, config.min_region_size, any_truth);
+  result.class_agnostic = apFromMatches (result.matches.class_agnostic);
 
   std::vector<double> ap, ap50, ap25;
+  std::set<std::string> predicted_classes;
+  for (const std::uint32_t p : preds)
+    if (!predInfo (p).class_name.empty ())
+      predicted_classes.insert (predInfo (p).class_name);
+  for (const std::string& c : predicted_classes)
+    if (!classes.count (c))
+    {
+      // No truth of this class here: its predictions are only false positives, kept
+      // for pooling with scenes that have the class (it gets no AP of its own).
+      std::vector<std::uint32_t> class_preds;
+      for (const std::uint32_t p : preds)
+        if (predInfo (p).class_name == c)
+          class_preds.push_back (p);
+      result.matches.per_class[c] = matchesFor ({}, class_preds, o, input, config.min_region_size, {});
+    }
   for (const std::string& c : classes)
   {
     std::vector<std::uint32_t> class_truths, class_preds;
@@ -268,7 +382,8 @@ evaluateInstanceAP (const InstanceEvaluationInput& input, const InstanceAPConfig
     for (const std::uint32_t p : preds)
       if (predInfo (p).class_name == c)
         class_preds.push_back (p);
-    const APScores s = scoresFor (class_truths, class_preds, o, input, config.min_region_size, same_class);
+    result.matches.per_class[c] = matchesFor (class_truths, class_preds, o, input, config.min_region_size, same_class);
+    const APScores s = apFromMatches (result.matches.per_class[c]);
     result.per_class[c] = s;
     ap.push_back (s.ap);
     ap50.push_back (s.ap50);
