@@ -5,6 +5,9 @@
 #include <boost/filesystem.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <iostream>
 
 namespace cuefusion
@@ -14,12 +17,15 @@ namespace cli
 bool
 parseCommandLine (const std::string& command, const std::string& synopsis, const std::vector<std::string>& args,
                   po::options_description& options, const po::positional_options_description& positional,
-                  po::variables_map& vm)
+                  po::variables_map& vm, std::vector<po::option>* parsed)
 {
   options.add_options () ("help,h", "show this help");
   try
   {
-    po::store (po::command_line_parser (args).options (options).positional (positional).run (), vm);
+    const po::parsed_options given_options = po::command_line_parser (args).options (options).positional (positional).run ();
+    po::store (given_options, vm);
+    if (parsed)
+      *parsed = given_options.options;
     if (vm.count ("help"))
     {
       std::cout << "usage: cuefusion " << command << " " << synopsis << "\n\n" << options << "\n";
@@ -33,6 +39,39 @@ parseCommandLine (const std::string& command, const std::string& synopsis, const
   }
   return true;
 }
+nlohmann::json
+numberOrNull (double v)
+{
+  return std::isfinite (v) ? nlohmann::json (v) : nlohmann::json (nullptr);
+}
+
+std::string
+csvNumber (double v)
+{
+  if (!std::isfinite (v))
+    return "";
+  std::ostringstream s;
+  s << std::setprecision (6) << v;
+  return s.str ();
+}
+
+std::string
+csvText (const std::string& s)
+{
+  if (s.find_first_of (",\"\n\r") == std::string::npos)
+    return s;
+  std::string out = "\"";
+  for (const char c : s)
+    out += c == '"' ? std::string ("\"\"") : std::string (1, c);
+  return out + "\"";
+}
+
+nlohmann::json
+apJson (const evaluation::APScores& s)
+{
+  return {{"ap", numberOrNull (s.ap)}, {"ap50", numberOrNull (s.ap50)}, {"ap25", numberOrNull (s.ap25)}};
+}
+
 nlohmann::json
 timingSummary (std::vector<double> values)
 {

@@ -1,6 +1,8 @@
 #pragma once
 
+#include <cuefusion/evaluation/instance_ap.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/recognition/onnx_instance_segmenter.h>
 
 #include <boost/program_options.hpp>
 #include <nlohmann/json.hpp>
@@ -22,11 +24,12 @@ struct UsageError : std::runtime_error
 namespace po = boost::program_options;
 
 /** Parses \a args (without the program and subcommand names) into \a vm. Returns false
-  * when --help was given (help already printed). Throws UsageError on bad usage. */
+  * when --help was given (help already printed). Throws UsageError on bad usage. With
+  * \a parsed, the options as given are also listed there. */
 bool
 parseCommandLine (const std::string& command, const std::string& synopsis, const std::vector<std::string>& args,
                   po::options_description& options, const po::positional_options_description& positional,
-                  po::variables_map& vm);
+                  po::variables_map& vm, std::vector<po::option>* parsed = nullptr);
 
 /** True when a value is given for \a key. */
 inline bool
@@ -34,6 +37,22 @@ given (const po::variables_map& vm, const std::string& key)
 {
   return vm.count (key) > 0 && !vm[key].defaulted ();
 }
+
+/** \a v as JSON, null when it is not finite (NaN: undefined). */
+nlohmann::json
+numberOrNull (double v);
+
+/** \a v for a CSV cell (6 significant digits), empty when it is not finite. */
+std::string
+csvNumber (double v);
+
+/** \a s as a CSV cell, quoted when it holds a comma, quote or line break. */
+std::string
+csvText (const std::string& s);
+
+/** AP, AP50 and AP25 as {"ap", "ap50", "ap25"}, null where undefined. */
+nlohmann::json
+apJson (const evaluation::APScores& s);
 
 /** Median and 90th percentile of a list of milliseconds, as JSON. */
 nlohmann::json
@@ -50,6 +69,29 @@ listInputs (const std::string& path, const std::vector<std::string>& extensions)
 pipeline::SegmentationMode
 chooseSegmentationMode (const std::string& mode, const std::string& masks, const std::string& model);
 
+/** The options of `cuefusion run` (batch forwards them to each run). */
+struct RunSettings
+{
+  std::string source, out, format = "auto", intrinsics;
+  long long frames = 0, save_every = 0;  ///< signed: "-5" must not wrap to 2^64 - 5
+  double voxel = 0.01, truncation = 4.0, max_depth = 5.0;
+  bool use_gt_poses = false, save_volume = false;
+  std::string masks, mode;
+  unsigned hole_refresh = 8;
+  std::string render_dir, video_path, screenshot;
+  bool view = false, async_masks = false;
+  recognition::OnnxSegmenterConfig onnx;
+};
+
+/** Adds run's options other than its sequence and --out to \a options, stored in \a s. */
+void
+addRunOptions (po::options_description& options, RunSettings& s);
+
+/** Checks the ranges and combinations run refuses: ParameterError or UsageError naming
+  * the option. */
+void
+checkRunSettings (const RunSettings& s);
+
 int runSynth (const std::vector<std::string>& args);
 int runSynthViews (const std::vector<std::string>& args);
 int runInfo (const std::vector<std::string>& args);
@@ -57,5 +99,7 @@ int runRun (const std::vector<std::string>& args);
 int runSegmentFrame (const std::vector<std::string>& args);
 int runEval (const std::vector<std::string>& args);
 int runRender (const std::vector<std::string>& args);
+int runBatch (const std::vector<std::string>& args);
+int runBatchTask (const std::vector<std::string>& args);
 }  // namespace cli
 }  // namespace cuefusion

@@ -2,6 +2,7 @@
 // more runs against a sequence's ground truth, as report.json, CSV files and PNG plots.
 #include "cli.h"
 #include "gnuplot.h"
+#include "summary.h"
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/progress.h>
@@ -133,39 +134,6 @@ referenceTrajectory (const io::DatasetGrabber& dataset)
   return reference;
 }
 
-nlohmann::json
-numberOrNull (double v)
-{
-  return std::isfinite (v) ? nlohmann::json (v) : nlohmann::json (nullptr);
-}
-
-std::string
-csvNumber (double v)
-{
-  if (!std::isfinite (v))
-    return "";
-  std::ostringstream s;
-  s << std::setprecision (6) << v;
-  return s.str ();
-}
-
-std::string
-csvText (const std::string& s)
-{
-  if (s.find_first_of (",\"\n") == std::string::npos)
-    return s;
-  std::string out = "\"";
-  for (const char c : s)
-    out += c == '"' ? std::string ("\"\"") : std::string (1, c);
-  return out + "\"";
-}
-
-nlohmann::json
-apJson (const evaluation::APScores& s)
-{
-  return {{"ap", numberOrNull (s.ap)}, {"ap50", numberOrNull (s.ap50)}, {"ap25", numberOrNull (s.ap25)}};
-}
-
 /** Ground-truth points take the segment of the nearest map point within \a radius. */
 std::vector<std::uint32_t>
 transferLabels (const pcl::PointCloud<pcl::PointXYZL>& truth, const pcl::PointCloud<pcl::PointXYZL>::Ptr& map, double radius)
@@ -212,6 +180,36 @@ iouChart (const std::string& gnuplot, const fs::path& plot_dir, const std::strin
   renderPlot (gnuplot, spec);
   return spec.output_png;
 }
+/** eval --aggregate: one summary over report folders and batch folders. */
+int
+runAggregate (const std::vector<std::string>& dirs, std::string out, bool no_plots)
+{
+  std::vector<SequenceResult> rows;
+  std::vector<std::string> batches;
+  for (const std::string& dir : dirs)
+  {
+    boost::system::error_code ec;
+    std::vector<SequenceResult> found;
+    if (fs::is_regular_file (fs::path (dir) / "batch.json", ec))
+    {
+      found = resultsOfBatch (dir);
+      batches.push_back (dir);
+    }
+    else if (fs::is_regular_file (fs::path (dir) / "report.json", ec))
+      found = resultsOfReport (dir);
+    else
+      throw Error (dir, "holds neither a report.json of `cuefusion eval` nor a batch.json of `cuefusion batch`");
+    rows.insert (rows.end (), found.begin (), found.end ());
+  }
+  if (out.empty ())
+  {
+    if (batches.size () != 1 || dirs.size () != 1)
+      throw UsageError ("--out is required unless --aggregate names one batch folder");
+    out = batches.front ();
+  }
+  writeSummary (out, rows, no_plots);
+  return 0;
+}
 }  // namespace
 
 int
@@ -222,11 +220,15 @@ runEval (const std::vector<std::string>& args)
   std::size_t every = 1, min_pixels = 100, min_region = 100;
   double match_radius = 0.0;
   bool no_plots = false;
+  std::vector<std::string> aggregate;
   po::options_description options ("options");
   options.add_options ()
     ("run", po::value (&run_specs)->composing (), "[NAME=]DIR of a `cuefusion run`; repeat to compare runs (e.g. geometry=out/geo --run fused=out/fused)")
-    ("gt", po::value (&gt)->required (), "the sequence the runs processed (its poses, instance masks and, when present, labelled ground-truth cloud)")
-    ("out", po::value (&out)->required (), "report folder: report.json, CSV files, plots/")
+    ("gt", po::value (&gt), "the sequence the runs processed (its poses, instance masks and, when present, labelled ground-truth cloud)")
+    ("out", po::value (&out), "report folder: report.json, CSV files, plots/ (with --aggregate: summary.json, summary.csv, summary_plots/)")
+    ("aggregate", po::value (&aggregate)->multitoken (), "instead of evaluating: summarize existing results, DIR... being report folders of "
+     "`cuefusion eval` or folders of `cuefusion batch` (--out defaults to a single batch folder); AP pooled over the "
+     "sequences as the ScanNet benchmark does")
     ("format", po::value (&format)->default_value ("auto"), "layout of --gt: auto, tum, redwood, 7scenes, scannet")
     ("intrinsics", po::value (&intrinsics), "intrinsics file overriding the sequence's own")
     ("labels", po::value (&labels_from)->default_value ("final"), "per-frame IoU from the 'final' map seen from each estimated pose, or the run's 'per-frame' labels/ (run --save-every)")
@@ -237,8 +239,13 @@ runEval (const std::vector<std::string>& args)
     ("no-plots", po::bool_switch (&no_plots), "write report.json and CSV only");
   po::positional_options_description positional;
   po::variables_map vm;
-  if (!parseCommandLine ("eval", "--run [NAME=]DIR [--run ...] --gt SEQUENCE --out REPORT_DIR [options]", args, options, positional, vm))
+  if (!parseCommandLine ("eval", "--run [NAME=]DIR [--run ...] --gt SEQUENCE --out REPORT_DIR [options]\n"
+                         "       cuefusion eval --aggregate DIR... [--out SUMMARY_DIR] [--no-plots]", args, options, positional, vm))
     return 0;
+  if (given (vm, "aggregate"))
+    return runAggregate (aggregate, out, no_plots);
+  if (gt.empty () || out.empty ())
+    throw UsageError (gt.empty () ? "--gt is required" : "--out is required");
   if (run_specs.empty ())
     throw UsageError ("at least one --run is needed");
   if (labels_from != "final" && labels_from != "per-frame")
@@ -444,6 +451,7 @@ runEval (const std::vector<std::string>& args)
                                        {"class_agnostic", apJson (ap.class_agnostic)},
                                        {"class_mean", apJson (ap.class_mean)},
                                        {"per_class", per_class},
+                                       {"matches", matchesJson (ap.matches)},
                                        {"truth_instances", ap.truth_instances},
                                        {"predicted_instances", ap.predicted_instances},
                                        {"segmentation", {{"truth_instances", ap.counts.truth},

@@ -259,59 +259,84 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
 }
 }  // namespace
 
+void
+addRunOptions (po::options_description& options, RunSettings& s)
+{
+  options.add_options ()
+    ("frames", po::value (&s.frames)->default_value (s.frames), "process at most N frames (0 = all)")
+    ("format", po::value (&s.format)->default_value (s.format), "auto, tum, redwood, 7scenes, scannet, openni2")
+    ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
+    ("voxel", po::value (&s.voxel)->default_value (s.voxel), "TSDF voxel size in metres")
+    ("truncation", po::value (&s.truncation)->default_value (s.truncation), "TSDF truncation distance in voxels")
+    ("max-depth", po::value (&s.max_depth)->default_value (s.max_depth), "ignore depth beyond this (metres)")
+    ("use-gt-poses", po::bool_switch (&s.use_gt_poses), "integrate with the sequence's own poses instead of tracking")
+    ("hole-refresh", po::value (&s.hole_refresh)->default_value (s.hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
+    ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf)")
+    ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
+    ("masks", po::value (&s.masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
+    ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
+     "data/models/xyz_instances.onnx, or a YOLO-seg export run on the colour image")
+    ("classes", po::value (&s.onnx.classes_path), "class names of --model (default data/classes/coco.names)")
+    ("input-size", po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
+    ("score-threshold", po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
+    ("boundary-threshold", po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
+     "--model of the xyz layout: instances are cut where the boundary probability reaches this")
+    ("async-masks", po::bool_switch (&s.async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
+    ("save-every", po::value (&s.save_every)->default_value (s.save_every), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
+    ("render", po::value (&s.render_dir), "write per-frame PNGs to DIR: input colour, depth and the map's segments seen from the camera")
+    ("video", po::value (&s.video_path), "the same panels as a video (.avi Motion-JPEG or .mp4)")
+    ("view", po::bool_switch (&s.view), "show the map growing in a PCLVisualizer window (needs a display)")
+    ("view-screenshot", po::value (&s.screenshot), "with --view: save the window as PNG when the run ends and close it");
+}
+
+void
+checkRunSettings (const RunSettings& s)
+{
+  if (s.frames < 0)
+    throw ParameterError ("--frames", "must not be negative (0 = all frames), got " + std::to_string (s.frames));
+  if (s.save_every < 0)
+    throw ParameterError ("--save-every", "must not be negative (0 = never), got " + std::to_string (s.save_every));
+  if (!(s.voxel >= 0.001 && s.voxel <= 1.0))
+    throw ParameterError ("--voxel", "must lie in [0.001, 1] metres");
+  if (!(s.truncation >= 1.0 && s.truncation <= 64.0))
+    throw ParameterError ("--truncation", "must lie in [1, 64] voxels");
+  if (!(s.max_depth > 0.2 && s.max_depth <= 100.0))
+    throw ParameterError ("--max-depth", "must lie in (0.2, 100] metres");
+  if (!(s.hole_refresh >= 1 && s.hole_refresh <= 1000))
+    throw ParameterError ("--hole-refresh", "must lie in [1, 1000] frames");
+  if (!s.screenshot.empty () && !s.view)
+    throw UsageError ("--view-screenshot needs --view");
+  io::parseSequenceFormat (s.format);
+  chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path);
+  if (!s.onnx.model_path.empty ())
+    s.onnx.validate ();  // the segmenter checks it again when it is built
+}
+
 int
 runRun (const std::vector<std::string>& args)
 {
-  std::string source, out, format, intrinsics;
-  std::size_t max_frames = 0;
-  long long frames_option = 0, save_every_option = 0;  // signed: "-5" must not wrap to 2^64 - 5
-  double voxel = 0.01, truncation = 4.0, max_depth = 5.0;
-  bool use_gt_poses = false, save_volume = false;
-  std::string masks, mode;
-  std::size_t save_every = 0;
-  unsigned hole_refresh = 8;
-  std::string render_dir, video_path, screenshot;
-  bool view = false, async_masks = false;
-  recognition::OnnxSegmenterConfig onnx;
+  RunSettings settings;
   po::options_description options ("options");
   options.add_options ()
-    ("sequence", po::value (&source)->required (), "dataset folder, openni2[:DEVICE] or .oni file")
-    ("out", po::value (&out)->required (), "output folder")
-    ("frames", po::value (&frames_option)->default_value (0), "process at most N frames (0 = all)")
-    ("format", po::value (&format)->default_value ("auto"), "auto, tum, redwood, 7scenes, scannet, openni2")
-    ("intrinsics", po::value (&intrinsics), "intrinsics file overriding the sequence's own")
-    ("voxel", po::value (&voxel)->default_value (voxel), "TSDF voxel size in metres")
-    ("truncation", po::value (&truncation)->default_value (truncation), "TSDF truncation distance in voxels")
-    ("max-depth", po::value (&max_depth)->default_value (max_depth), "ignore depth beyond this (metres)")
-    ("use-gt-poses", po::bool_switch (&use_gt_poses), "integrate with the sequence's own poses instead of tracking")
-    ("hole-refresh", po::value (&hole_refresh)->default_value (hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
-    ("save-volume", po::bool_switch (&save_volume), "also write the TSDF volume (volume.tsdf)")
-    ("mode", po::value (&mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
-    ("masks", po::value (&masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
-    ("model", po::value (&onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
-     "data/models/xyz_instances.onnx, or a YOLO-seg export run on the colour image")
-    ("classes", po::value (&onnx.classes_path), "class names of --model (default data/classes/coco.names)")
-    ("input-size", po::value (&onnx.input_size)->default_value (onnx.input_size), "network input size of --model (px)")
-    ("score-threshold", po::value (&onnx.score_threshold)->default_value (onnx.score_threshold), "--model detections below are dropped")
-    ("boundary-threshold", po::value (&onnx.boundary_threshold)->default_value (onnx.boundary_threshold),
-     "--model of the xyz layout: instances are cut where the boundary probability reaches this")
-    ("async-masks", po::bool_switch (&async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
-    ("save-every", po::value (&save_every_option)->default_value (0), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
-    ("render", po::value (&render_dir), "write per-frame PNGs to DIR: input colour, depth and the map's segments seen from the camera")
-    ("video", po::value (&video_path), "the same panels as a video (.avi Motion-JPEG or .mp4)")
-    ("view", po::bool_switch (&view), "show the map growing in a PCLVisualizer window (needs a display)")
-    ("view-screenshot", po::value (&screenshot), "with --view: save the window as PNG when the run ends and close it");
+    ("sequence", po::value (&settings.source)->required (), "dataset folder, openni2[:DEVICE] or .oni file")
+    ("out", po::value (&settings.out)->required (), "output folder");
+  addRunOptions (options, settings);
   po::positional_options_description positional;
   positional.add ("sequence", 1);
   po::variables_map vm;
   if (!parseCommandLine ("run", "SEQUENCE --out DIR [options]", args, options, positional, vm))
     return 0;
-  if (frames_option < 0)
-    throw ParameterError ("--frames", "must not be negative (0 = all frames), got " + std::to_string (frames_option));
-  if (save_every_option < 0)
-    throw ParameterError ("--save-every", "must not be negative (0 = never), got " + std::to_string (save_every_option));
-  max_frames = static_cast<std::size_t> (frames_option);
-  save_every = static_cast<std::size_t> (save_every_option);
+  checkRunSettings (settings);
+  // The steps below name the settings as they were named before RunSettings gathered them.
+  const RunSettings& s = settings;
+  const std::string &source = s.source, &out = s.out, &format = s.format, &intrinsics = s.intrinsics;
+  const double voxel = s.voxel, truncation = s.truncation, max_depth = s.max_depth;
+  const bool use_gt_poses = s.use_gt_poses, save_volume = s.save_volume, view = s.view, async_masks = s.async_masks;
+  const std::string &masks = s.masks, &mode = s.mode, &render_dir = s.render_dir, &video_path = s.video_path,
+                    &screenshot = s.screenshot;
+  const unsigned hole_refresh = s.hole_refresh;
+  const recognition::OnnxSegmenterConfig& onnx = s.onnx;
+  const std::size_t max_frames = static_cast<std::size_t> (s.frames), save_every = static_cast<std::size_t> (s.save_every);
 
   pipeline::FusionPipelineConfig pipeline_config;
   reconstruction::DenseReconstructionConfig& config = pipeline_config.reconstruction;
@@ -321,17 +346,6 @@ runRun (const std::vector<std::string>& args)
   config.preprocessing.max_depth = max_depth;
   config.use_reference_poses = use_gt_poses;
   config.hole_refresh_period = hole_refresh;
-  if (!(voxel >= 0.001 && voxel <= 1.0))
-    throw ParameterError ("--voxel", "must lie in [0.001, 1] metres");
-  if (!(truncation >= 1.0 && truncation <= 64.0))
-    throw ParameterError ("--truncation", "must lie in [1, 64] voxels");
-  if (!(max_depth > 0.2 && max_depth <= 100.0))
-    throw ParameterError ("--max-depth", "must lie in (0.2, 100] metres");
-  if (!(hole_refresh >= 1 && hole_refresh <= 1000))
-    throw ParameterError ("--hole-refresh", "must lie in [1, 1000] frames");
-
-  if (!screenshot.empty () && !view)
-    throw UsageError ("--view-screenshot needs --view");
   pipeline_config.mode = chooseSegmentationMode (mode, masks, onnx.model_path);
   std::shared_ptr<recognition::InstanceSegmenter> mask_source;
   if (!masks.empty ())
@@ -582,6 +596,7 @@ runRun (const std::vector<std::string>& args)
   const nlohmann::json manifest = {{"command", "run"},
                                    {"sequence", source},
                                    {"frames", result.reports.size ()},
+                                   {"seconds", seconds},  // processing, opening the sequence to the last frame
                                    {"complete", true},
                                    {"files", files}};
   io::writeTextAtomic (staged ("outputs.json"), manifest.dump (2) + "\n");

@@ -15,6 +15,7 @@ struct PlotSeries
   int y_column = 2;
   std::string title;
   std::string style = "lines";   ///< gnuplot "with" clause
+  int xtic_column = 0;            ///< > 0: label the x axis with this column's text
 };
 
 struct PlotSpec

@@ -24,6 +24,10 @@ const char* kUsage =
   "          geometric segmentation of organized clouds or depth images (PCD/PNG, or folders)\n"
   "  eval    score runs against a sequence's truth: ATE/RPE, per-frame object IoU, 3D instance AP\n"
   "  render  draw a run's labelled mesh from N viewpoints to PNG (no display needed)\n"
+  "  batch   run (and eval) many sequences through GNU parallel or a Slurm job array, resumable, with a\n"
+  "          dataset summary (AP pooled over the sequences)\n"
+  "  batch-task\n"
+  "          one sequence of a batch (what batch's parallel jobs and Slurm tasks run)\n"
   "\n"
   "'cuefusion COMMAND --help' describes a command's options.\n";
 }
@@ -33,7 +37,8 @@ main (int argc, char** argv)
 {
   using namespace cuefusion::cli;
   const std::map<std::string, int (*) (const std::vector<std::string>&)> commands = {
-    {"synth", runSynth}, {"synth-views", runSynthViews}, {"info", runInfo}, {"run", runRun}, {"segment-frame", runSegmentFrame}, {"eval", runEval}, {"render", runRender}};
+    {"synth", runSynth}, {"synth-views", runSynthViews}, {"info", runInfo}, {"run", runRun}, {"segment-frame", runSegmentFrame}, {"eval", runEval}, {"render", runRender},
+    {"batch", runBatch}, {"batch-task", runBatchTask}};
   if (argc < 2)
   {
     std::cerr << kUsage;
