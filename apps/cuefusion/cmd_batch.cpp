@@ -104,11 +104,24 @@ readPlan (const std::string& dir)
   return p;
 }
 
+/** The run is complete when its outputs.json is there and it was not stopped early (by
+  * Ctrl-C: a signal makes run write what it has). */
 bool
 runComplete (const fs::path& result)
 {
   boost::system::error_code ec;
-  return fs::is_regular_file (result / "outputs.json", ec);
+  const fs::path manifest = result / "outputs.json";
+  if (!fs::is_regular_file (manifest, ec))
+    return false;
+  try
+  {
+    const nlohmann::json j = io::readJsonFile (manifest.string ());
+    return j.is_object () && !j.value ("stopped_early", false);
+  }
+  catch (const std::exception&)
+  {
+    return false;  // unreadable: run it again
+  }
 }
 
 /** The evaluation is complete when its report is there and not older than the run. */

@@ -598,6 +598,8 @@ runRun (const std::vector<std::string>& args)
                                    {"frames", result.reports.size ()},
                                    {"seconds", seconds},  // processing, opening the sequence to the last frame
                                    {"complete", true},
+                                   // a recorded sequence cut short by a signal or a closed window
+                                   {"stopped_early", dataset != nullptr && InterruptHandlers::interrupted ()},
                                    {"files", files}};
   io::writeTextAtomic (staged ("outputs.json"), manifest.dump (2) + "\n");
   if (video)

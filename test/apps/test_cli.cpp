@@ -273,6 +273,7 @@ TEST_F (Cli, SignalsFinishTheSetOrKeepThePreviousOne)
   ASSERT_EQ (run ("run " + seq + " --out " + out + " --frames 4 --save-every 2").code, 0);
   const nlohmann::json first = nlohmann::json::parse (test::readFile (out + "/outputs.json"));
   EXPECT_EQ (first["frames"], 4);
+  EXPECT_EQ (first["stopped_early"], false);  // --frames is the end asked for
   EXPECT_TRUE (boost::filesystem::exists (out + "/labels/000002.png"));
   const std::string first_map = test::readFile (out + "/map.pcd");
 
@@ -306,6 +307,8 @@ TEST_F (Cli, SignalsFinishTheSetOrKeepThePreviousOne)
   const nlohmann::json tracking = nlohmann::json::parse (test::readFile (out + "/tracking.json"));
   EXPECT_GT (second["frames"].get<int> (), 0);
   EXPECT_EQ (second["frames"], tracking["frames"]);
+  EXPECT_LT (second["frames"].get<int> (), 300);
+  EXPECT_EQ (second["stopped_early"], true);  // batch does not take it for a finished sequence
   EXPECT_NE (test::readFile (out + "/map.pcd"), first_map);
   EXPECT_FALSE (boost::filesystem::exists (out + "/labels"));  // the previous run's, removed with its set
   std::vector<std::string> left;
