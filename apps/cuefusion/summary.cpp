@@ -101,19 +101,6 @@ thresholdListJson (const std::vector<evaluation::ThresholdMatches>& list)
   return out;
 }
 
-double
-meanOf (const std::vector<double>& values)
-{
-  double sum = 0.0;
-  std::size_t n = 0;
-  for (const double v : values)
-    if (std::isfinite (v))
-    {
-      sum += v;
-      ++n;
-    }
-  return n ? sum / static_cast<double> (n) : std::nan ("");
-}
 
 /** The aggregate of one method's rows. */
 nlohmann::json
@@ -147,8 +134,8 @@ aggregateJson (const std::string& method, const std::vector<const SequenceResult
                       {"frames", frames},
                       {"seconds", seconds},
                       {"fps", numberOrNull (seconds > 0.0 ? frames / seconds : std::nan (""))},
-                      {"mean_ate_rmse_m", numberOrNull (meanOf (ate))},
-                      {"mean_object_iou", numberOrNull (meanOf (iou))},
+                      {"mean_ate_rmse_m", numberOrNull (evaluation::nanMean (ate))},
+                      {"mean_object_iou", numberOrNull (evaluation::nanMean (iou))},
                       {"instance_ap", nullptr}};
   if (!matches.empty ())
   {
@@ -162,9 +149,9 @@ aggregateJson (const std::string& method, const std::vector<const SequenceResult
                         {"pooled", apJson (pooled.class_agnostic)},
                         {"pooled_class_mean", apJson (pooled.class_mean)},
                         {"pooled_per_class", per_class},
-                        {"mean_of_sequences", {{"ap", numberOrNull (meanOf (ap))},
-                                               {"ap50", numberOrNull (meanOf (ap50))},
-                                               {"ap25", numberOrNull (meanOf (ap25))}}}};
+                        {"mean_of_sequences", {{"ap", numberOrNull (evaluation::nanMean (ap))},
+                                               {"ap50", numberOrNull (evaluation::nanMean (ap50))},
+                                               {"ap25", numberOrNull (evaluation::nanMean (ap25))}}}};
   }
   return a;
 }

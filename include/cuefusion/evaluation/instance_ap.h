@@ -116,6 +116,10 @@ evaluateInstanceAP (const InstanceEvaluationInput& input, const InstanceAPConfig
 std::vector<double>
 apThresholds ();
 
+/** \brief Mean of the values that are not NaN (numpy's nanmean); NaN when there are none. */
+double
+nanMean (const std::vector<double>& values);
+
 /** \brief The thresholds InstanceMatches lists: apThresholds(), then 0.25. */
 std::vector<double>
 matchThresholds ();

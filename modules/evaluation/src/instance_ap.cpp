@@ -128,6 +128,18 @@ collectMatches (const std::vector<std::uint32_t>& truths, const std::vector<std:
   return m;
 }
 
+
+std::vector<ThresholdMatches>
+matchesFor (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds, const Overlaps& o,
+            const InstanceEvaluationInput& input, std::size_t min_region_size, const std::set<std::uint32_t>& same_class_truth)
+{
+  std::vector<ThresholdMatches> matches;
+  for (const double t : matchThresholds ())
+    matches.push_back (collectMatches (truths, preds, o, input, min_region_size, same_class_truth, t));
+  return matches;
+}
+}  // namespace
+
 double
 nanMean (const std::vector<double>& values)
 {
@@ -141,17 +153,6 @@ nanMean (const std::vector<double>& values)
     }
   return n ? sum / static_cast<double> (n) : kNaN;
 }
-
-std::vector<ThresholdMatches>
-matchesFor (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds, const Overlaps& o,
-            const InstanceEvaluationInput& input, std::size_t min_region_size, const std::set<std::uint32_t>& same_class_truth)
-{
-  std::vector<ThresholdMatches> matches;
-  for (const double t : matchThresholds ())
-    matches.push_back (collectMatches (truths, preds, o, input, min_region_size, same_class_truth, t));
-  return matches;
-}
-}  // namespace
 
 std::vector<double>
 matchThresholds ()
