@@ -366,12 +366,15 @@ resultsOfBatch (const std::string& dir)
     nlohmann::json status;
     if (fs::is_regular_file (task, ec))
       status = io::readJsonFile (task.string ());
+    const auto text = [&status] (const char* key) {
+      return status.is_object () && status.contains (key) && status[key].is_string () ? status[key].get<std::string> () : std::string ();
+    };
     if (sequenceComplete (plan, k))
       row.status = "ok";
-    else if (status.is_object () && status.value ("status", "") == "failed")
+    else if (text ("status") == "failed")
     {
       row.status = "failed";
-      row.error = status.value ("error", std::string ("failed"));
+      row.error = text ("error").empty () ? "failed (" + task.string () + " has no error line)" : text ("error");
     }
     else
     {

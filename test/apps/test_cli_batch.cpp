@@ -279,6 +279,20 @@ TEST_F (BatchCli, BadUsageIsOneLine)
   };
   fs::create_directories (dir / "report");
   test::writeFile (dir / "report/report.json", R"({"sequence": "seq", "runs": []})");
+  // Malformed files batch and the summary read: one line naming the file.
+  fs::create_directories (dir / "plan");
+  test::writeFile (dir / "plan/batch.json", R"({"format": "cuefusion batch plan 1", "sequences": 3})");
+  fs::create_directories (dir / "matches");
+  test::writeFile (dir / "matches/report.json",
+                   R"({"sequence": "seq", "runs": [{"name": "a", "instance_ap": {"class_agnostic": {}, "matches": {"class_agnostic": [1, 2]}}}]})");
+  for (const std::string& args : {"batch-task " + (dir / "plan") + " 0", "eval --aggregate " + (dir / "plan") + " --out " + (dir / "s"),
+                                  "eval --aggregate " + (dir / "matches") + " --out " + (dir / "s")})
+  {
+    const test::CommandResult r = run (args);
+    EXPECT_EQ (r.code, 1) << args << "\n" << r.err;
+    EXPECT_EQ (lineCount (r.err), 1u) << args << "\n" << r.err;
+    EXPECT_NE (r.err.find ("json"), std::string::npos) << args << "\n" << r.err;
+  }
   for (const auto& [args, code] : cases)
   {
     const test::CommandResult r = run (args);
