@@ -207,6 +207,43 @@ TEST_F (OnnxSegmenter, DecodesTheXyzLayoutExactly)
   EXPECT_EQ (more[3].box, cv::Rect (56, 56, 4, 4));
 }
 
+TEST_F (OnnxSegmenter, XyzScoresAreRankedByStability)
+{
+  // B|C as above, but the band between them is only p = 0.35 a boundary: cut at the default
+  // threshold 0.3 and at 0.2, joined at 0.4. Each half (rows 14–25 × 12 columns) is then
+  // half of the joined mask: stability 0.5, score p(10) · 0.5. A's mask is the same at
+  // every threshold: stability 1, ranked first.
+  nlohmann::json spec = denseSpec ();
+  spec["boundary"] = {{14, 25, 15, 16, std::log (0.35 / 0.65)}};
+  config.dense_width = 64;
+  config.min_mask_pixels = 20;
+  config.score_threshold = 0.6f;
+  const float p10 = 1.f / (1.f + std::exp (-10.f));
+  const auto instances = run (makeDenseModel (dir, "weak_band", spec), wallFrame ());
+  ASSERT_EQ (instances.size (), 3u);
+  EXPECT_EQ (instances[0].box, cv::Rect (4, 4, 24, 16));
+  EXPECT_NEAR (instances[0].score, p10, 1e-6f);
+  EXPECT_EQ (instances[1].box, cv::Rect (8, 28, 24, 24));
+  EXPECT_EQ (instances[2].box, cv::Rect (32, 28, 24, 24));
+  EXPECT_NEAR (instances[1].score, 0.5f * p10, 1e-6f);
+  EXPECT_NEAR (instances[2].score, 0.5f * p10, 1e-6f);
+
+  // Without the stability term every score is the mean foreground again (scan order).
+  config.stability_delta = 0.f;
+  const auto plain = run (dir / "weak_band.onnx", wallFrame ());
+  ASSERT_EQ (plain.size (), 3u);
+  for (const Instance& instance : plain)
+    EXPECT_NEAR (instance.score, p10, 1e-6f);
+
+  // The score threshold applies to the mean foreground, not to the product: B and C stay.
+  config.stability_delta = 0.1f;
+  config.score_threshold = 0.9f;
+  EXPECT_EQ (run (dir / "weak_band.onnx", wallFrame ()).size (), 3u);
+
+  config.stability_delta = 0.7f;
+  EXPECT_THROW (OnnxInstanceSegmenter{config}, ParameterError);
+}
+
 TEST_F (OnnxSegmenter, XyzInputIsTheBackProjectedDepth)
 {
   // 128×96 frame at dense_width 64: every second pixel, padded to 64×48 → 64×48 (a multiple of 16).

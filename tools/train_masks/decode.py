@@ -1,7 +1,9 @@
 """Python twin of the C++ decoder (OnnxInstanceSegmenter::decodeDense), for validation
 during training: seeds = foreground > 0.5 and boundary < 0.5; 4-connected components of
 the seeds (smaller than min_pixels dropped); the labels then grow into the rest of the
-foreground by up to grow_steps 3x3 maximum filters."""
+foreground by up to grow_steps 3x3 maximum filters. stability() is the score's second
+factor: a mask's IoU with the mask it overlaps most when decoded at the boundary threshold
+minus and plus a delta (the lower of the two)."""
 import cv2
 import numpy as np
 
@@ -24,6 +26,25 @@ def decode(fg, bd, shape=None, threshold=0.5, boundary_threshold=0.5, min_pixels
     if shape is not None:
         labels = cv2.resize(labels, (shape[1], shape[0]), interpolation=cv2.INTER_NEAREST)
     return labels
+
+
+def stability(labels, others):
+    """Per label k of `labels` (index k of the result; index 0 unused): the lowest, over the
+    label images in `others`, of the IoU with the label there that overlaps it most."""
+    n = int(labels.max()) + 1
+    out = np.ones(n)
+    for other in others:
+        m = int(other.max()) + 1
+        overlap = np.bincount(labels.ravel().astype(np.int64) * m + other.ravel(), minlength=n * m).reshape(n, m)
+        size, other_size = overlap.sum(1), overlap.sum(0)
+        for k in range(1, n):
+            row = overlap[k, 1:]
+            if row.size == 0 or row.max() == 0:
+                out[k] = 0.0
+                continue
+            j = 1 + int(row.argmax())
+            out[k] = min(out[k], row[j - 1] / float(size[k] + other_size[j] - row[j - 1]))
+    return out
 
 
 def match_iou(pred, truth, min_pixels=50):

@@ -24,6 +24,12 @@ struct OnnxSegmenterConfig
   float mask_threshold = 0.5f;        ///< on sigmoid(coefficients · prototypes); xyz layout: on the foreground
   float boundary_threshold = 0.3f;    ///< xyz layout: instance boundary where its probability is at least this
                                       ///< (chosen on held-out synthetic views, tools/train_masks/calibrate.py)
+  /// xyz layout: a mask's score is its mean foreground probability times its stability, the
+  /// IoU with the mask it overlaps most when decoded at boundary_threshold − and + this
+  /// (the stability score of Segment Anything, Kirillov et al. 2023): a mask that merges
+  /// with a neighbour, or splits, when the cut moves a little is ranked lower. 0 = off.
+  /// Chosen on held-out synthetic views (tools/train_masks/score_calibration.py).
+  float stability_delta = 0.1f;
   int max_detections = 100;
   void validate () const;
 };
@@ -94,8 +100,8 @@ public:
     * min_mask_pixels, counted in frame pixels, are dropped); labels then grow into the
     * rest of the foreground by up to 3 steps of a 3×3 maximum filter (the highest label
     * wins where two meet); each label, resized (nearest) to \a frame, is one mask, its score
-    * the mean foreground probability, instances below score_threshold dropped, at most
-    * max_detections kept (highest scores).
+    * the mean foreground probability (instances below score_threshold dropped) times its
+    * stability (stability_delta), at most max_detections kept (highest scores).
     */
   static std::vector<Instance> decodeDense (const cv::Mat& output, cv::Size content, cv::Size frame,
                                             const OnnxSegmenterConfig& config);

@@ -45,6 +45,8 @@ OnnxSegmenterConfig::validate () const
         std::make_pair (mask_threshold, "mask_threshold"), std::make_pair (boundary_threshold, "boundary_threshold")})
     if (!(std::isfinite (value) && value >= 0.f && value <= 1.f))
       throw ParameterError (std::string ("OnnxSegmenterConfig::") + field, "must lie in [0, 1]");
+  if (!(std::isfinite (stability_delta) && stability_delta >= 0.f && stability_delta <= 0.5f))
+    throw ParameterError ("OnnxSegmenterConfig::stability_delta", "must lie in [0, 0.5]");
   if (max_detections < 1)
     throw ParameterError ("OnnxSegmenterConfig::max_detections", "must be at least 1");
   if (dense_width < 16 || dense_width > 4096)
@@ -214,6 +216,91 @@ OnnxInstanceSegmenter::xyzInput (const RGBDFrame& frame, int dense_width, cv::Si
   return cv::dnn::blobFromImage (padded, 1.0, cv::Size (), cv::Scalar (), false, false, CV_32F);
 }
 
+namespace
+{
+/** The xyz decoder's labels at one boundary threshold: seeds = \a foreground and boundary
+  * below \a boundary_threshold; their 4-connected components of at least
+  * \a min_frame_pixels (an output pixel being \a frame_per_output frame pixels) are
+  * numbered 1..\a kept in scan order; labels then grow into the rest of the foreground by
+  * up to 3 steps (the highest 3×3 neighbour label wins). */
+cv::Mat
+denseLabels (const cv::Mat& foreground, const cv::Mat& boundary_p, float boundary_threshold, double frame_per_output,
+             int min_frame_pixels, int& kept)
+{
+  const cv::Mat seeds = foreground & (boundary_p < boundary_threshold);
+  cv::Mat components, stats, centroids;
+  const int count = cv::connectedComponentsWithStats (seeds, components, stats, centroids, 4, CV_32S);
+  std::vector<int> renumber (static_cast<std::size_t> (count), 0);
+  kept = 0;
+  for (int c = 1; c < count; ++c)
+    if (stats.at<int> (c, cv::CC_STAT_AREA) * frame_per_output >= min_frame_pixels)
+      renumber[static_cast<std::size_t> (c)] = ++kept;
+  cv::Mat labels (foreground.size (), CV_32S);
+  for (int y = 0; y < labels.rows; ++y)
+    for (int x = 0; x < labels.cols; ++x)
+      labels.at<int> (y, x) = renumber[static_cast<std::size_t> (components.at<int> (y, x))];
+  // Grow into the boundary band: unlabelled foreground takes the highest 3×3 neighbour label.
+  for (int step = 0; step < 3; ++step)
+  {
+    const cv::Mat previous = labels.clone ();
+    bool changed = false;
+    for (int y = 0; y < labels.rows; ++y)
+      for (int x = 0; x < labels.cols; ++x)
+      {
+        if (previous.at<int> (y, x) || !foreground.at<std::uint8_t> (y, x))
+          continue;
+        int best = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx)
+          {
+            const int yy = y + dy, xx = x + dx;
+            if (yy >= 0 && yy < labels.rows && xx >= 0 && xx < labels.cols)
+              best = std::max (best, previous.at<int> (yy, xx));
+          }
+        if (best)
+        {
+          labels.at<int> (y, x) = best;
+          changed = true;
+        }
+      }
+    if (!changed)
+      break;
+  }
+  return labels;
+}
+
+/** For each label 1..\a count of \a labels: its IoU with the label of \a other it overlaps
+  * most (the first such label on a tie; 0 when it overlaps none). */
+std::vector<double>
+bestMatchIoU (const cv::Mat& labels, int count, const cv::Mat& other, int other_count)
+{
+  const auto n = static_cast<std::size_t> (count) + 1, m = static_cast<std::size_t> (other_count) + 1;
+  std::vector<int> overlap (n * m, 0), size (n, 0), other_size (m, 0);
+  for (int y = 0; y < labels.rows; ++y)
+    for (int x = 0; x < labels.cols; ++x)
+    {
+      const auto k = static_cast<std::size_t> (labels.at<int> (y, x)), j = static_cast<std::size_t> (other.at<int> (y, x));
+      ++overlap[k * m + j];
+      ++size[k];
+      ++other_size[j];
+    }
+  std::vector<double> iou (n, 0.0);
+  for (std::size_t k = 1; k < n; ++k)
+  {
+    std::size_t best = 0;
+    for (std::size_t j = 1; j < m; ++j)
+      if (overlap[k * m + j] > overlap[k * m + best])
+        best = j;
+    if (best)
+    {
+      const double o = overlap[k * m + best];
+      iou[k] = o / (size[k] + other_size[best] - o);
+    }
+  }
+  return iou;
+}
+}  // namespace
+
 std::vector<Instance>
 OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv::Size frame, const OnnxSegmenterConfig& config)
 {
@@ -231,48 +318,11 @@ OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv:
   };
   const cv::Mat foreground_p = probability (0), boundary_p = probability (1);
   const cv::Mat foreground = foreground_p > config.mask_threshold;
-  const cv::Mat seeds = foreground & (boundary_p < config.boundary_threshold);
-  cv::Mat components, stats, centroids;
-  const int count = cv::connectedComponentsWithStats (seeds, components, stats, centroids, 4, CV_32S);
-  // Keep components of at least min_mask_pixels frame pixels, numbered 1..K in scan order.
   const double frame_per_output = static_cast<double> (frame.area ()) / content.area ();
-  std::vector<int> renumber (static_cast<std::size_t> (count), 0);
   int kept = 0;
-  for (int c = 1; c < count; ++c)
-    if (stats.at<int> (c, cv::CC_STAT_AREA) * frame_per_output >= config.min_mask_pixels)
-      renumber[static_cast<std::size_t> (c)] = ++kept;
-  cv::Mat labels (content, CV_32S);
-  for (int y = 0; y < content.height; ++y)
-    for (int x = 0; x < content.width; ++x)
-      labels.at<int> (y, x) = renumber[static_cast<std::size_t> (components.at<int> (y, x))];
-  // Grow into the boundary band: unlabelled foreground takes the highest 3×3 neighbour label.
-  for (int step = 0; step < 3; ++step)
-  {
-    const cv::Mat previous = labels.clone ();
-    bool changed = false;
-    for (int y = 0; y < content.height; ++y)
-      for (int x = 0; x < content.width; ++x)
-      {
-        if (previous.at<int> (y, x) || !foreground.at<std::uint8_t> (y, x))
-          continue;
-        int best = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx)
-          {
-            const int yy = y + dy, xx = x + dx;
-            if (yy >= 0 && yy < content.height && xx >= 0 && xx < content.width)
-              best = std::max (best, previous.at<int> (yy, xx));
-          }
-        if (best)
-        {
-          labels.at<int> (y, x) = best;
-          changed = true;
-        }
-      }
-    if (!changed)
-      break;
-  }
-  // Score = mean foreground probability over the grown label.
+  const cv::Mat labels = denseLabels (foreground, boundary_p, config.boundary_threshold, frame_per_output, config.min_mask_pixels, kept);
+  // Score = mean foreground probability over the grown label (the threshold applies to
+  // it), times its stability when stability_delta > 0.
   std::vector<double> score (static_cast<std::size_t> (kept) + 1, 0.0);
   std::vector<int> pixels (static_cast<std::size_t> (kept) + 1, 0);
   for (int y = 0; y < content.height; ++y)
@@ -282,12 +332,25 @@ OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv:
       score[k] += foreground_p.at<float> (y, x);
       ++pixels[k];
     }
+  std::vector<double> stability (static_cast<std::size_t> (kept) + 1, 1.0);
+  if (config.stability_delta > 0.f)
+    for (const float threshold : {config.boundary_threshold - config.stability_delta, config.boundary_threshold + config.stability_delta})
+    {
+      int other_count = 0;
+      const cv::Mat other = denseLabels (foreground, boundary_p, threshold, frame_per_output, config.min_mask_pixels, other_count);
+      const std::vector<double> iou = bestMatchIoU (labels, kept, other, other_count);
+      for (std::size_t k = 1; k < stability.size (); ++k)
+        stability[k] = std::min (stability[k], iou[k]);
+    }
   std::vector<int> order;
   for (int k = 1; k <= kept; ++k)
   {
-    score[static_cast<std::size_t> (k)] /= pixels[static_cast<std::size_t> (k)];
-    if (score[static_cast<std::size_t> (k)] >= config.score_threshold)
-      order.push_back (k);
+    double& s = score[static_cast<std::size_t> (k)];
+    s /= pixels[static_cast<std::size_t> (k)];
+    if (s < config.score_threshold)
+      continue;
+    s *= stability[static_cast<std::size_t> (k)];
+    order.push_back (k);
   }
   std::stable_sort (order.begin (), order.end (),
                     [&score] (int a, int b) { return score[static_cast<std::size_t> (a)] > score[static_cast<std::size_t> (b)]; });
