@@ -221,15 +221,17 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
              const std::vector<pipeline::SegmentationTimings>& segmentation, const std::vector<std::size_t>& volume_bytes,
              const std::vector<double>& loop_ms)
 {
-  std::vector<double> pre, track, integrate, raycast, core;
+  std::vector<double> pre, track, integrate, raycast, core, relocalise;
   nlohmann::json frames = nlohmann::json::array ();
   for (std::size_t k = 0; k < reports.size (); ++k)
   {
     const auto& r = reports[k];
     const auto& t = r.timings;
     frames.push_back ({{"index", r.index}, {"preprocess_ms", t.preprocess_ms}, {"track_ms", t.track_ms},
-                       {"integrate_ms", t.integrate_ms}, {"raycast_ms", t.raycast_ms},
+                       {"integrate_ms", t.integrate_ms}, {"raycast_ms", t.raycast_ms}, {"relocalise_ms", t.relocalise_ms},
                        {"volume_mib", k < volume_bytes.size () ? static_cast<double> (volume_bytes[k]) / (1024.0 * 1024.0) : 0.0}});
+    if (t.relocalise_ms > 0.0)  // frames whose tracking failed, relocalised or not
+      relocalise.push_back (t.relocalise_ms);
     if (!r.tracked)
       continue;
     pre.push_back (t.preprocess_ms);
@@ -250,6 +252,7 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
   }
   return {{"stages", {{"preprocess", timingSummary (pre)}, {"track", timingSummary (track)}, {"integrate", timingSummary (integrate)},
                       {"raycast", timingSummary (raycast)}, {"track+integrate+raycast", timingSummary (core)},
+                      {"relocalise (lost frames only)", timingSummary (relocalise)},
                       {"geometric segmentation", timingSummary (geometry)}, {"instance merge", timingSummary (instances)},
                       {"propagation", timingSummary (propagation)}, {"segment merging", timingSummary (merging)},
                       {"label update", timingSummary (update)}, {"segmentation", timingSummary (segmentation_total)},
@@ -567,9 +570,15 @@ runRun (const std::vector<std::string>& args)
   for (const auto& r : result.reports)
     if (!r.tracked)
       lost.push_back ({{"index", r.index}, {"timestamp", r.timestamp}, {"reason", r.failure}});
+  nlohmann::json relocalised = nlohmann::json::array ();
+  for (const auto& r : result.reports)
+    if (r.relocalised)
+      relocalised.push_back ({{"index", r.index}, {"timestamp", r.timestamp}, {"from", r.relocalised_from},
+                              {"ms", r.timings.relocalise_ms}});
   tracking["frames"] = result.reports.size ();
   tracking["tracked"] = result.trajectory.size ();
   tracking["lost"] = lost;
+  tracking["relocalised"] = relocalised;
   tracking["mode"] = use_gt_poses ? "reference poses" : "frame-to-model ICP";
   tracking["segmentation"] = {{"mode", pipeline::segmentationModeName (pipeline_config.mode)},
                               {"mask_source", mask_source ? mask_source->name () : std::string ()},
@@ -611,6 +620,8 @@ runRun (const std::vector<std::string>& args)
             << " fused" << std::defaultfloat;
   if (!lost.empty ())
     std::cout << ", " << lost.size () << " lost (tracking.json lists them)";
+  if (!relocalised.empty ())
+    std::cout << ", " << relocalised.size () << " relocalised";
   std::cout << "\n"
             << ate_line << "  map:        " << (dir / "map.pcd").string () << " (" << map.size () << " points)\n"
             << "  mesh:       " << (dir / "mesh.ply").string () << " (" << mesh.polygons.size () << " triangles)\n"

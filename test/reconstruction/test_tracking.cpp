@@ -196,3 +196,151 @@ TEST (DenseReconstruction, MemoryDoesNotGrowWithSequenceLength)
   EXPECT_GE (static_cast<double> (long_run[0]), static_cast<double> (short_run));
   EXPECT_EQ (long_run[1], long_run[0]);
 }
+
+namespace
+{
+/** Runs \a fusion over the frames of \a sequence listed in \a order; per processed frame
+  * its report and its position error against the exact pose (metres). */
+struct Processed
+{
+  std::size_t frame;
+  FrameReport report;
+  double error;
+};
+
+std::vector<Processed>
+processInOrder (DenseReconstruction& fusion, const io::SyntheticSequence& sequence, const std::vector<std::size_t>& order,
+                const std::function<void (std::size_t, RGBDFrame&)>& change = nullptr)
+{
+  std::vector<Processed> out;
+  for (const std::size_t i : order)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    if (change)
+      change (i, *frame);
+    const FrameReport report = fusion.process (*frame);
+    out.push_back ({i, report, (report.pose.translation () - frame->pose->translation ()).norm ()});
+  }
+  return out;
+}
+
+std::vector<std::size_t>
+frameRange (std::size_t begin, std::size_t end)
+{
+  std::vector<std::size_t> r;
+  for (std::size_t i = begin; i < end; ++i)
+    r.push_back (i);
+  return r;
+}
+
+/** No frame reported tracked is more than 5 cm off; RMSE of the tracked frames. */
+double
+trackedRmse (const std::vector<Processed>& run)
+{
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const Processed& p : run)
+    if (p.report.tracked)
+    {
+      EXPECT_LT (p.error, 0.05) << "frame " << p.frame << " reported tracked " << p.error * 100.0 << " cm off";
+      sum += p.error * p.error;
+      ++n;
+    }
+  return n ? std::sqrt (sum / static_cast<double> (n)) : 0.0;
+}
+}  // namespace
+
+TEST (Relocalisation, AfterAGapOfDroppedFrames)
+{
+  // 19 frames missing: the camera jumps 31 cm and 14° between two processed frames, more
+  // than one frame's plausible motion; ICP still finds the pose, which is verified.
+  const io::SyntheticSequence sequence = tabletopSequence (120, true);
+  DenseReconstruction fusion;
+  std::vector<std::size_t> order = frameRange (0, 50);
+  const std::vector<std::size_t> after = frameRange (69, 120);
+  order.insert (order.end (), after.begin (), after.end ());
+  const std::vector<Processed> run = processInOrder (fusion, sequence, order);
+  EXPECT_LT (trackedRmse (run), 0.01);
+  std::size_t tracked_after = 0, relocalised = 0;
+  for (std::size_t k = 50; k < run.size (); ++k)
+  {
+    tracked_after += run[k].report.tracked ? 1 : 0;
+    relocalised += run[k].report.relocalised ? 1 : 0;
+  }
+  EXPECT_GE (relocalised, 1u);
+  EXPECT_GE (tracked_after, after.size () - 5);  // tracked again within 5 frames, and from then on
+  for (std::size_t k = 55; k < run.size (); ++k)
+    EXPECT_TRUE (run[k].report.tracked) << "frame " << run[k].frame << ": " << run[k].report.failure;
+}
+
+TEST (Relocalisation, FromAKeyframeWhenTheViewReturns)
+{
+  // Frames 0–79, then the camera is back at frame 10 (a jump of ~0.5 m and 40°): ICP from
+  // the last pose cannot converge; the keyframe database knows the view.
+  const io::SyntheticSequence sequence = tabletopSequence (120, true);
+  DenseReconstruction fusion;
+  std::vector<std::size_t> order = frameRange (0, 80);
+  const std::vector<std::size_t> back = frameRange (10, 40);
+  order.insert (order.end (), back.begin (), back.end ());
+  const std::vector<Processed> run = processInOrder (fusion, sequence, order);
+  EXPECT_GT (fusion.keyframes ().size (), 1u);
+  EXPECT_LT (trackedRmse (run), 0.01);
+  bool from_keyframe = false;
+  for (std::size_t k = 80; k < run.size (); ++k)
+    from_keyframe = from_keyframe || run[k].report.relocalised_from.rfind ("keyframe", 0) == 0;
+  EXPECT_TRUE (from_keyframe);
+  for (std::size_t k = 85; k < run.size (); ++k)
+    EXPECT_TRUE (run[k].report.tracked) << "frame " << run[k].frame << ": " << run[k].report.failure;
+}
+
+TEST (Relocalisation, AfterADepthBlackout)
+{
+  // Frames 50–59 have no depth (a covered sensor) while the camera moves on.
+  const io::SyntheticSequence sequence = tabletopSequence (120, true);
+  DenseReconstruction fusion;
+  std::size_t blocks_before = 0;
+  const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, 120), [&] (std::size_t i, RGBDFrame& frame) {
+    if (i >= 50 && i < 60)
+      frame.depth.setTo (0.f);
+    if (i == 50)
+      blocks_before = fusion.volume ().blockCount ();
+  });
+  for (std::size_t k = 50; k < 60; ++k)
+  {
+    EXPECT_FALSE (run[k].report.tracked);
+    EXPECT_NE (run[k].report.failure.find ("valid depth"), std::string::npos) << run[k].report.failure;
+  }
+  EXPECT_LT (trackedRmse (run), 0.01);
+  for (std::size_t k = 65; k < run.size (); ++k)
+    EXPECT_TRUE (run[k].report.tracked) << "frame " << run[k].frame << ": " << run[k].report.failure;
+  EXPECT_GT (fusion.volume ().blockCount (), blocks_before);  // fusing again after it
+}
+
+TEST (Relocalisation, KeyframeDatabaseFindsTheNearestView)
+{
+  const io::SyntheticSequence sequence = tabletopSequence (60, true);
+  KeyframeDatabaseConfig config;
+  config.min_novelty = 0.0;  // store every view offered, unless its code is identical
+  KeyframeDatabase database (config);
+  for (std::size_t i = 0; i < 60; i += 10)
+    EXPECT_TRUE (database.addIfNovel (database.encode (sequence.frame (i)->depth), *sequence.frame (i)->pose)) << i;
+  // A view near a keyframe finds it first; views further away are less similar.
+  const auto matches = database.query (database.encode (sequence.frame (31)->depth), 6);
+  ASSERT_EQ (matches.size (), 6u);
+  EXPECT_EQ (matches[0].keyframe, 3u);  // frame 30
+  EXPECT_TRUE (matches[0].pose.isApprox (*sequence.frame (30)->pose));
+  for (std::size_t k = 1; k < matches.size (); ++k)
+    EXPECT_LE (matches[k - 1].dissimilarity, matches[k].dissimilarity);
+  EXPECT_LT (matches[0].dissimilarity, 0.5 * matches[5].dissimilarity);
+  // With a novelty threshold, the same view is not stored twice.
+  config.min_novelty = 0.2;
+  KeyframeDatabase strict (config);
+  EXPECT_TRUE (strict.addIfNovel (strict.encode (sequence.frame (20)->depth), *sequence.frame (20)->pose));
+  EXPECT_FALSE (strict.addIfNovel (strict.encode (sequence.frame (20)->depth), *sequence.frame (20)->pose));
+  EXPECT_EQ (strict.size (), 1u);
+  // No depth at all: every test fails, the code is all zeros.
+  const KeyframeDatabase::Code blank = database.encode (cv::Mat::zeros (240, 320, CV_32F));
+  EXPECT_EQ (std::count (blank.begin (), blank.end (), 0), static_cast<long> (blank.size ()));
+  config.decisions = 9;
+  EXPECT_THROW (KeyframeDatabase{config}, ParameterError);
+}

@@ -27,7 +27,9 @@ struct CameraTrackerConfig
 struct TrackingResult
 {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();  ///< camera-to-world; the guess when lost
+  Eigen::Isometry3d estimate = Eigen::Isometry3d::Identity ();  ///< ICP's pose, accepted or not
   bool tracked = false;
+  bool implausible_motion = false;  ///< rejected for its motion alone (ICP itself was fine)
   std::string failure;     ///< why tracking was rejected (empty when tracked)
   ICPResult icp;
 };

@@ -2,6 +2,7 @@
 
 #include <cuefusion/common/rgbd_frame.h>
 #include <cuefusion/reconstruction/camera_tracker.h>
+#include <cuefusion/reconstruction/keyframe_database.h>
 #include <cuefusion/reconstruction/preprocessing.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
@@ -21,6 +22,18 @@ struct DenseReconstructionConfig
   /// Rays behind holes of the depth that found no surface in the last raycast are searched
   /// again only every this many frames (RaycastHoleSkip); 1 = every frame, as a plain raycast
   unsigned hole_refresh_period = 8;
+  /// When tracking fails: try candidate poses (the rejected ICP estimate, then the most
+  /// similar keyframes), each verified by ICP against the model raycast at that pose
+  bool relocalise = true;
+  KeyframeDatabaseConfig keyframes;
+  std::size_t relocalisation_candidates = 3;   ///< keyframes tried per lost frame
+  /// A verified candidate needs at least this share of the frame's points as inliers
+  /// (stricter than tracking's min_inlier_fraction: a wrong pose must not pass)
+  double relocalisation_min_inlier_fraction = 0.5;
+  /// A tracked frame whose inlier share falls below this times the median share of the
+  /// last 10 tracked frames is not trusted (ICP converged, but onto a wrong pose: a jump
+  /// back to an earlier view, a fast turn); it goes to relocalisation. 0 = off.
+  double min_inlier_share_ratio = 0.6;
 
   void validate () const;
 };
@@ -32,6 +45,7 @@ struct StageTimings
   double track_ms = 0.0;
   double integrate_ms = 0.0;
   double raycast_ms = 0.0;
+  double relocalise_ms = 0.0;  ///< only on frames where tracking failed
 };
 
 /** \brief What happened to one frame. */
@@ -42,6 +56,8 @@ struct FrameReport
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();  ///< camera-to-world used (last good when lost)
   bool tracked = false;          ///< the pose was accepted and the frame fused
   std::string failure;           ///< why not, when !tracked
+  bool relocalised = false;      ///< tracking failed and a verified relocalisation placed it
+  std::string relocalised_from;  ///< which candidate: "ICP estimate" or "keyframe K"
   ICPResult icp;
   StageTimings timings;
 };
@@ -52,8 +68,13 @@ struct FrameReport
   *
   * The first frame is placed at its reference pose when it has one (so the trajectory
   * shares the dataset's frame), else at the origin. A frame whose tracking is rejected is
-  * neither fused nor raycast; the next frame is tracked from the last good pose against
-  * the last good model, which is how tracking recovers when the view returns.
+  * relocalised (config().relocalise): candidate poses — ICP's own estimate when only its
+  * motion was implausible (a jump after dropped frames), then the poses of the most
+  * similar keyframes (KeyframeDatabase; tracked frames that look new are added) — are
+  * each verified by ICP of the frame against the model raycast at the candidate, with the
+  * tracker's checks and a stricter inlier share; the first that passes places the frame.
+  * A frame that is neither tracked nor relocalised is neither fused nor raycast; the next
+  * frame is tracked from the last good pose against the last good model.
   */
 class DenseReconstruction
 {
@@ -77,11 +98,19 @@ public:
   bool initialized () const { return initialized_; }
   const Eigen::Isometry3d& lastGoodPose () const { return last_good_pose_; }
 
-  /** \brief Empties the volume and forgets the trajectory. */
+  /** \brief The relocalisation keyframes stored so far. */
+  const KeyframeDatabase& keyframes () const { return keyframes_; }
+
+  /** \brief Empties the volume and forgets the trajectory and the keyframes. */
   void
   reset ();
 
 private:
+  /** Relocalises the current frame (its pyramid is built) after \a failed; fills \a report
+    * when a candidate passes. */
+  void
+  relocalise (const RGBDFrame& frame, const TrackingResult& failed, const KeyframeDatabase::Code& code, FrameReport& report);
+
   DenseReconstructionConfig config_;
   DepthPreprocessor preprocessor_;
   CameraTracker tracker_;
@@ -90,6 +119,8 @@ private:
   RaycastHoleSkip hole_skip_;  ///< the last raycast's empty holes, for the next one
   FramePyramid frame_pyramid_;
   FramePyramid model_pyramid_;
+  KeyframeDatabase keyframes_;
+  std::vector<double> recent_shares_;  ///< inlier shares of the last tracked frames
   Eigen::Isometry3d last_good_pose_ = Eigen::Isometry3d::Identity ();
   bool initialized_ = false;
 };

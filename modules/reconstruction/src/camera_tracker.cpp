@@ -34,19 +34,22 @@ CameraTracker::track (const FramePyramid& frame, const FramePyramid& model, cons
   result.icp = icp_.align (frame, model, model_pose.inverse () * guess);
   const ICPResult& icp = result.icp;
   const Eigen::Isometry3d pose = model_pose * icp.transform;
+  result.estimate = pose;
   const Eigen::Isometry3d motion = guess.inverse () * pose;
   const double translation = motion.translation ().norm ();
   const double rotation_deg = Eigen::AngleAxisd (motion.rotation ()).angle () * 180.0 / M_PI;
   const double fraction = icp.source_points ? static_cast<double> (icp.inliers) / static_cast<double> (icp.source_points) : 0.0;
 
   std::ostringstream why;
-  if (!icp.solved)
+  if (icp.source_points < config_.min_inliers)
+    why << "too little valid depth (" << icp.source_points << " points)";
+  else if (!icp.solved)
     why << "ICP system degenerate (too few or ill-conditioned correspondences)";
   else if (icp.inliers < config_.min_inliers || fraction < config_.min_inlier_fraction)
     why << "too few inliers (" << icp.inliers << " of " << icp.source_points << ")";
   else if (icp.rmse > config_.max_rmse)
     why << "residual too large (" << icp.rmse * 1000.0 << " mm RMS)";
-  else if (translation > config_.max_translation || rotation_deg > config_.max_rotation_deg)
+  else if ((result.implausible_motion = translation > config_.max_translation || rotation_deg > config_.max_rotation_deg))
     why << "implausible motion (" << translation * 100.0 << " cm, " << rotation_deg << " deg)";
   result.failure = why.str ();
   result.tracked = result.failure.empty ();

@@ -1,7 +1,10 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/reconstruction/dense_reconstruction.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <sstream>
 
 namespace cuefusion
 {
@@ -9,6 +12,12 @@ namespace reconstruction
 {
 namespace
 {
+double
+inlierShare (const ICPResult& icp)
+{
+  return icp.source_points ? static_cast<double> (icp.inliers) / static_cast<double> (icp.source_points) : 0.0;
+}
+
 class StageClock
 {
 public:
@@ -36,10 +45,18 @@ DenseReconstructionConfig::validate () const
     throw ParameterError ("hole_refresh_period", "must lie in [1, 1000] frames");
   if (static_cast<std::size_t> (preprocessing.pyramid_levels) < tracking.icp.iterations.size ())
     throw ParameterError ("pyramid_levels", "must be at least the number of ICP levels");
+  keyframes.validate ();
+  if (relocalisation_candidates > 100)
+    throw ParameterError ("DenseReconstructionConfig::relocalisation_candidates", "must lie in [0, 100]");
+  if (!(min_inlier_share_ratio >= 0.0 && min_inlier_share_ratio <= 1.0))
+    throw ParameterError ("DenseReconstructionConfig::min_inlier_share_ratio", "must lie in [0, 1]");
+  if (!(relocalisation_min_inlier_fraction >= 0.0 && relocalisation_min_inlier_fraction <= 1.0))
+    throw ParameterError ("DenseReconstructionConfig::relocalisation_min_inlier_fraction", "must lie in [0, 1]");
 }
 
 DenseReconstruction::DenseReconstruction (const DenseReconstructionConfig& config)
-  : config_ (config), preprocessor_ (config.preprocessing), tracker_ (config.tracking), volume_ (config.volume)
+  : config_ (config), preprocessor_ (config.preprocessing), tracker_ (config.tracking), volume_ (config.volume),
+    keyframes_ (config.keyframes)
 {
   config_.validate ();
 }
@@ -52,14 +69,48 @@ DenseReconstruction::reset ()
   hole_skip_ = RaycastHoleSkip ();
   frame_pyramid_.clear ();
   model_pyramid_.clear ();
+  keyframes_.clear ();
+  recent_shares_.clear ();
   last_good_pose_ = Eigen::Isometry3d::Identity ();
   initialized_ = false;
+}
+
+void
+DenseReconstruction::relocalise (const RGBDFrame& frame, const TrackingResult& failed, const KeyframeDatabase::Code& code,
+                                 FrameReport& report)
+{
+  std::vector<std::pair<Eigen::Isometry3d, std::string>> candidates;
+  if (failed.implausible_motion)
+    candidates.emplace_back (failed.estimate, "ICP estimate");
+  for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
+    candidates.emplace_back (m.pose, "keyframe " + std::to_string (m.keyframe));
+  RaycastResult view;
+  FramePyramid view_pyramid;
+  for (const auto& [candidate, source] : candidates)
+  {
+    // The model as seen from the candidate, and the frame aligned to it from there: a
+    // right candidate converges close by with most points agreeing.
+    volume_.raycast (frame.camera, candidate, view);
+    buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
+                       static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
+    const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate, candidate);
+    if (!verified.tracked || inlierShare (verified.icp) < config_.relocalisation_min_inlier_fraction)
+      continue;
+    report.pose = verified.pose;
+    report.tracked = true;
+    report.relocalised = true;
+    report.relocalised_from = source;
+    report.failure.clear ();
+    report.icp = verified.icp;
+    return;
+  }
 }
 
 FrameReport
 DenseReconstruction::process (const RGBDFrame& frame)
 {
   FrameReport report;
+  KeyframeDatabase::Code code;
   report.index = frame.index;
   report.timestamp = frame.timestamp;
   StageClock clock;
@@ -77,21 +128,45 @@ DenseReconstruction::process (const RGBDFrame& frame)
     }
     report.pose = *frame.pose;
     report.tracked = true;
+    report.timings.track_ms = clock.lap ();
   }
   else if (!initialized_)
   {
     report.pose = frame.pose ? *frame.pose : Eigen::Isometry3d::Identity ();
     report.tracked = true;
+    report.timings.track_ms = clock.lap ();
   }
   else
   {
-    const TrackingResult tracking = tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, last_good_pose_);
+    TrackingResult tracking = tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, last_good_pose_);
+    const double share = inlierShare (tracking.icp);
+    if (tracking.tracked && config_.min_inlier_share_ratio > 0.0 && recent_shares_.size () >= 3)
+    {
+      std::vector<double> sorted = recent_shares_;
+      std::nth_element (sorted.begin (), sorted.begin () + static_cast<long> (sorted.size () / 2), sorted.end ());
+      const double median = sorted[sorted.size () / 2];
+      if (share < config_.min_inlier_share_ratio * median)
+      {
+        std::ostringstream why;
+        why << "inlier share dropped to " << std::lround (100.0 * share) << " % (recent frames " << std::lround (100.0 * median) << " %)";
+        tracking.tracked = false;
+        tracking.failure = why.str ();
+        tracking.pose = last_good_pose_;
+        tracking.implausible_motion = true;  // its estimate is worth verifying
+      }
+    }
     report.pose = tracking.pose;
     report.tracked = tracking.tracked;
     report.failure = tracking.failure;
     report.icp = tracking.icp;
+    report.timings.track_ms = clock.lap ();
+    if (!report.tracked && config_.relocalise)
+    {
+      code = keyframes_.encode (frame.depth);
+      relocalise (frame, tracking, code, report);
+      report.timings.relocalise_ms = clock.lap ();
+    }
   }
-  report.timings.track_ms = clock.lap ();
   if (!report.tracked)
   {
     // The next raycast may be far from the last: it searches every hole (the last
@@ -100,8 +175,25 @@ DenseReconstruction::process (const RGBDFrame& frame)
     return report;
   }
 
+  if (report.relocalised)
+  {
+    model_.empty_holes.release ();  // the last raycast's holes belong to another view
+    recent_shares_.clear ();        // and the shares to another part of the scene
+  }
+  if (!config_.use_reference_poses && initialized_)
+  {
+    recent_shares_.push_back (inlierShare (report.icp));
+    if (recent_shares_.size () > 10)
+      recent_shares_.erase (recent_shares_.begin ());
+  }
   last_good_pose_ = report.pose;
   initialized_ = true;
+  if (config_.relocalise && !config_.use_reference_poses)
+  {
+    if (code.empty ())
+      code = keyframes_.encode (frame.depth);
+    keyframes_.addIfNovel (code, report.pose);
+  }
   volume_.integrate (frame.depth, frame.color, frame.camera, report.pose);
   report.timings.integrate_ms = clock.lap ();
 
