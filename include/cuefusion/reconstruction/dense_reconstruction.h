@@ -26,6 +26,7 @@ struct DenseReconstructionConfig
   /// similar keyframes), each verified by ICP against the model raycast at that pose
   bool relocalise = true;
   KeyframeDatabaseConfig keyframes;
+  unsigned keyframe_period = 5;   ///< every this many tracked frames one is offered as a keyframe
   std::size_t relocalisation_candidates = 3;   ///< keyframes tried per lost frame
   /// A verified candidate needs at least this share of the frame's points as inliers
   /// (stricter than tracking's min_inlier_fraction: a wrong pose must not pass)
@@ -121,6 +122,7 @@ private:
   FramePyramid model_pyramid_;
   KeyframeDatabase keyframes_;
   std::vector<double> recent_shares_;  ///< inlier shares of the last tracked frames
+  std::size_t tracked_frames_ = 0;
   Eigen::Isometry3d last_good_pose_ = Eigen::Isometry3d::Identity ();
   bool initialized_ = false;
 };

@@ -46,6 +46,8 @@ DenseReconstructionConfig::validate () const
   if (static_cast<std::size_t> (preprocessing.pyramid_levels) < tracking.icp.iterations.size ())
     throw ParameterError ("pyramid_levels", "must be at least the number of ICP levels");
   keyframes.validate ();
+  if (keyframe_period < 1 || keyframe_period > 1000)
+    throw ParameterError ("DenseReconstructionConfig::keyframe_period", "must lie in [1, 1000] frames");
   if (relocalisation_candidates > 100)
     throw ParameterError ("DenseReconstructionConfig::relocalisation_candidates", "must lie in [0, 100]");
   if (!(min_inlier_share_ratio >= 0.0 && min_inlier_share_ratio <= 1.0))
@@ -71,6 +73,7 @@ DenseReconstruction::reset ()
   model_pyramid_.clear ();
   keyframes_.clear ();
   recent_shares_.clear ();
+  tracked_frames_ = 0;
   last_good_pose_ = Eigen::Isometry3d::Identity ();
   initialized_ = false;
 }
@@ -188,7 +191,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
   }
   last_good_pose_ = report.pose;
   initialized_ = true;
-  if (config_.relocalise && !config_.use_reference_poses)
+  if (config_.relocalise && !config_.use_reference_poses && tracked_frames_++ % config_.keyframe_period == 0)
   {
     if (code.empty ())
       code = keyframes_.encode (frame.depth);
