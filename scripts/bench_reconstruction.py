@@ -47,7 +47,32 @@ def seven_scenes_frames(root):
     return depth, color, poses, (k[0, 0], k[1, 1], k[0, 2], k[1, 2])
 
 
+def tum_frames(root):
+    """A TUM-layout folder as `cuefusion synth` writes it (depth.txt, rgb.txt in the same
+    order, groundtruth.txt, intrinsics.txt "fx fy cx cy w h"); poses by nearest timestamp."""
+    def listing(name):
+        return [l.split() for l in open(os.path.join(root, name)) if l.strip() and not l.startswith("#")]
+    depth = listing("depth.txt")
+    color = listing("rgb.txt")
+    truth = [(float(v[0]), [float(x) for x in v[1:]]) for v in listing("groundtruth.txt")]
+    stamps = np.array([t for t, _ in truth])
+
+    def pose(t):
+        tx, ty, tz, x, y, z, w = truth[int(np.abs(stamps - t).argmin())][1]
+        m = np.eye(4)
+        m[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+        m[:3, 3] = [tx, ty, tz]
+        return m
+    k = [float(x) for x in open(os.path.join(root, "intrinsics.txt")).read().split()[:4]]
+    return ([os.path.join(root, d[1]) for d in depth], [os.path.join(root, c[1]) for c in color],
+            [pose(float(d[0])) for d in depth], tuple(k))
+
+
 def load_dataset(root):
+    if os.path.exists(os.path.join(root, "depth.txt")):
+        return tum_frames(root)
     if os.path.exists(os.path.join(root, "trajectory.log")):
         return redwood_frames(root)
     return seven_scenes_frames(root)
@@ -175,6 +200,7 @@ def run_cuefusion(binary, root, out, extra):
 def open3d_child(method, root, voxel, trunc, max_depth):
     import open3d as o3d
     depth_files, color_files, poses, (fx, fy, cx, cy) = load_dataset(root)
+    scale = 5000.0 if os.path.exists(os.path.join(root, "depth.txt")) else 1000.0  # TUM: 5000 units per metre
     first = o3d.io.read_image(depth_files[0])
     h, w = np.asarray(first).shape[:2]
     intrinsic = o3d.camera.PinholeCameraIntrinsic(w, h, fx, fy, cx, cy)
@@ -186,7 +212,7 @@ def open3d_child(method, root, voxel, trunc, max_depth):
         if np.asarray(color).shape[:2] != (h, w):
             color = o3d.geometry.Image(np.ascontiguousarray(np.asarray(color)[:h, :w]))
         return o3d.geometry.RGBDImage.create_from_color_and_depth(
-            color, depth, depth_scale=1000.0, depth_trunc=max_depth, convert_rgb_to_intensity=(method == "odometry"))
+            color, depth, depth_scale=scale, depth_trunc=max_depth, convert_rgb_to_intensity=(method == "odometry"))
 
     if method == "scalable":
         volume = o3d.pipelines.integration.ScalableTSDFVolume(
@@ -210,8 +236,8 @@ def open3d_child(method, root, voxel, trunc, max_depth):
                 color = o3d.t.geometry.Image(o3d.core.Tensor(np.ascontiguousarray(np.asarray(color)[:h, :w])))
             extrinsic = o3d.core.Tensor(np.linalg.inv(poses[i]), o3d.core.Dtype.Float64)
             t0 = time.perf_counter()
-            blocks = vbg.compute_unique_block_coordinates(depth, k, extrinsic, 1000.0, max_depth, trunc_voxel_multiplier=trunc / voxel)
-            vbg.integrate(blocks, depth, color, k, extrinsic, 1000.0, max_depth, trunc_voxel_multiplier=trunc / voxel)
+            blocks = vbg.compute_unique_block_coordinates(depth, k, extrinsic, scale, max_depth, trunc_voxel_multiplier=trunc / voxel)
+            vbg.integrate(blocks, depth, color, k, extrinsic, scale, max_depth, trunc_voxel_multiplier=trunc / voxel)
             times.append((time.perf_counter() - t0) * 1000)
     elif method == "odometry":
         pose = poses[0]
