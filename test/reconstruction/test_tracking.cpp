@@ -344,3 +344,35 @@ TEST (Relocalisation, KeyframeDatabaseFindsTheNearestView)
   config.decisions = 9;
   EXPECT_THROW (KeyframeDatabase{config}, ParameterError);
 }
+
+TEST (Relocalisation, APlanarViewIsLostNotFused)
+{
+  // A camera sliding along a flat wall 1 m away: the wall fixes the distance and two
+  // rotations, nothing else (ICP's system is rank 3). The first frame starts the map; the
+  // frames after it must be reported lost, not fused at some guess.
+  const PinholeCamera camera (262.5, 262.5, 159.5, 119.5, 320, 240);
+  DenseReconstruction fusion;
+  for (int i = 0; i < 6; ++i)
+  {
+    RGBDFrame frame;
+    frame.index = static_cast<std::size_t> (i);
+    frame.timestamp = i / 30.0;
+    frame.camera = camera;
+    frame.depth = cv::Mat (240, 320, CV_32F, cv::Scalar (1.f));
+    frame.color = cv::Mat (240, 320, CV_8UC3, cv::Scalar (120, 120, 120));
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
+    pose.translation () = Eigen::Vector3d (0.02 * i, 0.0, 0.0);
+    frame.pose = pose;
+    const std::size_t blocks = fusion.volume ().blockCount ();
+    const FrameReport report = fusion.process (frame);
+    if (i == 0)
+    {
+      EXPECT_TRUE (report.tracked);
+      continue;
+    }
+    EXPECT_FALSE (report.tracked) << "frame " << i;
+    EXPECT_NE (report.failure.find ("degenerate"), std::string::npos) << report.failure;
+    EXPECT_FALSE (report.relocalised);
+    EXPECT_EQ (fusion.volume ().blockCount (), blocks) << "frame " << i << " was fused";
+  }
+}
