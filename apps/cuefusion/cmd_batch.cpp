@@ -124,13 +124,14 @@ runComplete (const fs::path& result)
   }
 }
 
-/** The evaluation is complete when its report is there and not older than the run. */
+/** The evaluation of a complete run is complete when its report is there and not older
+  * than the run. */
 bool
 evalComplete (const fs::path& result)
 {
   boost::system::error_code ec;
   const fs::path report = result / "eval" / "report.json";
-  if (!runComplete (result) || !fs::is_regular_file (report, ec))
+  if (!fs::is_regular_file (report, ec))
     return false;
   const std::time_t run = fs::last_write_time (result / "outputs.json", ec), evaluated = fs::last_write_time (report, ec);
   return !ec && evaluated >= run;
@@ -351,10 +352,11 @@ resultsOfBatch (const std::string& dir)
     row.name = plan.sequences[k].first;
     row.sequence = plan.sequences[k].second;
     const fs::path result = plan.resultDir (k);
-    if (runComplete (result))
+    const bool run = runComplete (result), evaluated = run && plan.eval && evalComplete (result);
+    if (run)
       addRunStatistics (result.string (), row);
     const fs::path report = result / "eval" / "report.json";
-    if (plan.eval && evalComplete (result))
+    if (evaluated)
     {
       const nlohmann::json j = io::readJsonFile (report.string ());
       if (!j.contains ("runs") || !j["runs"].is_array () || j["runs"].empty ())
@@ -369,7 +371,7 @@ resultsOfBatch (const std::string& dir)
     const auto text = [&status] (const char* key) {
       return status.is_object () && status.contains (key) && status[key].is_string () ? status[key].get<std::string> () : std::string ();
     };
-    if (sequenceComplete (plan, k))
+    if (run && (!plan.eval || evaluated))
       row.status = "ok";
     else if (text ("status") == "failed")
     {
@@ -379,7 +381,7 @@ resultsOfBatch (const std::string& dir)
     else
     {
       row.status = "not run";
-      row.error = runComplete (result) ? "not evaluated yet" : "no complete run in " + result.string ();
+      row.error = run ? "not evaluated yet" : "no complete run in " + result.string ();
     }
     rows.push_back (std::move (row));
   }

@@ -107,10 +107,11 @@ public:
   reset ();
 
 private:
-  /** Relocalises the current frame (its pyramid is built) after \a failed; fills \a report
-    * when a candidate passes. */
+  /** Relocalises the current frame (its pyramid is built): candidates are \a estimate
+    * (ICP's rejected pose, when worth verifying; may be null), then the keyframes most
+    * similar to \a code; fills \a report when one passes. */
   void
-  relocalise (const RGBDFrame& frame, const TrackingResult& failed, const KeyframeDatabase::Code& code, FrameReport& report);
+  relocalise (const RGBDFrame& frame, const Eigen::Isometry3d* estimate, const KeyframeDatabase::Code& code, FrameReport& report);
 
   DenseReconstructionConfig config_;
   DepthPreprocessor preprocessor_;

@@ -1,7 +1,5 @@
 #pragma once
 
-#include <cuefusion/common/pinhole_camera.h>
-
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 

@@ -33,6 +33,13 @@ struct ICPResult
   std::size_t source_points = 0;     ///< valid source pixels at the finest level
   std::size_t inliers = 0;           ///< accepted correspondences at the last finest iteration
   double rmse = 0.0;                 ///< point-to-plane RMS of those (metres)
+
+  /** Inliers as a share of the frame's valid points (0 without any). */
+  double
+  inlierShare () const
+  {
+    return source_points ? static_cast<double> (inliers) / static_cast<double> (source_points) : 0.0;
+  }
 };
 
 /** \brief Frame-to-model projective point-to-plane ICP, coarse to fine (§4.1.3).

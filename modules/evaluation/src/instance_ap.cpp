@@ -128,7 +128,6 @@ collectMatches (const std::vector<std::uint32_t>& truths, const std::vector<std:
   return m;
 }
 
-
 std::vector<ThresholdMatches>
 matchesFor (const std::vector<std::uint32_t>& truths, const std::vector<std::uint32_t>& preds, const Overlaps& o,
             const InstanceEvaluationInput& input, std::size_t min_region_size, const std::set<std::uint32_t>& same_class_truth)

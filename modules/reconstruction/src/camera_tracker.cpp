@@ -38,7 +38,7 @@ CameraTracker::track (const FramePyramid& frame, const FramePyramid& model, cons
   const Eigen::Isometry3d motion = guess.inverse () * pose;
   const double translation = motion.translation ().norm ();
   const double rotation_deg = Eigen::AngleAxisd (motion.rotation ()).angle () * 180.0 / M_PI;
-  const double fraction = icp.source_points ? static_cast<double> (icp.inliers) / static_cast<double> (icp.source_points) : 0.0;
+  const double fraction = icp.inlierShare ();
 
   std::ostringstream why;
   if (icp.source_points < config_.min_inliers)

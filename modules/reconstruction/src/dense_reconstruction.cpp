@@ -12,12 +12,6 @@ namespace reconstruction
 {
 namespace
 {
-double
-inlierShare (const ICPResult& icp)
-{
-  return icp.source_points ? static_cast<double> (icp.inliers) / static_cast<double> (icp.source_points) : 0.0;
-}
-
 class StageClock
 {
 public:
@@ -79,12 +73,12 @@ DenseReconstruction::reset ()
 }
 
 void
-DenseReconstruction::relocalise (const RGBDFrame& frame, const TrackingResult& failed, const KeyframeDatabase::Code& code,
+DenseReconstruction::relocalise (const RGBDFrame& frame, const Eigen::Isometry3d* estimate, const KeyframeDatabase::Code& code,
                                  FrameReport& report)
 {
   std::vector<std::pair<Eigen::Isometry3d, std::string>> candidates;
-  if (failed.implausible_motion)
-    candidates.emplace_back (failed.estimate, "ICP estimate");
+  if (estimate)
+    candidates.emplace_back (*estimate, "ICP estimate");
   for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
     candidates.emplace_back (m.pose, "keyframe " + std::to_string (m.keyframe));
   RaycastResult view;
@@ -97,7 +91,7 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, const TrackingResult& f
     buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
                        static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
     const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate, candidate);
-    if (!verified.tracked || inlierShare (verified.icp) < config_.relocalisation_min_inlier_fraction)
+    if (!verified.tracked || verified.icp.inlierShare () < config_.relocalisation_min_inlier_fraction)
       continue;
     report.pose = verified.pose;
     report.tracked = true;
@@ -142,7 +136,8 @@ DenseReconstruction::process (const RGBDFrame& frame)
   else
   {
     TrackingResult tracking = tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, last_good_pose_);
-    const double share = inlierShare (tracking.icp);
+    const double share = tracking.icp.inlierShare ();
+    bool verify_estimate = tracking.implausible_motion;  // ICP itself was fine
     if (tracking.tracked && config_.min_inlier_share_ratio > 0.0 && recent_shares_.size () >= 3)
     {
       std::vector<double> sorted = recent_shares_;
@@ -155,7 +150,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
         tracking.tracked = false;
         tracking.failure = why.str ();
         tracking.pose = last_good_pose_;
-        tracking.implausible_motion = true;  // its estimate is worth verifying
+        verify_estimate = true;
       }
     }
     report.pose = tracking.pose;
@@ -166,7 +161,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
     if (!report.tracked && config_.relocalise)
     {
       code = keyframes_.encode (frame.depth);
-      relocalise (frame, tracking, code, report);
+      relocalise (frame, verify_estimate ? &tracking.estimate : nullptr, code, report);
       report.timings.relocalise_ms = clock.lap ();
     }
   }
@@ -185,7 +180,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
   }
   if (!config_.use_reference_poses && initialized_)
   {
-    recent_shares_.push_back (inlierShare (report.icp));
+    recent_shares_.push_back (report.icp.inlierShare ());
     if (recent_shares_.size () > 10)
       recent_shares_.erase (recent_shares_.begin ());
   }

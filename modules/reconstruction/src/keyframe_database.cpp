@@ -48,21 +48,23 @@ KeyframeDatabase::encode (const cv::Mat& depth) const
   // Mean valid depth per cell of the reduced image (missing depth does not count); one
   // pass over the image, no temporary images (a tenth of a millisecond at 640×480).
   const int cw = config_.size.width, ch = config_.size.height;
+  std::vector<int> column_cell (static_cast<std::size_t> (depth.cols)), cell_columns (static_cast<std::size_t> (cw), 0);
+  for (int u = 0; u < depth.cols; ++u)
+    ++cell_columns[static_cast<std::size_t> (column_cell[static_cast<std::size_t> (u)] = std::min (cw - 1, u * cw / depth.cols))];
   std::vector<float> sums (static_cast<std::size_t> (cw * ch), 0.f), counts (sums.size (), 0.f), area (sums.size (), 0.f);
   for (int v = 0; v < depth.rows; ++v)
   {
     const float* row = depth.ptr<float> (v);
     const int cy = std::min (ch - 1, v * ch / depth.rows);
+    for (int cx = 0; cx < cw; ++cx)
+      area[static_cast<std::size_t> (cy * cw + cx)] += static_cast<float> (cell_columns[static_cast<std::size_t> (cx)]);
     for (int u = 0; u < depth.cols; ++u)
-    {
-      const auto cell = static_cast<std::size_t> (cy * cw + std::min (cw - 1, u * cw / depth.cols));
-      area[cell] += 1.f;
       if (row[u] > 0.f)  // false for NaN too
       {
+        const auto cell = static_cast<std::size_t> (cy * cw + column_cell[static_cast<std::size_t> (u)]);
         sums[cell] += row[u];
         counts[cell] += 1.f;
       }
-    }
   }
   Code code (static_cast<std::size_t> (config_.ferns), 0);
   for (int f = 0; f < config_.ferns; ++f)
