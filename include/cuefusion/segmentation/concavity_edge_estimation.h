@@ -67,8 +67,9 @@ public:
   int getNeighbourStep () const { return this->config_.neighbour_step; }
 
   /** \brief Organized edge map of the input's size (label 1 = concave edge), and the raw
-    * Φ values in \a phi when given. Throws cuefusion::Error on unorganized, empty or
-    * all-NaN input and on normals of another size.
+    * Φ values in \a phi when given. With indices (setIndices) the other points count as
+    * missing: label 0, Φ NaN. Throws cuefusion::Error on unorganized, empty or all-NaN
+    * input, normals of another size and an index outside the cloud.
     */
   void compute (pcl::PointCloud<pcl::Label>& edges, pcl::PointCloud<pcl::Intensity>* phi = nullptr);
 };

@@ -47,8 +47,11 @@ public:
   int getNeighbourStep () const { return this->config_.neighbour_step; }
 
   /** \brief Organized edge map of the input's size (label 1 = depth edge), and the raw Γ
-    * values (metres; +inf next to a missing neighbour) in \a gamma when given. Throws
-    * cuefusion::Error on unorganized, empty or all-NaN input and on normals of another size.
+    * values (metres; +inf next to a missing neighbour) in \a gamma when given. With
+    * indices (setIndices) the other points count as missing: label 0, Γ NaN, and the
+    * points next to them are edges, as next to a hole. Throws cuefusion::Error on
+    * unorganized, empty or all-NaN input, normals of another size and an index outside
+    * the cloud.
     */
   void compute (pcl::PointCloud<pcl::Label>& edges, pcl::PointCloud<pcl::Intensity>* gamma = nullptr);
 };

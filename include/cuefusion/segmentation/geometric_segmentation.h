@@ -6,10 +6,12 @@
 
 #include <opencv2/core.hpp>
 
+#include <pcl/PointIndices.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
 #include <memory>
+#include <vector>
 
 namespace cuefusion
 {
@@ -48,6 +50,14 @@ struct GeometricSegmentationTimings
   double labeling_ms = 0.0;   ///< union, closing, connected components, small segments, edge assignment
 };
 
+/** \brief The edge maps of §4.2.1.1 that GeometricSegmentation labels (CV_8U, 1 = edge):
+  * concave and depth-discontinuity edges, each all 0 when switched off in \a config; one
+  * pass over the planes when both run at the same neighbour step.
+  */
+void
+computeGeometricEdges (const SurfacePlanes& planes, const GeometricSegmentationConfig& config, cv::Mat& concave,
+                       cv::Mat& depth_edges);
+
 /** \brief Labels an edge map (§4.2.1.1 "Labeling the edge map").
   * \param[in] edges CV_8U, non-zero = edge
   * \param[in] depth CV_32F depth (z) in metres, NaN or ≤ 0 = invalid
@@ -71,8 +81,10 @@ labelEdgeMap (const cv::Mat& edges, const cv::Mat& depth, const EdgeLabelingConf
   * GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmentation;
   * segmentation.setInputCloud (smoothed);        // e.g. from SurfacePreprocessing
   * segmentation.setInputNormals (normals);
+  * segmentation.setIndices (roi);               // optional: only these points
   * pcl::PointCloud<pcl::Label> labels;           // 0 = no segment
-  * segmentation.segment (labels);
+  * std::vector<pcl::PointIndices> label_indices; // [l] = the points of segment l
+  * segmentation.segment (labels, label_indices);
   * \endcode
   */
 template <typename PointT, typename PointNT>
@@ -87,10 +99,25 @@ public:
     this->setConfig (config);
   }
 
-  /** \brief Organized labels of the input's size (0 = no segment). Throws cuefusion::Error
-    * on unorganized, empty or all-NaN input and on normals of another size.
+  /** \brief Organized labels of the input's size: segments 1..N, 0 = no segment. With
+    * indices (setIndices) only their points are segmented; every other point is treated
+    * as missing depth and labelled 0. \a PointLT is any point type with a label field:
+    * pcl::Label gets only the label, types with coordinates (pcl::PointXYZL,
+    * pcl::PointXYZRGBL, ...) also the input's x, y, z and colour, ready for pcl_viewer.
+    * Throws cuefusion::Error on unorganized, empty or all-NaN input, normals of another
+    * size and an index outside the cloud.
     */
-  void segment (pcl::PointCloud<pcl::Label>& labels);
+  template <typename PointLT>
+  void segment (pcl::PointCloud<PointLT>& labels);
+
+  /** \brief The same, and the points of each label as in
+    * pcl::OrganizedConnectedComponentSegmentation: label_indices[l] lists the points of
+    * segment l (1..N, size N + 1); label_indices[0] the points that were segmented but
+    * fell in no segment (edges that were not given to a segment, small segments).
+    * Missing points and points outside the indices are in no list.
+    */
+  template <typename PointLT>
+  void segment (pcl::PointCloud<PointLT>& labels, std::vector<pcl::PointIndices>& label_indices);
 
   /** \brief The same on SurfacePlanes (e.g. from SurfacePreprocessing::compute(planes)),
     * without the copies from and to PCL clouds; the input cloud and normals are not used.

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <map>
 #include <optional>
 #include <string>
@@ -141,6 +142,9 @@ struct SegmentRecord
 class GlobalSegmentMap
 {
 public:
+  using Ptr = std::shared_ptr<GlobalSegmentMap>;
+  using ConstPtr = std::shared_ptr<const GlobalSegmentMap>;
+
   explicit GlobalSegmentMap (const SegmentMergingConfig& merging = SegmentMergingConfig ());
 
   /** \brief A fresh global label, first seen at \a frame. */

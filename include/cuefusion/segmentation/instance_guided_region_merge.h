@@ -1,10 +1,15 @@
 #pragma once
 
+#include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/instance.h>
 #include <cuefusion/segmentation/surface_planes.h>
 
 #include <opencv2/core.hpp>
 
+#include <pcl/point_cloud.h>
+
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -71,6 +76,9 @@ struct SegmentInstance
 class InstanceGuidedRegionMerge
 {
 public:
+  using Ptr = std::shared_ptr<InstanceGuidedRegionMerge>;
+  using ConstPtr = std::shared_ptr<const InstanceGuidedRegionMerge>;
+
   explicit InstanceGuidedRegionMerge (const InstanceGuidedMergeConfig& config = InstanceGuidedMergeConfig ());
 
   void setConfig (const InstanceGuidedMergeConfig& config);
@@ -88,6 +96,27 @@ public:
     */
   void merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
               std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr) const;
+
+  /** \brief merge() on organized PCL label clouds (e.g. from GeometricSegmentation::segment):
+    * \a fused gets \a geometric's points with the labels of L_t (it may be \a geometric).
+    * Any point type with a label field.
+    */
+  template <typename PointLT>
+  void
+  merge (const pcl::PointCloud<PointLT>& geometric, const std::vector<Instance>& instances,
+         pcl::PointCloud<PointLT>& fused, std::vector<SegmentInstance>* segments = nullptr) const
+  {
+    if (!geometric.isOrganized () || geometric.size () != static_cast<std::size_t> (geometric.width) * geometric.height)
+      throw Error ("InstanceGuidedRegionMerge", "the label cloud is not organized");
+    cv::Mat labels (static_cast<int> (geometric.height), static_cast<int> (geometric.width), CV_32S), out;
+    for (std::size_t i = 0; i < geometric.size (); ++i)
+      reinterpret_cast<std::int32_t*> (labels.data)[i] = static_cast<std::int32_t> (geometric[i].label);
+    merge (labels, instances, out, segments);
+    if (&fused != &geometric)
+      fused = geometric;
+    for (std::size_t i = 0; i < fused.size (); ++i)
+      fused[i].label = static_cast<std::uint32_t> (reinterpret_cast<const std::int32_t*> (out.data)[i]);
+  }
 
   /** \brief The first half of merge(): L^G with every segment that two or more instances
     * each cover substantially (split_share, split_min_pixels) cut along the masks, no

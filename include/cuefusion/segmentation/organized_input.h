@@ -9,7 +9,9 @@
 #include <pcl/point_cloud.h>
 
 #include <cmath>
+#include <limits>
 #include <string>
+#include <vector>
 
 namespace cuefusion
 {
@@ -55,6 +57,32 @@ checkOrganizedInput (const std::string& who, const pcl::PointCloud<PointT>* clou
   }
 }
 
+/** \brief Leaves only the points of \a indices in \a planes: every other point (and its
+  * normal) becomes NaN, i.e. missing, as a hole in the depth would be. Throws
+  * cuefusion::Error naming \a who for an index outside the planes.
+  */
+inline void
+keepOnlyIndices (const std::string& who, const pcl::Indices& indices, SurfacePlanes& planes)
+{
+  const std::size_t n = planes.z.size ();
+  std::vector<std::uint8_t> keep (n, 0);
+  for (const pcl::index_t i : indices)
+  {
+    if (i < 0 || static_cast<std::size_t> (i) >= n)
+    {
+      const std::string problem =
+        "index " + std::to_string (i) + " is outside the input cloud (" + std::to_string (n) + " points)";
+      PCL_ERROR ("[cuefusion::%s] %s\n", who.c_str (), problem.c_str ());
+      throw Error (who, problem);
+    }
+    keep[static_cast<std::size_t> (i)] = 1;
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  for (std::size_t i = 0; i < n; ++i)
+    if (!keep[i])
+      planes.x[i] = planes.y[i] = planes.z[i] = planes.nx[i] = planes.ny[i] = planes.nz[i] = nan;
+}
+
 /** \brief What the organized-cloud classes of this module share (PCL style): the input
   * cloud (pcl::PCLBase), input normals, a validated Config struct, and the checked copy
   * of both into SurfacePlanes that their computations run on.
@@ -89,7 +117,8 @@ protected:
   }
 
   /** \brief Checks the input cloud and normals (cuefusion::Error naming \a who) and copies
-    * them into \a planes.
+    * them into \a planes; with indices (setIndices) only the points they name, every
+    * other point is left out as missing.
     */
   void
   toPlanes (const std::string& who, SurfacePlanes& planes) const
@@ -98,9 +127,15 @@ protected:
     if (!normals_)
       throw Error (who, "no input normals (setInputNormals)");
     planes.assign (*input_, *normals_);
+    if (hasIndices ())
+      keepOnlyIndices (who, *indices_, planes);
   }
 
+  /** \brief True after setIndices (pcl::PCLBase keeps "use all points" as fake indices). */
+  bool hasIndices () const { return this->use_indices_ && !this->fake_indices_ && indices_; }
+
   using pcl::PCLBase<PointT>::input_;
+  using pcl::PCLBase<PointT>::indices_;
   NormalCloudConstPtr normals_;
   Config config_;
 };

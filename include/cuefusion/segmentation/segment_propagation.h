@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include <cstdint>
+#include <memory>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -78,6 +79,9 @@ struct PropagationResult
 class SegmentPropagation
 {
 public:
+  using Ptr = std::shared_ptr<SegmentPropagation>;
+  using ConstPtr = std::shared_ptr<const SegmentPropagation>;
+
   explicit SegmentPropagation (const SegmentPropagationConfig& config = SegmentPropagationConfig ());
   const SegmentPropagationConfig& config () const { return config_; }
 

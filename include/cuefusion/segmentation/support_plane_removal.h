@@ -28,13 +28,6 @@ struct SupportPlaneConfig
   void validate () const;
 };
 
-/** \brief Finds the dominant plane of an organized cloud (table or floor: PCL's RANSAC
-  * plane segmentation, SACSegmentation with SACMODEL_PLANE) and labels it 0 in a label
-  * image, as tabletop grasping users want (thesis §2.1.2): every segment that is mostly
-  * plane inliers becomes 0, and so does any other pixel inside the inlier band whose
-  * normal (when normals are given) is parallel to the plane's — a rim of table stuck to
-  * an object. The plane is fitted with a fixed RANSAC seed, so results repeat.
-  */
 /** \brief The work of SupportPlaneRemoval on SurfacePlanes (normals may be all NaN).
   * Returns false, leaving \a labels as they are, when there is no dominant plane; else
   * the plane (unit normal towards the sensor) in \a plane.
@@ -43,11 +36,19 @@ bool
 removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneConfig& config, cv::Mat& labels,
                     Eigen::Vector4f& plane);
 
+/** \brief Finds the dominant plane of an organized cloud (table or floor: PCL's RANSAC
+  * plane segmentation, SACSegmentation with SACMODEL_PLANE) and labels it 0 in a label
+  * image, as tabletop grasping users want (thesis §2.1.2): every segment that is mostly
+  * plane inliers becomes 0, and so does any other pixel inside the inlier band whose
+  * normal (when normals are given) is parallel to the plane's — a rim of table stuck to
+  * an object. The plane is fitted with a fixed RANSAC seed, so results repeat.
+  */
 template <typename PointT>
 class SupportPlaneRemoval : public pcl::PCLBase<PointT>
 {
 public:
   using Ptr = std::shared_ptr<SupportPlaneRemoval>;
+  using ConstPtr = std::shared_ptr<const SupportPlaneRemoval>;
   using NormalCloudConstPtr = typename pcl::PointCloud<pcl::Normal>::ConstPtr;
 
   explicit SupportPlaneRemoval (const SupportPlaneConfig& config = SupportPlaneConfig ()) { setConfig (config); }
@@ -58,8 +59,10 @@ public:
   const SupportPlaneConfig& getConfig () const { return config_; }
 
   /** \brief Removes the plane from \a labels (CV_32S, the cloud's size). Returns false
-    * (labels untouched) when no dominant plane was found. Throws cuefusion::Error on
-    * unorganized, empty or all-NaN input and on a label image of another size.
+    * (labels untouched) when no dominant plane was found. With indices (setIndices) the
+    * plane is fitted to those points and only their labels can change. Throws
+    * cuefusion::Error on unorganized, empty or all-NaN input, an index outside the cloud
+    * and a label image of another size.
     */
   bool apply (cv::Mat& labels);
 

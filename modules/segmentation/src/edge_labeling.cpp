@@ -102,6 +102,31 @@ assignEdgePixels (const cv::Mat& depth, const cv::Mat& valid, int radius, float 
 }
 }  // namespace
 
+void
+computeGeometricEdges (const SurfacePlanes& planes, const GeometricSegmentationConfig& config, cv::Mat& concave,
+                       cv::Mat& depth_edges)
+{
+  const bool both = config.use_concavity_edges && config.use_discontinuity_edges;
+  if (both && config.concavity.neighbour_step == config.discontinuity.neighbour_step)
+  {
+    computeEdgeMasks (planes, config.concavity, config.discontinuity.noise_factor, concave, depth_edges);
+    return;
+  }
+  cv::Mat values;
+  concave = cv::Mat::zeros (planes.height, planes.width, CV_8U);
+  if (config.use_concavity_edges)
+  {
+    computeConcavityMap (planes, config.concavity.neighbour_step, config.concavity.convexity_test, values);
+    concavityEdges (planes, values, config.concavity, concave);
+  }
+  depth_edges = cv::Mat::zeros (planes.height, planes.width, CV_8U);
+  if (config.use_discontinuity_edges)
+  {
+    computeDiscontinuityMap (planes, config.discontinuity.neighbour_step, values);
+    discontinuityEdges (planes, values, config.discontinuity.noise_factor, depth_edges);
+  }
+}
+
 int
 labelEdgeMap (const cv::Mat& edges, const cv::Mat& depth, const EdgeLabelingConfig& config, cv::Mat& labels)
 {

@@ -4,7 +4,12 @@
 #include <cuefusion/segmentation/impl/cloud_images.hpp>
 #include <cuefusion/segmentation/organized_input.h>
 
+#include <pcl/common/copy_point.h>
 #include <pcl/common/time.h>
+
+#include <cmath>
+#include <cstdint>
+#include <type_traits>
 
 
 namespace cuefusion
@@ -13,18 +18,64 @@ namespace segmentation
 {
 
 template <typename PointT, typename PointNT>
+template <typename PointLT>
 void
-GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<pcl::Label>& labels)
+GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<PointLT>& labels)
 {
   pcl::StopWatch watch;
   this->toPlanes ("GeometricSegmentation", planes_);
   const double copy_ms = watch.getTime ();
   segment (planes_);
   watch.reset ();
-  detail::copyToCloud (label_image_, labels);
+  const pcl::PointCloud<PointT>& input = *this->input_;
+  labels.resize (input.size ());
+  labels.width = input.width;
+  labels.height = input.height;
+  labels.header = input.header;
+  labels.sensor_origin_ = input.sensor_origin_;
+  labels.sensor_orientation_ = input.sensor_orientation_;
+  if constexpr (pcl::traits::has_xyz_v<PointLT>)
+    labels.is_dense = input.is_dense;
+  else
+    labels.is_dense = true;
+  const int width = label_image_.cols;
+  parallelFor (label_image_.rows, [&] (int y) {
+    const std::int32_t* row = label_image_.ptr<std::int32_t> (y);
+    for (int x = 0; x < width; ++x)
+    {
+      const std::size_t i = static_cast<std::size_t> (y) * width + x;
+      PointLT& out = labels[i];
+      // Label-only clouds get the label; clouds with coordinates (PointXYZL, PointXYZRGBL,
+      // ...) also the input's fields they share (x, y, z, colour).
+      if constexpr (!std::is_same_v<PointLT, pcl::Label>)
+        pcl::copyPoint (input[i], out);
+      out.label = static_cast<std::uint32_t> (row[x]);
+    }
+  });
   // The copies in and out are charged to the stages they serve.
   timings_.edges_ms += copy_ms;
   timings_.labeling_ms += watch.getTime ();
+}
+
+template <typename PointT, typename PointNT>
+template <typename PointLT>
+void
+GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<PointLT>& labels,
+                                                 std::vector<pcl::PointIndices>& label_indices)
+{
+  segment (labels);
+  label_indices.assign (static_cast<std::size_t> (segment_count_) + 1, pcl::PointIndices ());
+  for (pcl::PointIndices& indices : label_indices)
+    indices.header = labels.header;
+  // Label 0 lists the points that were in the input (finite, inside the indices) but in
+  // no segment; missing points are in no list, as in OrganizedConnectedComponentSegmentation.
+  const std::size_t n = labels.size ();
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const std::uint32_t label = labels[i].label;
+    if (label != 0 || std::isfinite (planes_.z[i]))
+      label_indices[label].indices.push_back (static_cast<pcl::index_t> (i));
+  }
 }
 
 template <typename PointT, typename PointNT>
@@ -37,25 +88,7 @@ GeometricSegmentation<PointT, PointNT>::segment (const SurfacePlanes& planes)
   timings_ = GeometricSegmentationTimings ();
   const GeometricSegmentationConfig& config = this->config_;
   pcl::StopWatch watch;
-  const bool both = config.use_concavity_edges && config.use_discontinuity_edges;
-  if (both && config.concavity.neighbour_step == config.discontinuity.neighbour_step)
-    computeEdgeMasks (planes, config.concavity, config.discontinuity.noise_factor, concavity_edges_, discontinuity_edges_);
-  else
-  {
-    cv::Mat values;
-    concavity_edges_ = cv::Mat::zeros (h, w, CV_8U);
-    if (config.use_concavity_edges)
-    {
-      computeConcavityMap (planes, config.concavity.neighbour_step, config.concavity.convexity_test, values);
-      concavityEdges (planes, values, config.concavity, concavity_edges_);
-    }
-    discontinuity_edges_ = cv::Mat::zeros (h, w, CV_8U);
-    if (config.use_discontinuity_edges)
-    {
-      computeDiscontinuityMap (planes, config.discontinuity.neighbour_step, values);
-      discontinuityEdges (planes, values, config.discontinuity.noise_factor, discontinuity_edges_);
-    }
-  }
+  computeGeometricEdges (planes, config, concavity_edges_, discontinuity_edges_);
   timings_.edges_ms = watch.getTime ();
 
   watch.reset ();

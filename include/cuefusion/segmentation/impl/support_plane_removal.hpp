@@ -32,7 +32,19 @@ SupportPlaneRemoval<PointT>::apply (cv::Mat& labels)
     std::fill (planes_.ny.begin (), planes_.ny.end (), std::numeric_limits<float>::quiet_NaN ());
     std::fill (planes_.nz.begin (), planes_.nz.end (), std::numeric_limits<float>::quiet_NaN ());
   }
-  return apply (planes_, labels);
+  if (!(this->use_indices_ && !this->fake_indices_ && this->indices_))
+    return apply (planes_, labels);
+  // With indices the plane is fitted to their points only, and labels elsewhere stay.
+  keepOnlyIndices ("SupportPlaneRemoval", *this->indices_, planes_);
+  if (labels.type () != CV_32S || labels.cols != planes_.width || labels.rows != planes_.height)
+    throw Error ("SupportPlaneRemoval", "label image does not match the cloud's size");
+  cv::Mat outside (labels.size (), CV_8U, cv::Scalar (1));
+  for (const pcl::index_t i : *this->indices_)
+    outside.data[i] = 0;
+  const cv::Mat before = labels.clone ();
+  const bool removed = apply (planes_, labels);
+  before.copyTo (labels, outside);
+  return removed;
 }
 
 template <typename PointT>
