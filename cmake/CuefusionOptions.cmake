@@ -1,4 +1,6 @@
 option(CUEFUSION_BUILD_TESTS "Build the GoogleTest suites" ON)
+# Shared libraries with a versioned SONAME, as other PCL applications link them.
+option(BUILD_SHARED_LIBS "Build the cuefusion modules as shared libraries" ON)
 
 # Sanitizer builds (scripts/test --sanitize, --tsan): "address,undefined" or "thread".
 # Every target gets the flags; EIGEN_MALLOC_ALREADY_ALIGNED=1 keeps Eigen's allocator

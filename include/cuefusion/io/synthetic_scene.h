@@ -113,7 +113,7 @@ struct SyntheticScene
 std::string
 resolveScenePath (const std::string& name_or_file, const std::string& scenes_dir);
 
-/** \brief data/scenes of the project ($CUEFUSION_DATA_DIR/scenes when set). */
+/** \brief <dataDirectory()>/scenes: the installed or the source tree's data/scenes, or $CUEFUSION_DATA_DIR/scenes. */
 std::string
 defaultScenesDir ();
 }  // namespace io

@@ -38,7 +38,7 @@ public:
 std::vector<std::string>
 readClassNames (const std::string& path);
 
-/** \brief data/classes/coco.names of the project ($CUEFUSION_DATA_DIR/classes when set). */
+/** \brief <dataDirectory()>/classes/coco.names (see cuefusion::dataDirectory). */
 std::string
 defaultClassNamesPath ();
 }  // namespace recognition

@@ -1,3 +1,4 @@
+#include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/synthetic_scene.h>
@@ -518,9 +519,7 @@ resolveScenePath (const std::string& name_or_file, const std::string& scenes_dir
 std::string
 defaultScenesDir ()
 {
-  if (const char* dir = std::getenv ("CUEFUSION_DATA_DIR"))
-    return (fs::path (dir) / "scenes").string ();
-  return (fs::path (CUEFUSION_DATA_DIR) / "scenes").string ();
+  return (fs::path (dataDirectory ()) / "scenes").string ();
 }
 }  // namespace io
 }  // namespace cuefusion

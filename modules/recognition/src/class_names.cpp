@@ -1,10 +1,10 @@
+#include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/recognition/instance_segmenter.h>
 
 #include <boost/algorithm/string/trim.hpp>
 #include <boost/filesystem.hpp>
 
-#include <cstdlib>
 #include <fstream>
 
 namespace cuefusion
@@ -34,8 +34,7 @@ readClassNames (const std::string& path)
 std::string
 defaultClassNamesPath ()
 {
-  const char* dir = std::getenv ("CUEFUSION_DATA_DIR");
-  return (boost::filesystem::path (dir ? dir : CUEFUSION_DATA_DIR) / "classes" / "coco.names").string ();
+  return (boost::filesystem::path (dataDirectory ()) / "classes" / "coco.names").string ();
 }
 }  // namespace recognition
 }  // namespace cuefusion
