@@ -1,4 +1,5 @@
 // The cuefusion binary: exit codes (0 ok, 1 failure, 2 usage) and one-line errors.
+#include "labelled_pcd.h"
 #include "test_utils.h"
 
 #include <cuefusion/io/pose_io.h>
@@ -123,6 +124,9 @@ TEST_F (Cli, SynthInfoRun)
   pcl::PointCloud<pcl::PointXYZRGBL> map;
   ASSERT_EQ (pcl::io::loadPCDFile (dir / "run/map.pcd", map), 0);
   EXPECT_GT (map.size (), 100u);
+  // Both PCDs open in pcl_viewer with the label selectable as colour.
+  test::expectLabelledPCD (dir / "run/map.pcd", 2);
+  test::expectLabelledPCD (seq + "/gt_cloud.pcd", 5);
   // The map lies in the world frame of the scene: above the floor, below the ceiling.
   for (const auto& p : map.points)
   {

@@ -1,4 +1,5 @@
 // `cuefusion segment-frame` on generated organized clouds and depth images.
+#include "labelled_pcd.h"
 #include "segmentation_fixtures.h"
 
 #include <cuefusion/io/camera_io.h>
@@ -50,6 +51,7 @@ protected:
   readLabels (const std::string& path, pcl::PointCloud<pcl::PointXYZRGBL>& out)
   {
     EXPECT_EQ (pcl::io::loadPCDFile (path, out), 0) << path;
+    test::expectLabelledPCD (path, 1);  // opens in pcl_viewer with the label selectable as colour
     cv::Mat labels (static_cast<int> (out.height), static_cast<int> (out.width), CV_32S);
     for (int y = 0; y < labels.rows; ++y)
       for (int x = 0; x < labels.cols; ++x)
