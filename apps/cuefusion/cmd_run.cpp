@@ -273,6 +273,8 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("truncation", po::value (&s.truncation)->default_value (s.truncation), "TSDF truncation distance in voxels")
     ("max-depth", po::value (&s.max_depth)->default_value (s.max_depth), "ignore depth beyond this (metres)")
     ("use-gt-poses", po::bool_switch (&s.use_gt_poses), "integrate with the sequence's own poses instead of tracking")
+    ("no-motion-model", po::bool_switch (&s.no_motion_model), "tracking: start ICP at the last pose instead of the constant-velocity prediction")
+    ("no-noise-weighting", po::bool_switch (&s.no_noise_weighting), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
     ("hole-refresh", po::value (&s.hole_refresh)->default_value (s.hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
     ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf)")
     ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
@@ -349,6 +351,8 @@ runRun (const std::vector<std::string>& args)
   config.preprocessing.max_depth = max_depth;
   config.use_reference_poses = use_gt_poses;
   config.hole_refresh_period = hole_refresh;
+  config.motion_model = !s.no_motion_model;
+  config.tracking.icp.noise_weighting = !s.no_noise_weighting;
   pipeline_config.mode = chooseSegmentationMode (mode, masks, onnx.model_path);
   std::shared_ptr<recognition::InstanceSegmenter> mask_source;
   if (!masks.empty ())

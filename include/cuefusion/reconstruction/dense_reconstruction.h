@@ -35,6 +35,12 @@ struct DenseReconstructionConfig
   /// last 10 tracked frames is not trusted (ICP converged, but onto a wrong pose: a jump
   /// back to an earlier view, a fast turn); it goes to relocalisation. 0 = off.
   double min_inlier_share_ratio = 0.6;
+  /// ICP starts from the constant-velocity prediction (the last tracked frame-to-frame
+  /// motion repeated) when the two frames before were both tracked; when tracking from
+  /// there fails it is tried once more from the last pose. The motion check
+  /// (CameraTrackerConfig::max_translation, max_rotation_deg) then bounds the change
+  /// against the prediction. Off: ICP always starts at the last pose (KinectFusion).
+  bool motion_model = true;
 
   void validate () const;
 };
@@ -125,6 +131,9 @@ private:
   std::vector<double> recent_shares_;  ///< inlier shares of the last tracked frames
   std::size_t tracked_frames_ = 0;
   Eigen::Isometry3d last_good_pose_ = Eigen::Isometry3d::Identity ();
+  Eigen::Isometry3d velocity_ = Eigen::Isometry3d::Identity ();  ///< last tracked frame-to-frame motion
+  bool velocity_valid_ = false;       ///< the last two frames were tracked one after the other
+  bool last_frame_tracked_ = false;
   bool initialized_ = false;
 };
 }  // namespace reconstruction

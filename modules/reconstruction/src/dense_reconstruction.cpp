@@ -69,6 +69,8 @@ DenseReconstruction::reset ()
   recent_shares_.clear ();
   tracked_frames_ = 0;
   last_good_pose_ = Eigen::Isometry3d::Identity ();
+  velocity_ = Eigen::Isometry3d::Identity ();
+  velocity_valid_ = last_frame_tracked_ = false;
   initialized_ = false;
 }
 
@@ -135,7 +137,18 @@ DenseReconstruction::process (const RGBDFrame& frame)
   }
   else
   {
-    TrackingResult tracking = tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, last_good_pose_);
+    const bool predict = config_.motion_model && velocity_valid_;
+    TrackingResult tracking =
+      tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, predict ? last_good_pose_ * velocity_ : last_good_pose_);
+    if (!tracking.tracked && predict)
+    {
+      // The camera stopped or turned: the prediction misled ICP; start from the last pose.
+      TrackingResult still = tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, last_good_pose_);
+      if (still.tracked)
+        tracking = std::move (still);
+    }
+    if (!tracking.tracked)
+      tracking.pose = last_good_pose_;
     const double share = tracking.icp.inlierShare ();
     bool verify_estimate = tracking.implausible_motion;  // ICP itself was fine
     if (tracking.tracked && config_.min_inlier_share_ratio > 0.0 && recent_shares_.size () >= 3)
@@ -170,6 +183,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
     // The next raycast may be far from the last: it searches every hole (the last
     // raycast's empty holes, which would become its skip mask, are dropped).
     model_.empty_holes.release ();
+    velocity_valid_ = last_frame_tracked_ = false;
     return report;
   }
 
@@ -184,6 +198,10 @@ DenseReconstruction::process (const RGBDFrame& frame)
     if (recent_shares_.size () > 10)
       recent_shares_.erase (recent_shares_.begin ());
   }
+  velocity_valid_ = initialized_ && last_frame_tracked_ && !report.relocalised;
+  if (velocity_valid_)
+    velocity_ = last_good_pose_.inverse () * report.pose;
+  last_frame_tracked_ = true;
   last_good_pose_ = report.pose;
   initialized_ = true;
   if (config_.relocalise && !config_.use_reference_poses && tracked_frames_++ % config_.keyframe_period == 0)

@@ -28,10 +28,30 @@ using RowAccumulator = std::array<float, 30>;
 /** \brief Projective association of one source vertex; on success the point-to-plane
   * residual r = n·(p' − q) and its Jacobian row J = [(p' × n)^T, n^T] for a left update.
   */
+/** \brief σ_z(z) of KinectNoiseModel (normal incidence) in float. */
+inline float
+axialNoise (float z)
+{
+  const float dz = z - static_cast<float> (KinectNoiseModel::offset);
+  return static_cast<float> (KinectNoiseModel::base) + static_cast<float> (KinectNoiseModel::quadratic) * dz * dz;
+}
+
+/** \brief Weight of a term at model depth \a z: the inverse variance of the axial noise
+  * there, relative to a point at 1 m (1 when \a weighted is false).
+  */
+inline float
+noiseWeight (float z, bool weighted)
+{
+  if (!weighted)
+    return 1.f;
+  const float ratio = axialNoise (1.f) / axialNoise (z);
+  return ratio * ratio;
+}
+
 inline bool
 pointToPlaneTerm (const Eigen::Vector3f& p, const Eigen::Vector3f& n_src, const Eigen::Matrix3f& R,
                   const Eigen::Vector3f& t, const PyramidLevel& target, float max_distance_sq, float min_cos,
-                  float& residual, Eigen::Matrix<float, 6, 1>& J)
+                  bool weighted, float& residual, Eigen::Matrix<float, 6, 1>& J, float& weight)
 {
   const Eigen::Vector3f p_t = R * p + t;
   int u, v;
@@ -49,18 +69,22 @@ pointToPlaneTerm (const Eigen::Vector3f& p, const Eigen::Vector3f& n_src, const 
   residual = n.dot (diff);
   J.head<3> () = p_t.cross (n);
   J.tail<3> () = n;
+  weight = noiseWeight (q.z (), weighted);
   return true;
 }
 
+/** \brief Adds a term: the weighted normal equations (w JᵀJ, w Jᵀr), the unweighted r²
+  * (the reported RMS is in metres) and the inlier count.
+  */
 inline void
-accumulate (RowAccumulator& acc, const Eigen::Matrix<float, 6, 1>& J, float r)
+accumulate (RowAccumulator& acc, const Eigen::Matrix<float, 6, 1>& J, float r, float w)
 {
   int k = 0;
   for (int i = 0; i < 6; ++i)
     for (int j = i; j < 6; ++j)
-      acc[static_cast<std::size_t> (k++)] += J[i] * J[j];
+      acc[static_cast<std::size_t> (k++)] += w * J[i] * J[j];
   for (int i = 0; i < 6; ++i)
-    acc[static_cast<std::size_t> (21 + i)] += J[i] * r;
+    acc[static_cast<std::size_t> (21 + i)] += w * J[i] * r;
   acc[27] += r * r;
   acc[28] += 1.f;
 }
@@ -75,7 +99,7 @@ accumulate (RowAccumulator& acc, const Eigen::Matrix<float, 6, 1>& J, float r)
   */
 CUEFUSION_AVX2 int
 accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y, const Eigen::Matrix3f& R,
-                   const Eigen::Vector3f& t, float max_distance_sq, float min_cos, RowAccumulator& row)
+                   const Eigen::Vector3f& t, float max_distance_sq, float min_cos, bool weighted, RowAccumulator& row)
 {
   const int cols = source.vertices.cols;
   const int end = cols - cols % 8;
@@ -100,6 +124,10 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
   const __m256 height = _mm256_set1_ps (static_cast<float> (target.camera.height));
   const __m256 minus_one = _mm256_set1_ps (-1.f), zero = _mm256_setzero_ps (), half = _mm256_set1_ps (0.5f);
   const __m256 max_sq = _mm256_set1_ps (max_distance_sq), cos_limit = _mm256_set1_ps (min_cos);
+  const __m256 noise_base = _mm256_set1_ps (static_cast<float> (KinectNoiseModel::base));
+  const __m256 noise_quadratic = _mm256_set1_ps (static_cast<float> (KinectNoiseModel::quadratic));
+  const __m256 noise_offset = _mm256_set1_ps (static_cast<float> (KinectNoiseModel::offset));
+  const __m256 noise_at_one = _mm256_set1_ps (axialNoise (1.f)), one = _mm256_set1_ps (1.f);
 
   __m256 acc[28];
   for (__m256& a : acc)
@@ -162,12 +190,25 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
     J[3] = n0;
     J[4] = n1;
     J[5] = n2;
+    // noiseWeight at the model point's depth, masked (a rejected lane's depth may be NaN).
+    __m256 weight = one;
+    if (weighted)
+    {
+      const __m256 dz_noise = _mm256_sub_ps (gz, noise_offset);
+      const __m256 ratio =
+        _mm256_div_ps (noise_at_one, _mm256_fmadd_ps (noise_quadratic, _mm256_mul_ps (dz_noise, dz_noise), noise_base));
+      weight = _mm256_mul_ps (ratio, ratio);
+    }
+    weight = _mm256_and_ps (weight, ok);
+    __m256 wJ[6];
+    for (int i = 0; i < 6; ++i)
+      wJ[i] = _mm256_mul_ps (weight, J[i]);
     int k = 0;
     for (int i = 0; i < 6; ++i)
       for (int j = i; j < 6; ++j, ++k)
-        acc[k] = _mm256_fmadd_ps (J[i], J[j], acc[k]);
+        acc[k] = _mm256_fmadd_ps (wJ[i], J[j], acc[k]);
     for (int i = 0; i < 6; ++i)
-      acc[21 + i] = _mm256_fmadd_ps (J[i], res, acc[21 + i]);
+      acc[21 + i] = _mm256_fmadd_ps (wJ[i], res, acc[21 + i]);
     acc[27] = _mm256_fmadd_ps (res, res, acc[27]);
     row[28] += static_cast<float> (__builtin_popcount (static_cast<unsigned> (_mm256_movemask_ps (ok))));
   }
@@ -185,7 +226,7 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
 /** \brief One association + accumulation pass over a level. */
 Accumulator
 buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen::Isometry3f& T, float max_distance,
-             float min_cos)
+             float min_cos, bool weighted)
 {
   const Eigen::Matrix3f R = T.linear ();
   const Eigen::Vector3f t = T.translation ();
@@ -202,7 +243,7 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
       int x = 0;
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
       if (use_avx2)
-        x = accumulateRowAvx2 (source, target, y, R, t, max_distance_sq, min_cos, row);
+        x = accumulateRowAvx2 (source, target, y, R, t, max_distance_sq, min_cos, weighted, row);
 #endif
       for (; x < source.vertices.cols; ++x)
       {
@@ -211,10 +252,10 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
         if (!isValidVertex (p) || !isValidVertex (n))
           continue;
         row[29] += 1.f;
-        float r;
+        float r, w;
         Eigen::Matrix<float, 6, 1> J;
-        if (pointToPlaneTerm (p, n, R, t, target, max_distance_sq, min_cos, r, J))
-          accumulate (row, J, r);
+        if (pointToPlaneTerm (p, n, R, t, target, max_distance_sq, min_cos, weighted, r, J, w))
+          accumulate (row, J, r, w);
       }
       for (std::size_t i = 0; i < local.size (); ++i)
         local[i] += static_cast<double> (row[i]);
@@ -278,7 +319,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
     for (int it = 0; it < config_.iterations[l]; ++it)
     {
       const Accumulator acc = buildSystem (source[l], target[l], result.transform.cast<float> (),
-                                           static_cast<float> (config_.max_distance), min_cos);
+                                           static_cast<float> (config_.max_distance), min_cos, config_.noise_weighting);
       if (l == 0)
       {
         finest_measured = true;
@@ -323,7 +364,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
   if (!finest_measured)
   {
     const Accumulator acc = buildSystem (source[0], target[0], result.transform.cast<float> (),
-                                         static_cast<float> (config_.max_distance), min_cos);
+                                         static_cast<float> (config_.max_distance), min_cos, config_.noise_weighting);
     result.source_points = static_cast<std::size_t> (acc[29]);
     result.inliers = static_cast<std::size_t> (acc[28]);
     result.rmse = acc[28] > 0 ? std::sqrt (acc[27] / acc[28]) : 0.0;
