@@ -17,6 +17,11 @@ struct CameraTrackerConfig
   double min_inlier_fraction = 0.25;   ///< of the frame's valid vertices
   std::size_t min_inliers = 300;
   double max_rmse = 0.02;              ///< point-to-plane RMS (metres)
+  /** Minimum ICPResult::translation_conditioning: below it the view constrains one
+    * translation too weakly to trust (a floor or a wall alone). Measured: a noisy plane
+    * ≤ 0.0043; the real sequences ≥ 0.0147 (7scenes-redkitchen) and ≥ 0.066
+    * (icl-livingroom1), the generated tabletop ≥ 0.035. 0 = off. */
+  double min_translation_conditioning = 0.008;
   double max_translation = 0.20;       ///< per frame, metres
   double max_rotation_deg = 20.0;      ///< per frame
 

@@ -39,6 +39,12 @@ struct ICPResult
   std::size_t source_points = 0;     ///< valid source pixels at the finest level
   std::size_t inliers = 0;           ///< accepted correspondences at the last finest iteration
   double rmse = 0.0;                 ///< point-to-plane RMS of those (metres)
+  /** λ_min / λ_max of the (weighted) Σ n nᵀ of the matches on the coarsest level: how
+    * well the matched normals constrain the three translations (0 for a plane, which
+    * leaves two of them free). The coarsest level's normals are averaged over 4×4
+    * pixels, so their noise does not fake constraints: a noisy plane seen by Kinect
+    * gives ≤ 0.005 there (0.01–0.02 at the finest level, as much as real rooms). */
+  double translation_conditioning = 0.0;
 
   /** Inliers as a share of the frame's valid points (0 without any). */
   double

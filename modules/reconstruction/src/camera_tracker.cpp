@@ -18,6 +18,8 @@ CameraTrackerConfig::validate () const
     throw ParameterError ("tracking.max_rmse", "must be positive");
   if (!(max_translation > 0.0 && max_rotation_deg > 0.0))
     throw ParameterError ("tracking.max_translation", "motion limits must be positive");
+  if (!(min_translation_conditioning >= 0.0 && min_translation_conditioning < 1.0))
+    throw ParameterError ("tracking.min_translation_conditioning", "must lie in [0, 1)");
 }
 
 CameraTracker::CameraTracker (const CameraTrackerConfig& config) : config_ (config), icp_ (config.icp)
@@ -45,6 +47,9 @@ CameraTracker::track (const FramePyramid& frame, const FramePyramid& model, cons
     why << "too little valid depth (" << icp.source_points << " points)";
   else if (!icp.solved)
     why << "ICP system degenerate (too few or ill-conditioned correspondences)";
+  else if (icp.translation_conditioning < config_.min_translation_conditioning)
+    why << "ICP degenerate: the surfaces in view leave a translation free (conditioning "
+        << icp.translation_conditioning << ", a plane or a corridor)";
   else if (icp.inliers < config_.min_inliers || fraction < config_.min_inlier_fraction)
     why << "too few inliers (" << icp.inliers << " of " << icp.source_points << ")";
   else if (icp.rmse > config_.max_rmse)

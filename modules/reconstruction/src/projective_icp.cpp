@@ -6,6 +6,7 @@
 #include <cuefusion/reconstruction/vertex_maps.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include <array>
 #include <cmath>
@@ -268,6 +269,17 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
   return total;
 }
 
+/** \brief λ_min / λ_max of the translation block Σ w n nᵀ of the normal equations \a A:
+  * how evenly the matched normals span the three directions (0: all parallel, a plane).
+  */
+double
+translationConditioning (const Eigen::Matrix<double, 6, 6>& A)
+{
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen (A.bottomRightCorner<3, 3> (), Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d values = eigen.eigenvalues ();
+  return values[2] > 0.0 ? std::max (0.0, values[0]) / values[2] : 0.0;
+}
+
 /** \brief exp of a twist (ω, t) as a rigid motion (rotation by |ω| about ω; first-order
   * translation, enough for the small ICP steps).
   */
@@ -340,6 +352,8 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
           A (i, j) = A (j, i) = acc[static_cast<std::size_t> (k++)];
       for (int i = 0; i < 6; ++i)
         b[i] = -acc[static_cast<std::size_t> (21 + i)];
+      if (l == levels - 1)  // coarsest: normals averaged over 4×4 pixels, their noise fakes no constraint
+        result.translation_conditioning = translationConditioning (A);
       const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt (A);
       if (ldlt.info () != Eigen::Success || !ldlt.isPositive () ||
           ldlt.vectorD ().minCoeff () <= 1e-9 * ldlt.vectorD ().maxCoeff ())
