@@ -256,6 +256,56 @@ def open3d_child(method, root, voxel, trunc, max_depth):
                 pose = pose @ t_prev_cur
             estimate.append(pose)
             previous = current
+    elif method == "frame_to_model":
+        # Open3D frame-to-model point-to-plane tracking. Debian's Open3D 0.16 is built
+        # without IPP, so its dense SLAM (t.pipelines.slam.Model.track_frame_to_model) and
+        # t.pipelines.odometry fail on the CPU ("FilterBilateral ... not implemented"). The
+        # same loop from the parts that work: ray-cast the VoxelBlockGrid at the last pose,
+        # Open3D's point-to-plane ICP (registration_icp, coarse to fine over 4 / 2 / 1 cm
+        # voxel grids, correspondences within 7 cm as in dense_slam.py) of the frame against
+        # that model surface, integrate at the tracked pose. Starts at the reference's first
+        # pose, as cuefusion does.
+        device = o3d.core.Device("CPU:0")
+        k = o3d.core.Tensor(intrinsic.intrinsic_matrix, o3d.core.Dtype.Float64)
+        vbg = o3d.t.geometry.VoxelBlockGrid(attr_names=("tsdf", "weight", "color"),
+                                            attr_dtypes=(o3d.core.float32, o3d.core.float32, o3d.core.float32),
+                                            attr_channels=((1), (1), (3)), voxel_size=voxel, block_resolution=8,
+                                            block_count=100000, device=device)
+        registration = o3d.pipelines.registration
+        scales = ((0.04, 0.07, 20), (0.02, 0.035, 15), (0.01, 0.02, 10))  # voxel, max distance, iterations
+        pose = poses[0]
+        for i in range(len(depth_files)):
+            depth = o3d.t.io.read_image(depth_files[i]).to(device)
+            color = o3d.t.io.read_image(color_files[i]).to(device)
+            if color.rows != h or color.columns != w:
+                color = o3d.t.geometry.Image(o3d.core.Tensor(np.ascontiguousarray(np.asarray(color)[:h, :w])))
+            t0 = time.perf_counter()
+            if i > 0:
+                extrinsic = o3d.core.Tensor(np.linalg.inv(pose), o3d.core.Dtype.Float64)
+                blocks = vbg.compute_unique_block_coordinates(depth, k, extrinsic, scale, max_depth,
+                                                              trunc_voxel_multiplier=trunc / voxel)
+                cast = vbg.ray_cast(blocks, k, extrinsic, w, h, ["vertex", "normal"], scale, 0.1, max_depth, 1.0)
+                vertex = cast["vertex"].numpy().reshape(-1, 3)
+                normal = cast["normal"].numpy().reshape(-1, 3)
+                valid = np.isfinite(vertex).all(axis=1) & (np.abs(vertex).sum(axis=1) > 0) & (np.abs(normal).sum(axis=1) > 0)
+                target = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(vertex[valid].astype(np.float64)))
+                target.normals = o3d.utility.Vector3dVector(normal[valid].astype(np.float64))
+                # The ray cast is in the last camera's frame; the ICP finds this camera in it.
+                source = o3d.geometry.PointCloud.create_from_depth_image(
+                    o3d.geometry.Image(np.asarray(depth.cpu())), intrinsic, depth_scale=scale, depth_trunc=max_depth, stride=2)
+                motion = np.identity(4)
+                for size, distance, iterations in scales:
+                    result = registration.registration_icp(
+                        source.voxel_down_sample(size), target.voxel_down_sample(size), distance, motion,
+                        registration.TransformationEstimationPointToPlane(),
+                        registration.ICPConvergenceCriteria(max_iteration=iterations))
+                    motion = result.transformation
+                pose = pose @ motion
+            extrinsic = o3d.core.Tensor(np.linalg.inv(pose), o3d.core.Dtype.Float64)
+            blocks = vbg.compute_unique_block_coordinates(depth, k, extrinsic, scale, max_depth, trunc_voxel_multiplier=trunc / voxel)
+            vbg.integrate(blocks, depth, color, k, extrinsic, scale, max_depth, trunc_voxel_multiplier=trunc / voxel)
+            times.append((time.perf_counter() - t0) * 1000)
+            estimate.append(pose)
     result = {"times": times, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
     if estimate:
         result["ate"] = ate_rmse(estimate, poses)
