@@ -14,15 +14,22 @@ using namespace cuefusion::reconstruction;
 
 namespace
 {
+/** \a frames of \a scene's trajectory at 320×240, with Kinect noise or exact. */
 io::SyntheticSequence
-tabletopSequence (std::size_t frames, bool noise)
+sequenceOf (const io::SyntheticScene& scene, std::size_t frames, bool noise)
 {
   io::SyntheticSequenceConfig config;
   config.frames = frames;
   config.width = 320;
   config.height = 240;
   config.noise.enabled = noise;
-  return io::SyntheticSequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  return io::SyntheticSequence (scene, config);
+}
+
+io::SyntheticSequence
+tabletopSequence (std::size_t frames, bool noise)
+{
+  return sequenceOf (io::SyntheticScene::load (test::tabletopScenePath ()), frames, noise);
 }
 
 Eigen::Isometry3d
@@ -382,18 +389,13 @@ TEST (Relocalisation, ANoisyFloorAloneIsLostNotFused)
   // A camera circling 1.2 m above a plain floor, with Kinect noise: the noisy normals
   // make ICP's system full rank, but the floor leaves two translations free (tracking
   // it drifted 52 cm in 30 frames, reported tracked, before the conditioning check).
-  io::SyntheticSequenceConfig config;
-  config.frames = 10;
-  config.width = 320;
-  config.height = 240;
-  config.noise.enabled = true;
-  const io::SyntheticSequence sequence (
+  const io::SyntheticSequence sequence = sequenceOf (
     io::SyntheticScene::parse ("scene floor\ncamera 640 480 525 525 319.5 239.5\n"
                                "trajectory target=0,0,0 radius=0.6 height=1.2 start=0 sweep=20 bob=0.0\n"
                                "object floor class=floor color=170,165,150 detectable=no texture=checker\n"
                                "  box center=0,0,-0.01 size=12,12,0.02\n",
                                "floor scene"),
-    config);
+    10, true);
   DenseReconstruction fusion;
   for (std::size_t i = 0; i < sequence.size (); ++i)
   {
