@@ -26,9 +26,6 @@ using Accumulator = std::array<double, 30>;
 /** \brief The same for one image row, in float (cheap; a row holds < 10^4 terms). */
 using RowAccumulator = std::array<float, 30>;
 
-/** \brief Projective association of one source vertex; on success the point-to-plane
-  * residual r = n·(p' − q) and its Jacobian row J = [(p' × n)^T, n^T] for a left update.
-  */
 /** \brief σ_z(z) of KinectNoiseModel (normal incidence) in float. */
 inline float
 axialNoise (float z)
@@ -49,6 +46,10 @@ noiseWeight (float z, bool weighted)
   return ratio * ratio;
 }
 
+/** \brief Projective association of one source vertex; on success the point-to-plane
+  * residual r = n·(p' − q) and its Jacobian row J = [(p' × n)^T, n^T] for a left update,
+  * and its noiseWeight.
+  */
 inline bool
 pointToPlaneTerm (const Eigen::Vector3f& p, const Eigen::Vector3f& n_src, const Eigen::Matrix3f& R,
                   const Eigen::Vector3f& t, const PyramidLevel& target, float max_distance_sq, float min_cos,
@@ -326,6 +327,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
   result.solved = true;
   const float min_cos = static_cast<float> (std::cos (config_.max_angle_deg * M_PI / 180.0));
   bool finest_measured = false;
+  Eigen::Matrix<double, 6, 6> coarsest_system = Eigen::Matrix<double, 6, 6>::Zero ();  // its last iteration's
   for (std::size_t l = levels; l-- > 0;)
   {
     for (int it = 0; it < config_.iterations[l]; ++it)
@@ -353,7 +355,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
       for (int i = 0; i < 6; ++i)
         b[i] = -acc[static_cast<std::size_t> (21 + i)];
       if (l == levels - 1)  // coarsest: normals averaged over 4×4 pixels, their noise fakes no constraint
-        result.translation_conditioning = translationConditioning (A);
+        coarsest_system = A;
       const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt (A);
       if (ldlt.info () != Eigen::Success || !ldlt.isPositive () ||
           ldlt.vectorD ().minCoeff () <= 1e-9 * ldlt.vectorD ().maxCoeff ())
@@ -373,6 +375,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
         break;
     }
   }
+  result.translation_conditioning = translationConditioning (coarsest_system);
   // Inliers and RMS come from the last finest-level pass (before its final, small
   // update); a separate pass just for them would cost another full-resolution sweep.
   if (!finest_measured)
