@@ -79,6 +79,7 @@ struct RunSettings
   std::string masks, mode;
   unsigned hole_refresh = 8;
   std::string render_dir, video_path, screenshot;
+  std::string load_volume;  ///< a volume.tsdf to continue (its .keyframes beside it)
   bool view = false, async_masks = false;
   recognition::OnnxSegmenterConfig onnx;
 };

@@ -336,7 +336,7 @@ private:
 };
 
 /** Run options batch cannot pass on: they name one output or need a display. */
-const std::set<std::string> kNotInBatch = {"view", "view-screenshot", "render", "video"};
+const std::set<std::string> kNotInBatch = {"view", "view-screenshot", "render", "video", "load-volume"};
 /** Run options holding a path, made absolute so tasks on other hosts or folders find it. */
 const std::set<std::string> kPathOptions = {"intrinsics", "model", "classes"};
 }  // namespace
@@ -507,7 +507,7 @@ runBatch (const std::vector<std::string>& args)
     if (!run_options.find_nothrow (o.string_key, false))
       continue;
     if (kNotInBatch.count (o.string_key))
-      throw UsageError ("--" + o.string_key + " is not available in batch (it names one output or needs a display; run a sequence alone)");
+      throw UsageError ("--" + o.string_key + " is not available in batch (it names one input or output, or needs a display; run a sequence alone)");
     if (o.string_key == "masks")
     {
       plan.masks = settings.masks;

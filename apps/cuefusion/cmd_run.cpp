@@ -88,8 +88,8 @@ private:
 /** What `run` writes into --out (outputs.json, written last, marks a complete set). */
 const std::vector<std::string> kRunOutputs = {"map.pcd",        "mesh.ply",      "segments.json",
                                               "trajectory.txt", "reference_trajectory.txt",
-                                              "volume.tsdf",    "tracking.json", "timings.json",
-                                              "labels",         "outputs.json"};
+                                              "volume.tsdf",    "volume.keyframes", "tracking.json",
+                                              "timings.json",   "labels",           "outputs.json"};
 
 struct RunOutputs
 {
@@ -124,6 +124,7 @@ segmentsJson (const std::vector<segmentation::SegmentRecord>& segments)
                             {"first_frame", s.first_frame},
                             {"last_frame", s.last_frame},
                             {"frames_seen", s.frames_seen},
+                            {"loaded", s.loaded},
                             {"bounds", {{"min", {s.bounds.min ().x (), s.bounds.min ().y (), s.bounds.min ().z ()}},
                                         {"max", {s.bounds.max ().x (), s.bounds.max ().y (), s.bounds.max ().z ()}}}}};
     const std::string best = s.bestClass ();
@@ -262,6 +263,36 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
 }
 }  // namespace
 
+/** --load-volume: \a path and the .keyframes beside it continued by \a fusion. --voxel,
+  * --truncation and --max-depth are the volume's; given with other values they are refused. */
+void
+continueSavedVolume (const std::string& path, const po::variables_map& vm, const reconstruction::KeyframeDatabaseConfig& keyframes,
+                     pipeline::FusionPipeline& fusion)
+{
+  reconstruction::TSDFVolume volume = reconstruction::TSDFVolume::load (path);
+  const reconstruction::TSDFVolumeConfig& saved = volume.config ();
+  const std::pair<const char*, double> fixed[] = {{"voxel", saved.voxel_size},
+                                                  {"truncation", saved.truncation_voxels},
+                                                  {"max-depth", saved.max_depth}};
+  for (const auto& [option, value] : fixed)
+    if (given (vm, option) && std::abs (vm[option].as<double> () - value) > 1e-9 * std::max (1.0, value))
+    {
+      std::ostringstream why;
+      why << "the loaded volume " << path << " has " << value << "; leave it out or give the same";
+      throw ParameterError (std::string ("--") + option, why.str ());
+    }
+  const std::string keyframes_path = fs::path (path).replace_extension (".keyframes").string ();
+  boost::system::error_code ec;
+  if (fs::exists (keyframes_path, ec))
+    fusion.continueFrom (std::move (volume), reconstruction::KeyframeDatabase::load (keyframes_path));
+  else
+  {
+    std::cerr << "cuefusion run: no " << keyframes_path << " beside the volume: the first frame can be placed only at "
+              << "the sequence's own pose\n";
+    fusion.continueFrom (std::move (volume), reconstruction::KeyframeDatabase (keyframes));
+  }
+}
+
 void
 addRunOptions (po::options_description& options, RunSettings& s)
 {
@@ -276,7 +307,8 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("no-motion-model", po::bool_switch (&s.no_motion_model), "tracking: start ICP at the last pose instead of the constant-velocity prediction")
     ("no-noise-weighting", po::bool_switch (&s.no_noise_weighting), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
     ("hole-refresh", po::value (&s.hole_refresh)->default_value (s.hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
-    ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf)")
+    ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf, labels as map.pcd's) and the relocalisation keyframes (volume.keyframes)")
+    ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (and the volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
     ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
     ("masks", po::value (&s.masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
     ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
@@ -378,6 +410,8 @@ runRun (const std::vector<std::string>& args)
   // whole at the end (io::OutputSet): an error or a second signal leaves it untouched.
   io::OutputSet outputs (out, kRunOutputs, "outputs.json");
   pipeline::FusionPipeline fusion (pipeline_config);
+  if (!s.load_volume.empty ())
+    continueSavedVolume (s.load_volume, vm, pipeline_config.reconstruction.keyframes, fusion);
   boost::system::error_code ec;
   if (!render_dir.empty ())
   {
@@ -567,7 +601,7 @@ runRun (const std::vector<std::string>& args)
   if (!result.reference.empty ())  // for evaluating the estimate with any TUM tool
     io::writeTumTrajectory (staged ("reference_trajectory.txt"), result.reference);
   if (save_volume)
-    volume.save (staged ("volume.tsdf"));
+    fusion.saveVolume (staged ("volume.tsdf"), staged ("volume.keyframes"));
 
   nlohmann::json tracking;
   nlohmann::json lost = nlohmann::json::array ();
@@ -589,7 +623,9 @@ runRun (const std::vector<std::string>& args)
                               {"frames_without_masks", result.frames_without_masks},
                               {"merges", result.merges}};
   tracking["volume"] = {{"blocks", volume.blockCount ()}, {"bytes", volume.memoryUsage ()},
-                        {"voxel_size", voxel}, {"truncation_voxels", truncation}};
+                        {"voxel_size", volume.config ().voxel_size}, {"truncation_voxels", volume.config ().truncation_voxels}};
+  if (!s.load_volume.empty ())
+    tracking["continued_from"] = s.load_volume;
   std::string ate_line;
   if (!use_gt_poses && result.reference.size () >= 3 && result.trajectory.size () >= 3)
   {

@@ -171,6 +171,57 @@ TEST_F (Cli, SynthInfoRun)
   }
 }
 
+TEST_F (Cli, RunContinuesASavedVolume)
+{
+  const std::string seq = dir / "seq";
+  Result r = run ("synth --scene tabletop --frames 24 --size 160x120 --out " + seq);
+  ASSERT_EQ (r.code, 0) << r.err;
+  r = run ("run " + seq + " --frames 12 --voxel 0.02 --save-volume --out " + (dir / "first"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  const nlohmann::json first_outputs = nlohmann::json::parse (test::readFile (dir / "first/outputs.json"));
+  EXPECT_NE (first_outputs["files"].dump ().find ("volume.keyframes"), std::string::npos) << first_outputs.dump ();
+  const nlohmann::json first_segments = nlohmann::json::parse (test::readFile (dir / "first/segments.json"))["segments"];
+
+  // The voxel size comes from the volume; the first frame is placed by the sequence's own
+  // pose and verified against the loaded model; the saved objects are there from the start.
+  r = run ("run " + seq + " --load-volume " + (dir / "first/volume.tsdf") + " --out " + (dir / "second"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  const nlohmann::json tracking = nlohmann::json::parse (test::readFile (dir / "second/tracking.json"));
+  EXPECT_EQ (tracking["tracked"], 24);
+  ASSERT_FALSE (tracking["relocalised"].empty ()) << tracking.dump ();
+  EXPECT_EQ (tracking["relocalised"][0]["index"], 0);
+  EXPECT_EQ (tracking["relocalised"][0]["from"], "reference pose");
+  EXPECT_EQ (tracking["volume"]["voxel_size"], 0.02);
+  EXPECT_EQ (tracking["continued_from"], dir / "first/volume.tsdf");
+  const nlohmann::json segments = nlohmann::json::parse (test::readFile (dir / "second/segments.json"))["segments"];
+  std::size_t loaded = 0;
+  for (const auto& s : segments)
+    loaded += s["loaded"].get<bool> () ? 1 : 0;
+  EXPECT_GE (loaded, first_segments.size () - 1) << segments.dump ();  // a saved fragment may settle into its object
+
+  // Without the keyframes beside it: a warning, and the sequence's pose still places it.
+  boost::filesystem::rename (dir / "first/volume.keyframes", dir / "volume.keyframes");
+  r = run ("run " + seq + " --frames 3 --load-volume " + (dir / "first/volume.tsdf") + " --out " + (dir / "third"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_NE (r.err.find ("volume.keyframes"), std::string::npos) << r.err;
+  EXPECT_EQ (nlohmann::json::parse (test::readFile (dir / "third/tracking.json"))["tracked"], 3);
+
+  // A voxel size other than the volume's; a damaged keyframe file; batch: one line each.
+  r = run ("run " + seq + " --voxel 0.01 --load-volume " + (dir / "first/volume.tsdf") + " --out " + (dir / "bad"));
+  EXPECT_EQ (r.code, 2);
+  EXPECT_EQ (lines (r.err), 1) << r.err;
+  EXPECT_NE (r.err.find ("--voxel"), std::string::npos) << r.err;
+  test::writeFile (dir / "first/volume.keyframes", test::readFile (dir / "volume.keyframes").substr (0, 100));
+  r = run ("run " + seq + " --load-volume " + (dir / "first/volume.tsdf") + " --out " + (dir / "bad"));
+  EXPECT_EQ (r.code, 1);
+  EXPECT_EQ (lines (r.err), 1) << r.err;
+  EXPECT_NE (r.err.find (dir / "first/volume.keyframes"), std::string::npos) << r.err;
+  r = run ("batch " + seq + " --load-volume " + (dir / "first/volume.tsdf") + " --out " + (dir / "bad"));
+  EXPECT_EQ (r.code, 2);
+  EXPECT_NE (r.err.find ("--load-volume"), std::string::npos) << r.err;
+  EXPECT_FALSE (boost::filesystem::exists (dir / "bad"));
+}
+
 TEST_F (Cli, RunSegmentsWithMasks)
 {
   const std::string seq = dir / "seq";

@@ -4,6 +4,8 @@
 
 #include <cuefusion/io/synthetic_sequence.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/reconstruction/keyframe_database.h>
+#include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <gtest/gtest.h>
 #include <pcl/kdtree/kdtree_flann.h>
@@ -28,18 +30,24 @@ withReferencePoses (pipeline::SegmentationMode mode)
   return pipeline::FusionPipeline (config);
 }
 
+/** Gives \a fusion frames [begin, end) of \a sequence with its simulated detector's masks. */
+void
+fuseFrames (pipeline::FusionPipeline& fusion, const io::SyntheticSequence& sequence, std::size_t begin, std::size_t end)
+{
+  for (std::size_t i = begin; i < end; ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    const std::vector<Instance> instances = io::toInstances (sequence.detections (*frame));
+    EXPECT_TRUE (fusion.process (*frame, &instances).segmented) << i;
+  }
+}
+
 /** Runs the pipeline over \a sequence with its poses and its simulated detector's masks. */
 pipeline::FusionPipeline
 runSequence (pipeline::SegmentationMode mode, const io::SyntheticSequence& sequence)
 {
   pipeline::FusionPipeline fusion = withReferencePoses (mode);
-  for (std::size_t i = 0; i < sequence.size (); ++i)
-  {
-    const RGBDFrame::Ptr frame = sequence.frame (i);
-    const std::vector<Instance> instances = io::toInstances (sequence.detections (*frame));
-    const auto report = fusion.process (*frame, &instances);
-    EXPECT_TRUE (report.segmented) << i;
-  }
+  fuseFrames (fusion, sequence, 0, sequence.size ());
   return fusion;
 }
 
@@ -396,4 +404,54 @@ TEST (FusionPipeline, AWallSeenInTwoPiecesBecomesOneSegment)
   const auto iou = objectIoU (*fusion.labelledCloud (), sequence.groundTruthCloud ());
   ASSERT_TRUE (iou.count (2));
   EXPECT_GE (iou.at (2), 0.8);  // one segment for the whole wall
+}
+
+TEST (FusionPipeline, AContinuedMapKeepsItsObjects)
+{
+  // Frames 0–19 fused and saved (run --save-volume); a new pipeline continues the saved
+  // volume with frames 20–39 (run --load-volume). It starts with the saved map's objects
+  // under new labels, one for one, and ends as good as one run over all 40 frames.
+  io::SyntheticSequenceConfig config;
+  config.frames = 40;
+  config.width = 320;
+  config.height = 240;
+  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  const auto truth = sequence.groundTruthCloud ();
+  const test::TempDir dir;
+  pipeline::FusionPipeline first = withReferencePoses (pipeline::SegmentationMode::Fused);
+  fuseFrames (first, sequence, 0, 20);
+  first.saveVolume (dir / "volume.tsdf", dir / "volume.keyframes");
+  const auto saved = first.labelledCloud ();
+
+  pipeline::FusionPipeline continued = withReferencePoses (pipeline::SegmentationMode::Fused);
+  continued.continueFrom (reconstruction::TSDFVolume::load (dir / "volume.tsdf"),
+                          reconstruction::KeyframeDatabase::load (dir / "volume.keyframes"));
+  const auto loaded = continued.labelledCloud ();
+  ASSERT_EQ (loaded->size (), saved->size ());
+  std::map<std::uint32_t, std::uint32_t> forward, backward;  // saved ↔ loaded labels, one for one
+  for (std::size_t i = 0; i < saved->size (); ++i)
+  {
+    const std::uint32_t a = (*saved)[i].label, b = (*loaded)[i].label;
+    ASSERT_EQ (a == 0, b == 0) << i;
+    EXPECT_EQ (forward.try_emplace (a, b).first->second, b) << "saved label " << a;
+    EXPECT_EQ (backward.try_emplace (b, a).first->second, a) << "loaded label " << b;
+  }
+  EXPECT_GE (forward.size (), 8u);
+  const auto segments = continued.segments ();
+  EXPECT_GE (segments.size (), forward.size () - forward.count (0));  // labels on the surface, and maybe inside
+  for (const auto& s : segments)
+    EXPECT_TRUE (s.loaded) << s.id;
+
+  fuseFrames (continued, sequence, 20, 40);
+  pipeline::FusionPipeline whole = withReferencePoses (pipeline::SegmentationMode::Fused);
+  fuseFrames (whole, sequence, 0, 40);
+  const auto continued_iou = objectIoU (*continued.labelledCloud (), truth);
+  const auto whole_iou = objectIoU (*whole.labelledCloud (), truth);
+  for (std::uint16_t id = 5; id <= 10; ++id)
+  {
+    ASSERT_TRUE (continued_iou.count (id) && whole_iou.count (id)) << id;
+    if (std::getenv ("CUEFUSION_TEST_VERBOSE"))
+      std::cerr << "object " << id << " IoU continued " << continued_iou.at (id) << " one run " << whole_iou.at (id) << "\n";
+    EXPECT_GE (continued_iou.at (id), whole_iou.at (id) - 0.1) << "object " << id;
+  }
 }

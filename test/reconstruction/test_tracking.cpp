@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
 #include <random>
 
 using namespace cuefusion;
@@ -496,4 +498,162 @@ TEST (NoiseWeighting, TracksAGeneratedNoisySequenceAsAccurately)
   const auto weighted = trackSequence (sequence, config);
   EXPECT_EQ (weighted.first, 40u);
   EXPECT_LT (weighted.second, 0.002);
+}
+
+namespace
+{
+/** Frames [begin, end) of \a sequence without their poses: a continued run must find them. */
+std::vector<Processed>
+processWithoutPoses (DenseReconstruction& fusion, const io::SyntheticSequence& sequence, std::size_t begin, std::size_t end)
+{
+  std::vector<Processed> out;
+  for (std::size_t i = begin; i < end; ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    const Eigen::Isometry3d truth = *frame->pose;
+    frame->pose.reset ();
+    const FrameReport report = fusion.process (*frame);
+    out.push_back ({i, report, (report.pose.translation () - truth.translation ()).norm ()});
+  }
+  return out;
+}
+
+/** A reconstruction of frames [0, frames) of \a sequence, saved to \a dir as `run
+  * --save-volume` does: volume.tsdf and volume.keyframes (with the last fused frame). */
+void
+saveFirstFrames (const io::SyntheticSequence& sequence, std::size_t frames, const test::TempDir& dir)
+{
+  DenseReconstruction fusion;
+  const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, frames));
+  EXPECT_LT (trackedRmse (run), 0.01);
+  fusion.volume ().save (dir / "volume.tsdf");
+  fusion.keyframesForContinuing ().save (dir / "volume.keyframes");
+}
+}  // namespace
+
+TEST (ContinueVolume, TheFirstFrameIsRelocalisedWhereTheLastRunStopped)
+{
+  // Frames 0–29 saved; a new run continues with frames 30–49 without their poses (a
+  // camera switched off and on again where it stopped: 3 cm and 1.4° from the last frame).
+  const io::SyntheticSequence sequence = tabletopSequence (50, true);
+  const test::TempDir dir;
+  saveFirstFrames (sequence, 30, dir);
+  const KeyframeDatabase keyframes = KeyframeDatabase::load (dir / "volume.keyframes");
+  ASSERT_GE (keyframes.size (), 2u);
+  DenseReconstruction fusion;
+  fusion.continueFrom (TSDFVolume::load (dir / "volume.tsdf"), keyframes);
+  EXPECT_TRUE (fusion.awaitingPlacement ());
+  const std::size_t blocks_loaded = fusion.volume ().blockCount ();
+  EXPECT_GT (blocks_loaded, 100u);
+  const std::vector<Processed> run = processWithoutPoses (fusion, sequence, 30, 50);
+  ASSERT_TRUE (run[0].report.relocalised) << run[0].report.failure;
+  EXPECT_EQ (run[0].report.relocalised_from, "keyframe " + std::to_string (keyframes.size () - 1));  // the last frame
+  EXPECT_LT (run[0].error, 0.01);  // in the saved volume's frame, without any alignment
+  for (const Processed& p : run)
+    EXPECT_TRUE (p.report.tracked) << "frame " << p.frame << ": " << p.report.failure;
+  EXPECT_LT (trackedRmse (run), 0.01);
+  EXPECT_FALSE (fusion.awaitingPlacement ());
+  EXPECT_GT (fusion.volume ().blockCount (), blocks_loaded);  // the new frames see more of the table
+}
+
+TEST (ContinueVolume, TheSequencesOwnPoseIsTriedFirst)
+{
+  const io::SyntheticSequence sequence = tabletopSequence (40, true);
+  const test::TempDir dir;
+  saveFirstFrames (sequence, 20, dir);
+  DenseReconstruction fusion;
+  fusion.continueFrom (TSDFVolume::load (dir / "volume.tsdf"), KeyframeDatabase ());  // no keyframes at all
+  const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (25, 35));
+  ASSERT_TRUE (run[0].report.relocalised) << run[0].report.failure;
+  EXPECT_EQ (run[0].report.relocalised_from, "reference pose");
+  EXPECT_LT (trackedRmse (run), 0.01);
+}
+
+TEST (ContinueVolume, AViewTheSavedRunNeverSawIsLostAndNothingIsFused)
+{
+  // The saved run saw frames 0–9; the continued one starts 70 frames (≈ 95°) further on
+  // the orbit, without a pose: no keyframe is near, so no candidate passes ICP's check.
+  const io::SyntheticSequence sequence = tabletopSequence (85, true);
+  const test::TempDir dir;
+  saveFirstFrames (sequence, 10, dir);
+  DenseReconstruction fusion;
+  fusion.continueFrom (TSDFVolume::load (dir / "volume.tsdf"), KeyframeDatabase::load (dir / "volume.keyframes"));
+  const std::size_t blocks_loaded = fusion.volume ().blockCount ();
+  const std::vector<Processed> run = processWithoutPoses (fusion, sequence, 80, 85);
+  for (const Processed& p : run)
+  {
+    EXPECT_FALSE (p.report.tracked) << "frame " << p.frame << " placed " << p.error * 100.0 << " cm off";
+    EXPECT_NE (p.report.failure.find ("loaded volume"), std::string::npos) << p.report.failure;
+  }
+  EXPECT_EQ (fusion.volume ().blockCount (), blocks_loaded);
+  EXPECT_TRUE (fusion.awaitingPlacement ());
+}
+
+TEST (ContinueVolume, KeyframeFilesReadBackExactlyAndBadOnesAreRefused)
+{
+  const io::SyntheticSequence sequence = tabletopSequence (40, true);
+  KeyframeDatabaseConfig config;
+  config.min_novelty = 0.0;
+  config.ferns = 300;
+  config.decisions = 5;
+  KeyframeDatabase database (config);
+  for (std::size_t i = 0; i < 40; i += 8)
+    database.add (database.encode (sequence.frame (i)->depth), *sequence.frame (i)->pose);
+  const test::TempDir dir;
+  const std::string path = dir / "k.keyframes";
+  database.save (path);
+  const KeyframeDatabase loaded = KeyframeDatabase::load (path);
+  ASSERT_EQ (loaded.size (), database.size ());
+  EXPECT_EQ (loaded.config ().ferns, 300);
+  EXPECT_EQ (loaded.config ().decisions, 5);
+  // Same tests (the codes agree) and the same keyframes (the queries agree, poses exactly).
+  const cv::Mat probe = sequence.frame (17)->depth;
+  EXPECT_EQ (loaded.encode (probe), database.encode (probe));
+  const auto a = database.query (database.encode (probe), 5), b = loaded.query (loaded.encode (probe), 5);
+  ASSERT_EQ (a.size (), b.size ());
+  for (std::size_t k = 0; k < a.size (); ++k)
+  {
+    EXPECT_EQ (a[k].keyframe, b[k].keyframe);
+    EXPECT_EQ (a[k].dissimilarity, b[k].dissimilarity);
+    EXPECT_TRUE (a[k].pose.matrix () == b[k].pose.matrix ());
+  }
+
+  // Every damage gives one Error naming the file: truncation anywhere, trailing bytes, a
+  // wrong magic, version or configuration, a test outside the grid, a bent pose, a code
+  // with more bits than decisions.
+  std::ifstream in (path, std::ios::binary);
+  const std::string bytes ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
+  const auto refused = [&] (const std::string& content, const std::string& what) {
+    const std::string bad = dir / "bad.keyframes";
+    std::ofstream (bad, std::ios::binary) << content;
+    try
+    {
+      KeyframeDatabase::load (bad);
+      ADD_FAILURE () << what << ": loaded";
+    }
+    catch (const Error& e)
+    {
+      EXPECT_NE (std::string (e.what ()).find (bad), std::string::npos) << what << ": " << e.what ();
+    }
+  };
+  for (std::size_t cut = 0; cut < bytes.size (); cut += 97)
+    refused (bytes.substr (0, cut), "cut at " + std::to_string (cut));
+  refused (bytes + "x", "trailing byte");
+  const auto patched = [&] (std::size_t offset, const void* value, std::size_t size) {
+    std::string b = bytes;
+    b.replace (offset, size, static_cast<const char*> (value), size);
+    return b;
+  };
+  const std::uint32_t version = 99;
+  const std::int32_t no_ferns = 0, far_cell = 1000;
+  const double bent = 2.0;
+  const std::uint8_t wide = 0xff;
+  const std::size_t header = 8 + 4 + 16 + 16 + 8 + 4 + 8, tests = 300 * 5 * 12;
+  refused ("not a keyframe file at all, just text long enough to fill a header.....", "magic");
+  refused (patched (8, &version, 4), "version");
+  refused (patched (12, &no_ferns, 4), "ferns");
+  refused (patched (header, &far_cell, 4), "test cell");
+  refused (patched (header + tests, &bent, 8), "pose");
+  refused (patched (header + tests + 96 + 3, &wide, 1), "code");
+  EXPECT_THROW (KeyframeDatabase::load (dir / "missing.keyframes"), Error);
 }

@@ -98,6 +98,23 @@ public:
   /** \param[in] instances the frame's instance masks, nullptr when there are none */
   PipelineFrameReport process (const RGBDFrame& frame, const std::vector<Instance>* instances);
 
+  /** \brief Continues a saved map (before the first frame; cuefusion::Error after it):
+    * the reconstruction continues \a volume and \a keyframes
+    * (DenseReconstruction::continueFrom: the first frame is relocalised in it), and each
+    * label in the volume becomes a segment of the map (SegmentRecord::loaded), its voxels
+    * relabelled 1, 2, … in the order found. Save with saveVolume(), whose labels are the
+    * outputs' (one per object), so a continued map starts with the objects its outputs
+    * showed. Class votes and frame counts are not saved: segments.json counts this run's.
+    */
+  void continueFrom (reconstruction::TSDFVolume volume, reconstruction::KeyframeDatabase keyframes);
+
+  /** \brief Writes the volume (TSDFVolume::save) with each voxel's label as the outputs
+    * show it (labelledCloud), and, when \a keyframes_path is not empty, the
+    * relocalisation keyframes and the last fused frame (DenseReconstruction::
+    * keyframesForContinuing, KeyframeDatabase::save): what continueFrom reads back.
+    */
+  void saveVolume (const std::string& volume_path, const std::string& keyframes_path) const;
+
   const reconstruction::DenseReconstruction& reconstruction () const { return reconstruction_; }
   const segmentation::GlobalSegmentMap& segmentMap () const { return map_; }
   /** \brief The last frame's L^p (global labels), empty before the first segmented frame. */

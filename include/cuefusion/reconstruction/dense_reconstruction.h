@@ -8,6 +8,8 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace cuefusion
 {
@@ -108,16 +110,41 @@ public:
   /** \brief The relocalisation keyframes stored so far. */
   const KeyframeDatabase& keyframes () const { return keyframes_; }
 
+  /** \brief keyframes() and the last fused frame with its pose, novel or not: what a run
+    * continuing this volume relocalises its first frame against (a camera that goes on
+    * where it stopped is found by the last frame). */
+  KeyframeDatabase
+  keyframesForContinuing () const;
+
   /** \brief Empties the volume and forgets the trajectory and the keyframes. */
   void
   reset ();
 
-private:
-  /** Relocalises the current frame (its pyramid is built): candidates are \a estimate
-    * (ICP's rejected pose, when worth verifying; may be null), then the keyframes most
-    * similar to \a code; fills \a report when one passes. */
+  /** \brief Continues a saved reconstruction: \a volume (TSDFVolume::load) and its
+    * \a keyframes (KeyframeDatabase::load; may be empty) replace this one's, the
+    * trajectory is forgotten, and the next frame is not placed at its own pose but
+    * relocalised in the loaded model: candidates are the frame's reference pose (when it
+    * has one; a run continuing the same dataset shares its frame), then the keyframes most
+    * similar to it, each verified by ICP as after a tracking failure. Until one frame
+    * passes, frames are reported lost ("not placed in the loaded volume") and nothing is
+    * fused. The volume's configuration and the keyframes' replace config().volume and
+    * config().keyframes; with use_reference_poses frames are placed at their own poses.
+    */
   void
-  relocalise (const RGBDFrame& frame, const Eigen::Isometry3d* estimate, const KeyframeDatabase::Code& code, FrameReport& report);
+  continueFrom (TSDFVolume volume, KeyframeDatabase keyframes);
+
+  /** \brief Whether the next frame must be placed in a loaded volume (continueFrom). */
+  bool awaitingPlacement () const { return awaiting_placement_; }
+
+private:
+  /** A candidate pose for relocalisation and where it came from. */
+  using Candidate = std::pair<Eigen::Isometry3d, std::string>;
+
+  /** Relocalises the current frame (its pyramid is built): candidates are \a first (ICP's
+    * rejected pose when worth verifying, a loaded run's reference pose), then the keyframes
+    * most similar to \a code; fills \a report when one passes. */
+  void
+  relocalise (const RGBDFrame& frame, std::vector<Candidate> first, const KeyframeDatabase::Code& code, FrameReport& report);
 
   DenseReconstructionConfig config_;
   DepthPreprocessor preprocessor_;
@@ -128,6 +155,7 @@ private:
   FramePyramid frame_pyramid_;
   FramePyramid model_pyramid_;
   KeyframeDatabase keyframes_;
+  KeyframeDatabase::Code last_fused_code_;  ///< of the last fused frame (when relocalising)
   std::vector<double> recent_shares_;  ///< inlier shares of the last tracked frames
   std::size_t tracked_frames_ = 0;
   Eigen::Isometry3d last_good_pose_ = Eigen::Isometry3d::Identity ();
@@ -135,6 +163,7 @@ private:
   bool velocity_valid_ = false;       ///< the last two frames were tracked one after the other
   bool last_frame_tracked_ = false;
   bool initialized_ = false;
+  bool awaiting_placement_ = false;  ///< continueFrom: the first frame is relocalised
 };
 }  // namespace reconstruction
 }  // namespace cuefusion

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace cuefusion
@@ -67,6 +68,11 @@ public:
   bool
   addIfNovel (const Code& code, const Eigen::Isometry3d& pose);
 
+  /** \brief Stores \a code with \a pose however similar it is to the stored keyframes
+    * (while fewer than max_keyframes are stored); returns whether it did. */
+  bool
+  add (const Code& code, const Eigen::Isometry3d& pose);
+
   /** \brief The \a k stored keyframes most similar to \a code, most similar first. */
   std::vector<Match>
   query (const Code& code, std::size_t k) const;
@@ -75,6 +81,21 @@ public:
 
   /** \brief Forgets every keyframe (the tests stay). */
   void clear ();
+
+  /** \brief Writes the configuration, the tests and every keyframe (pose and code) in a
+    * versioned little-endian binary format; atomic (temporary file, then rename). The
+    * tests are stored, not re-drawn from the seed, so a file reads back the same on any
+    * standard library. Throws cuefusion::Error naming the file.
+    */
+  void
+  save (const std::string& path) const;
+
+  /** \brief Reads a database written by save(); throws cuefusion::Error naming the file
+    * when it is missing, of another format or version, truncated, or holds an invalid
+    * configuration, test, pose or code.
+    */
+  static KeyframeDatabase
+  load (const std::string& path);
 
 private:
   struct Test

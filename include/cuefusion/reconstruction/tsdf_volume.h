@@ -11,6 +11,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -149,9 +150,11 @@ public:
 
   /** \brief Writes the whole volume (config, blocks, voxels) in a versioned binary format;
     * atomic (temporary file, then rename). Throws cuefusion::Error naming the file.
+    * \param[in] label_map when given, each voxel's label is written as label_map (label)
+    * (the segment map's output labels; the volume itself is unchanged)
     */
   void
-  save (const std::string& path) const;
+  save (const std::string& path, const std::function<std::uint32_t (std::uint32_t)>& label_map = {}) const;
 
   /** \brief Reads a volume written by save(); throws cuefusion::Error naming the file when
     * it is missing, of another format or version, or truncated.

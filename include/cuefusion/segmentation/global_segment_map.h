@@ -121,6 +121,9 @@ struct SegmentRecord
     * class; it is kept here.
     */
   std::map<std::string, std::pair<int, float>> class_votes;
+  /** From a loaded volume (FusionPipeline::continueFrom): an object of the saved map,
+    * kept as one whatever this run sees of it; its frames count this run only. */
+  bool loaded = false;
   std::size_t voxels = 0;                ///< from refreshStatistics
   Eigen::AlignedBox3f bounds;            ///< world frame, from refreshStatistics
 
@@ -149,6 +152,10 @@ public:
 
   /** \brief A fresh global label, first seen at \a frame. */
   std::uint32_t newSegment (std::size_t frame);
+
+  /** \brief A fresh global label for an object of a loaded map (SegmentRecord::loaded):
+    * confirmed from the start, never settled into another object. */
+  std::uint32_t newLoadedSegment (std::size_t frame);
 
   /** \brief \a label was seen at \a frame, with instance-cue class info when the frame
     * segment carried one (instance ≥ 0).
@@ -192,7 +199,7 @@ public:
   std::vector<SegmentRecord> segments (const std::unordered_map<std::uint32_t, std::uint32_t>* settled = nullptr) const;
 
   /** \brief What each label shows as in outputs: the object it belongs to when that object
-    * was seen in at least confirm_confidence frames, or is still being seen (its last
+    * was loaded, seen in at least confirm_confidence frames, or is still being seen (its last
     * frame less than confirm_confidence frames before the latest); otherwise (a fragment
     * seen briefly and no more:
     * the rim of a surface at the edge of the view, a noise patch) the confirmed object

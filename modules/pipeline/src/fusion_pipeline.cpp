@@ -83,6 +83,35 @@ FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
   reconstruction_.volume ().setRecordObservedSurface (true);
 }
 
+void
+FusionPipeline::continueFrom (reconstruction::TSDFVolume volume, reconstruction::KeyframeDatabase keyframes)
+{
+  if (processed_ > 0)
+    throw Error ("FusionPipeline::continueFrom", "must come before the first frame");
+  // Each saved label becomes a segment of this map; the voxels take its new label.
+  std::unordered_map<std::uint32_t, std::uint32_t> adopted;
+  for (std::size_t id = 0; id < volume.blockCount (); ++id)
+    for (reconstruction::TsdfVoxel& voxel : volume.voxels (id))
+      if (voxel.label != 0)
+      {
+        const auto [it, fresh] = adopted.try_emplace (voxel.label, 0u);
+        if (fresh)
+          it->second = map_.newLoadedSegment (0);
+        voxel.label = it->second;
+      }
+  reconstruction_.continueFrom (std::move (volume), std::move (keyframes));
+  settled_at_ = static_cast<std::size_t> (-1);
+}
+
+void
+FusionPipeline::saveVolume (const std::string& volume_path, const std::string& keyframes_path) const
+{
+  refreshSettled (true);
+  reconstruction_.volume ().save (volume_path, [this] (std::uint32_t label) { return settledLabel (label, true); });
+  if (!keyframes_path.empty ())
+    reconstruction_.keyframesForContinuing ().save (keyframes_path);
+}
+
 PipelineFrameReport
 FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* instances)
 {

@@ -66,21 +66,41 @@ DenseReconstruction::reset ()
   frame_pyramid_.clear ();
   model_pyramid_.clear ();
   keyframes_.clear ();
+  last_fused_code_.clear ();
   recent_shares_.clear ();
   tracked_frames_ = 0;
   last_good_pose_ = Eigen::Isometry3d::Identity ();
   velocity_ = Eigen::Isometry3d::Identity ();
   velocity_valid_ = last_frame_tracked_ = false;
-  initialized_ = false;
+  initialized_ = awaiting_placement_ = false;
+}
+
+KeyframeDatabase
+DenseReconstruction::keyframesForContinuing () const
+{
+  KeyframeDatabase out = keyframes_;
+  if (!last_fused_code_.empty ())
+    out.add (last_fused_code_, last_good_pose_);
+  return out;
 }
 
 void
-DenseReconstruction::relocalise (const RGBDFrame& frame, const Eigen::Isometry3d* estimate, const KeyframeDatabase::Code& code,
+DenseReconstruction::continueFrom (TSDFVolume volume, KeyframeDatabase keyframes)
+{
+  reset ();
+  const bool record = volume_.getRecordObservedSurface ();
+  volume_ = std::move (volume);
+  volume_.setRecordObservedSurface (record);
+  keyframes_ = std::move (keyframes);
+  config_.volume = volume_.config ();
+  config_.keyframes = keyframes_.config ();
+  awaiting_placement_ = !config_.use_reference_poses;
+}
+
+void
+DenseReconstruction::relocalise (const RGBDFrame& frame, std::vector<Candidate> candidates, const KeyframeDatabase::Code& code,
                                  FrameReport& report)
 {
-  std::vector<std::pair<Eigen::Isometry3d, std::string>> candidates;
-  if (estimate)
-    candidates.emplace_back (*estimate, "ICP estimate");
   for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
     candidates.emplace_back (m.pose, "keyframe " + std::to_string (m.keyframe));
   RaycastResult view;
@@ -129,6 +149,20 @@ DenseReconstruction::process (const RGBDFrame& frame)
     report.tracked = true;
     report.timings.track_ms = clock.lap ();
   }
+  else if (awaiting_placement_)
+  {
+    // A loaded volume: the frame must be found in it before anything is fused.
+    std::vector<Candidate> first;
+    if (frame.pose)
+      first.emplace_back (*frame.pose, "reference pose");
+    code = keyframes_.encode (frame.depth);
+    relocalise (frame, std::move (first), code, report);
+    report.timings.relocalise_ms = clock.lap ();
+    if (!report.tracked)
+      report.failure = "not placed in the loaded volume (no candidate pose verified by ICP)";
+    else
+      awaiting_placement_ = false;
+  }
   else if (!initialized_)
   {
     report.pose = frame.pose ? *frame.pose : Eigen::Isometry3d::Identity ();
@@ -174,7 +208,10 @@ DenseReconstruction::process (const RGBDFrame& frame)
     if (!report.tracked && config_.relocalise)
     {
       code = keyframes_.encode (frame.depth);
-      relocalise (frame, verify_estimate ? &tracking.estimate : nullptr, code, report);
+      std::vector<Candidate> first;
+      if (verify_estimate)
+        first.emplace_back (tracking.estimate, "ICP estimate");
+      relocalise (frame, std::move (first), code, report);
       report.timings.relocalise_ms = clock.lap ();
     }
   }
@@ -204,11 +241,14 @@ DenseReconstruction::process (const RGBDFrame& frame)
   last_frame_tracked_ = true;
   last_good_pose_ = report.pose;
   initialized_ = true;
-  if (config_.relocalise && !config_.use_reference_poses && tracked_frames_++ % config_.keyframe_period == 0)
+  // With reference poses too: a later run may continue this volume (continueFrom).
+  if (config_.relocalise)
   {
     if (code.empty ())
-      code = keyframes_.encode (frame.depth);
-    keyframes_.addIfNovel (code, report.pose);
+      code = keyframes_.encode (frame.depth);  // 0.1 ms at 640×480
+    if (tracked_frames_++ % config_.keyframe_period == 0)
+      keyframes_.addIfNovel (code, report.pose);
+    last_fused_code_ = std::move (code);
   }
   volume_.integrate (frame.depth, frame.color, frame.camera, report.pose);
   report.timings.integrate_ms = clock.lap ();

@@ -98,11 +98,19 @@ KeyframeDatabase::addIfNovel (const Code& code, const Eigen::Isometry3d& pose)
 {
   if (code.size () != static_cast<std::size_t> (config_.ferns))
     throw Error ("KeyframeDatabase::addIfNovel", "code of another database");
-  if (codes_.size () >= config_.max_keyframes)
-    return false;
   for (std::size_t k = 0; k < codes_.size (); ++k)
     if (dissimilarity (code, k) < config_.min_novelty)
       return false;
+  return add (code, pose);
+}
+
+bool
+KeyframeDatabase::add (const Code& code, const Eigen::Isometry3d& pose)
+{
+  if (code.size () != static_cast<std::size_t> (config_.ferns))
+    throw Error ("KeyframeDatabase::add", "code of another database");
+  if (codes_.size () >= config_.max_keyframes)
+    return false;
   codes_.push_back (code);
   poses_.push_back (pose);
   return true;

@@ -40,7 +40,7 @@ static_assert (sizeof (float) == 4 && sizeof (double) == 8, "volume files assume
 }  // namespace
 
 void
-TSDFVolume::save (const std::string& path) const
+TSDFVolume::save (const std::string& path, const std::function<std::uint32_t (std::uint32_t)>& label_map) const
 {
   const FileContext context (path);
   VolumeHeader header{};
@@ -68,7 +68,15 @@ TSDFVolume::save (const std::string& path) const
     {
       const std::int32_t index[3] = {block->index.x (), block->index.y (), block->index.z ()};
       out.write (reinterpret_cast<const char*> (index), sizeof index);
-      out.write (reinterpret_cast<const char*> (block->voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
+      if (label_map)
+      {
+        std::array<TsdfVoxel, kBlockVoxels> mapped = block->voxels;
+        for (TsdfVoxel& v : mapped)
+          v.label = v.label ? label_map (v.label) : 0u;
+        out.write (reinterpret_cast<const char*> (mapped.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
+      }
+      else
+        out.write (reinterpret_cast<const char*> (block->voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
     }
     out.close ();
     return static_cast<bool> (out);

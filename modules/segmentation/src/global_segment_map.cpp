@@ -121,6 +121,14 @@ GlobalSegmentMap::newSegment (std::size_t frame)
   return label;
 }
 
+std::uint32_t
+GlobalSegmentMap::newLoadedSegment (std::size_t frame)
+{
+  const std::uint32_t label = newSegment (frame);
+  records_[label].loaded = true;
+  return label;
+}
+
 const std::vector<std::uint32_t>&
 GlobalSegmentMap::successors (std::uint32_t label) const
 {
@@ -234,6 +242,7 @@ combine (SegmentRecord& target, const SegmentRecord& source)
   target.first_frame = std::min (target.first_frame, source.first_frame);
   target.last_frame = std::max (target.last_frame, source.last_frame);
   target.frames_seen = std::max (target.frames_seen, source.frames_seen);
+  target.loaded = target.loaded || source.loaded;
   for (const auto& [name, vote] : source.class_votes)
   {
     auto& v = target.class_votes[name];
@@ -283,7 +292,7 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
   for (const auto& [label, record] : records_)
   {
     bool& k = kept[resolve (label)];
-    k = k || record.frames_seen >= confirm || latest_frame_ - record.last_frame < confirm;
+    k = k || record.loaded || record.frames_seen >= confirm || latest_frame_ - record.last_frame < confirm;
   }
   std::unordered_map<std::uint32_t, std::uint32_t> target;  // object → what it shows as (fragments: once settled)
   for (const auto& [object, keep] : kept)
