@@ -155,7 +155,7 @@ private:
   FramePyramid frame_pyramid_;
   FramePyramid model_pyramid_;
   KeyframeDatabase keyframes_;
-  KeyframeDatabase::Code last_fused_code_;  ///< of the last fused frame (when relocalising)
+  cv::Mat last_fused_depth_;  ///< of the last fused frame (when relocalising), for keyframesForContinuing
   std::vector<double> recent_shares_;  ///< inlier shares of the last tracked frames
   std::size_t tracked_frames_ = 0;
   Eigen::Isometry3d last_good_pose_ = Eigen::Isometry3d::Identity ();

@@ -66,7 +66,7 @@ DenseReconstruction::reset ()
   frame_pyramid_.clear ();
   model_pyramid_.clear ();
   keyframes_.clear ();
-  last_fused_code_.clear ();
+  last_fused_depth_.release ();
   recent_shares_.clear ();
   tracked_frames_ = 0;
   last_good_pose_ = Eigen::Isometry3d::Identity ();
@@ -79,8 +79,8 @@ KeyframeDatabase
 DenseReconstruction::keyframesForContinuing () const
 {
   KeyframeDatabase out = keyframes_;
-  if (!last_fused_code_.empty ())
-    out.add (last_fused_code_, last_good_pose_);
+  if (!last_fused_depth_.empty ())
+    out.add (out.encode (last_fused_depth_), last_good_pose_);
   return out;
 }
 
@@ -244,11 +244,14 @@ DenseReconstruction::process (const RGBDFrame& frame)
   // With reference poses too: a later run may continue this volume (continueFrom).
   if (config_.relocalise)
   {
-    if (code.empty ())
-      code = keyframes_.encode (frame.depth);  // 0.1 ms at 640×480
     if (tracked_frames_++ % config_.keyframe_period == 0)
+    {
+      if (code.empty ())
+        code = keyframes_.encode (frame.depth);
       keyframes_.addIfNovel (code, report.pose);
-    last_fused_code_ = std::move (code);
+    }
+    // Coded only when saved (keyframesForContinuing): a copy costs a tenth of a coding.
+    frame.depth.copyTo (last_fused_depth_);
   }
   volume_.integrate (frame.depth, frame.color, frame.camera, report.pose);
   report.timings.integrate_ms = clock.lap ();

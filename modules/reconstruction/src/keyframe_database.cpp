@@ -46,7 +46,7 @@ KeyframeDatabase::encode (const cv::Mat& depth) const
   if (depth.type () != CV_32F || depth.empty ())
     throw Error ("KeyframeDatabase::encode", "needs a CV_32F depth image");
   // Mean valid depth per cell of the reduced image (missing depth does not count); one
-  // pass over the image, no temporary images (a tenth of a millisecond at 640×480).
+  // pass over the image, no temporary images (0.4 ms at 640×480 on the 2-core machine).
   const int cw = config_.size.width, ch = config_.size.height;
   std::vector<int> column_cell (static_cast<std::size_t> (depth.cols)), cell_columns (static_cast<std::size_t> (cw), 0);
   for (int u = 0; u < depth.cols; ++u)
