@@ -55,7 +55,7 @@ main (int argc, char** argv)
     const int repeats = args.size () > 2 ? std::max (2, std::atoi (args[2].c_str ())) : 3;
     if (!sequence->hasPoses ())
       throw Error (args[0], "has no reference poses");
-    reconstruction::DepthPreprocessingConfig preprocessing;
+    reconstruction::DepthPreprocessorConfig preprocessing;
     preprocessing.noise_range_sigma = 8.0;  // FusionPipeline's shared smoothing
     const reconstruction::DepthPreprocessor preprocessor (preprocessing);
     reconstruction::TSDFVolume volume;

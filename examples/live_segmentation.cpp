@@ -55,7 +55,7 @@ main (int argc, char** argv)
     std::unique_ptr<cuefusion::recognition::InstanceSegmenter> masks;
     if (!model.empty ())
     {
-      cuefusion::recognition::OnnxSegmenterConfig onnx;
+      cuefusion::recognition::OnnxInstanceSegmenterConfig onnx;
       onnx.model_path = model;
       masks = std::make_unique<cuefusion::recognition::OnnxInstanceSegmenter> (onnx);
     }

@@ -81,7 +81,7 @@ struct RunSettings
   std::string render_dir, video_path, screenshot;
   std::string load_volume;  ///< a volume.tsdf to continue (its .keyframes beside it)
   bool view = false, async_masks = false;
-  recognition::OnnxSegmenterConfig onnx;
+  recognition::OnnxInstanceSegmenterConfig onnx;
 };
 
 /** Adds run's options other than its sequence and --out to \a options, stored in \a s. */
@@ -92,6 +92,10 @@ addRunOptions (po::options_description& options, RunSettings& s);
   * the option. */
 void
 checkRunSettings (const RunSettings& s);
+
+/** The pipeline's configuration for run's settings (the segmentation mode chosen). */
+pipeline::FusionPipelineConfig
+runPipelineConfig (const RunSettings& s);
 
 int runSynth (const std::vector<std::string>& args);
 int runSynthViews (const std::vector<std::string>& args);

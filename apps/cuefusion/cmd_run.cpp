@@ -270,7 +270,7 @@ continueSavedVolume (const std::string& path, const po::variables_map& vm, const
                      pipeline::FusionPipeline& fusion)
 {
   reconstruction::TSDFVolume volume = reconstruction::TSDFVolume::load (path);
-  const reconstruction::TSDFVolumeConfig& saved = volume.config ();
+  const reconstruction::TSDFVolumeConfig& saved = volume.getConfig ();
   const std::pair<const char*, double> fixed[] = {{"voxel", saved.voxel_size},
                                                   {"truncation", saved.truncation_voxels},
                                                   {"max-depth", saved.max_depth}};
@@ -333,20 +333,30 @@ checkRunSettings (const RunSettings& s)
     throw ParameterError ("--frames", "must not be negative (0 = all frames), got " + std::to_string (s.frames));
   if (s.save_every < 0)
     throw ParameterError ("--save-every", "must not be negative (0 = never), got " + std::to_string (s.save_every));
-  if (!(s.voxel >= 0.001 && s.voxel <= 1.0))
-    throw ParameterError ("--voxel", "must lie in [0.001, 1] metres");
-  if (!(s.truncation >= 1.0 && s.truncation <= 64.0))
-    throw ParameterError ("--truncation", "must lie in [1, 64] voxels");
-  if (!(s.max_depth > 0.2 && s.max_depth <= 100.0))
-    throw ParameterError ("--max-depth", "must lie in (0.2, 100] metres");
-  if (!(s.hole_refresh >= 1 && s.hole_refresh <= 1000))
-    throw ParameterError ("--hole-refresh", "must lie in [1, 1000] frames");
   if (!s.screenshot.empty () && !s.view)
     throw UsageError ("--view-screenshot needs --view");
   io::parseSequenceFormat (s.format);
-  chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path);
+  // The library's own checks, named by field (main() translates them into the options).
+  runPipelineConfig (s).validate ();
   if (!s.onnx.model_path.empty ())
     s.onnx.validate ();  // the segmenter checks it again when it is built
+}
+
+pipeline::FusionPipelineConfig
+runPipelineConfig (const RunSettings& s)
+{
+  pipeline::FusionPipelineConfig pipeline_config;
+  reconstruction::DenseReconstructionConfig& config = pipeline_config.reconstruction;
+  config.volume.voxel_size = s.voxel;
+  config.volume.truncation_voxels = s.truncation;
+  config.volume.max_depth = s.max_depth;
+  config.preprocessing.max_depth = s.max_depth;
+  config.use_reference_poses = s.use_gt_poses;
+  config.hole_refresh_period = s.hole_refresh;
+  config.motion_model = !s.no_motion_model;
+  config.tracking.icp.noise_weighting = !s.no_noise_weighting;
+  pipeline_config.mode = chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path);
+  return pipeline_config;
 }
 
 int
@@ -367,25 +377,12 @@ runRun (const std::vector<std::string>& args)
   // The steps below name the settings as they were named before RunSettings gathered them.
   const RunSettings& s = settings;
   const std::string &source = s.source, &out = s.out, &format = s.format, &intrinsics = s.intrinsics;
-  const double voxel = s.voxel, truncation = s.truncation, max_depth = s.max_depth;
   const bool use_gt_poses = s.use_gt_poses, save_volume = s.save_volume, view = s.view, async_masks = s.async_masks;
-  const std::string &masks = s.masks, &mode = s.mode, &render_dir = s.render_dir, &video_path = s.video_path,
-                    &screenshot = s.screenshot;
-  const unsigned hole_refresh = s.hole_refresh;
-  const recognition::OnnxSegmenterConfig& onnx = s.onnx;
+  const std::string &masks = s.masks, &render_dir = s.render_dir, &video_path = s.video_path, &screenshot = s.screenshot;
+  const recognition::OnnxInstanceSegmenterConfig& onnx = s.onnx;
   const std::size_t max_frames = static_cast<std::size_t> (s.frames), save_every = static_cast<std::size_t> (s.save_every);
 
-  pipeline::FusionPipelineConfig pipeline_config;
-  reconstruction::DenseReconstructionConfig& config = pipeline_config.reconstruction;
-  config.volume.voxel_size = voxel;
-  config.volume.truncation_voxels = truncation;
-  config.volume.max_depth = max_depth;
-  config.preprocessing.max_depth = max_depth;
-  config.use_reference_poses = use_gt_poses;
-  config.hole_refresh_period = hole_refresh;
-  config.motion_model = !s.no_motion_model;
-  config.tracking.icp.noise_weighting = !s.no_noise_weighting;
-  pipeline_config.mode = chooseSegmentationMode (mode, masks, onnx.model_path);
+  const pipeline::FusionPipelineConfig pipeline_config = runPipelineConfig (s);
   std::shared_ptr<recognition::InstanceSegmenter> mask_source;
   if (!masks.empty ())
     mask_source = std::make_shared<recognition::MaskFolderSegmenter> (masks);
@@ -623,7 +620,7 @@ runRun (const std::vector<std::string>& args)
                               {"frames_without_masks", result.frames_without_masks},
                               {"merges", result.merges}};
   tracking["volume"] = {{"blocks", volume.blockCount ()}, {"bytes", volume.memoryUsage ()},
-                        {"voxel_size", volume.config ().voxel_size}, {"truncation_voxels", volume.config ().truncation_voxels}};
+                        {"voxel_size", volume.getConfig ().voxel_size}, {"truncation_voxels", volume.getConfig ().truncation_voxels}};
   if (!s.load_volume.empty ())
     tracking["continued_from"] = s.load_volume;
   std::string ate_line;

@@ -229,13 +229,13 @@ runSegmentFrame (const std::vector<std::string>& args)
 {
   std::string input, out, intrinsics_path, rgb, png, edges_png, timings_path, normals = "central", convexity = "divergence";
   std::string masks, mode;
-  recognition::OnnxSegmenterConfig onnx;
-  segmentation::InstanceGuidedMergeConfig merge_config;
+  recognition::OnnxInstanceSegmenterConfig onnx;
+  segmentation::InstanceGuidedRegionMergeConfig merge_config;
   double depth_scale = 1000.0;
   bool drop_plane = false, verbose = false, no_concavity = false, no_depth_edges = false;
   segmentation::SurfacePreprocessingConfig pre;
   segmentation::GeometricSegmentationConfig geo;
-  segmentation::SupportPlaneConfig plane;
+  segmentation::SupportPlaneRemovalConfig plane;
   po::options_description options ("options");
   options.add_options ()
     ("input", po::value (&input)->required (), "organized PCD, 16-bit depth PNG, or a folder of them")

@@ -143,7 +143,7 @@ protected:
   }
 
   test::TempDir dir;
-  OnnxSegmenterConfig config;
+  OnnxInstanceSegmenterConfig config;
 };
 }  // namespace
 
@@ -496,7 +496,7 @@ TEST (ShippedNetwork, MasksOfUnseenRenderedViewsMatchTheTruth)
 {
   // Views the network never saw (another seed than training and validation), at 640×480
   // (it runs at 320 columns), and the bundled tabletop scene with depth noise.
-  OnnxSegmenterConfig config;
+  OnnxInstanceSegmenterConfig config;
   config.model_path = shippedModelPath ();
   OnnxInstanceSegmenter network (config);
   ASSERT_EQ (network.layout (), OnnxLayout::Xyz);

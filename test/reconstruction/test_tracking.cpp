@@ -64,7 +64,7 @@ TEST_P (ICPRecoversMotion, ToSubMillimetre)
   const Eigen::Isometry3d target_pose = scene.trajectory.poseAt (0.4);
   const Eigen::Isometry3d delta = GetParam ();
   const Eigen::Isometry3d source_pose = target_pose * delta;
-  DepthPreprocessingConfig pre;
+  DepthPreprocessorConfig pre;
   pre.bilateral_filter = false;  // exact depth: nothing to smooth
   const DepthPreprocessor preprocessor (pre);
   FramePyramid source, target;
@@ -457,7 +457,7 @@ TEST (NoiseWeighting, FarPointsPullLessThanNearOnes)
   const PinholeCamera camera = scene.camera.scaled (320, 240);
   const io::SceneRenderer renderer (scene);
   const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.4);
-  DepthPreprocessingConfig pre;
+  DepthPreprocessorConfig pre;
   pre.bilateral_filter = false;
   const DepthPreprocessor preprocessor (pre);
   const cv::Mat depth = renderer.render (camera, pose).depth;
@@ -604,8 +604,8 @@ TEST (ContinueVolume, KeyframeFilesReadBackExactlyAndBadOnesAreRefused)
   database.save (path);
   const KeyframeDatabase loaded = KeyframeDatabase::load (path);
   ASSERT_EQ (loaded.size (), database.size ());
-  EXPECT_EQ (loaded.config ().ferns, 300);
-  EXPECT_EQ (loaded.config ().decisions, 5);
+  EXPECT_EQ (loaded.getConfig ().ferns, 300);
+  EXPECT_EQ (loaded.getConfig ().decisions, 5);
   // Same tests (the codes agree) and the same keyframes (the queries agree, poses exactly).
   const cv::Mat probe = sequence.frame (17)->depth;
   EXPECT_EQ (loaded.encode (probe), database.encode (probe));

@@ -70,7 +70,7 @@ TEST (TSDFVolume, SurfacePointsLieOnTheAnalyticSurface)
     if (std::isfinite (normals[i].normal_x))
       angle.push_back (std::acos (std::clamp (n.dot (normals[i].getNormalVector3fMap ().cast<double> ()), -1.0, 1.0)) * 180.0 / M_PI);
   }
-  const double voxel = volume.config ().voxel_size;
+  const double voxel = volume.getConfig ().voxel_size;
   EXPECT_LT (quantile (sphere_distance, 0.99), 0.5 * voxel);
   // The cube's edges bevel: projective distances near a silhouette edge are too short.
   EXPECT_LT (quantile (distance, 0.5), 0.15 * voxel);
@@ -147,7 +147,7 @@ TEST (TSDFVolume, RaycastOfAnIntegratedViewReproducesIt)
     for (int u = 0; u < depth.cols; ++u)
     {
       const float z = truth.depth.at<float> (v, u);
-      if (z > 0.f && z < volume.config ().max_depth)
+      if (z > 0.f && z < volume.getConfig ().max_depth)
       {
         ++valid;
         matched += std::abs (depth.at<float> (v, u) - z) < 0.003f;
@@ -214,7 +214,7 @@ TEST (TSDFVolume, MeshVerticesLieOnTheSurfaceAndFacesPointOutwards)
   }
   ASSERT_GT (sphere_faces, 1000u);
   EXPECT_GT (static_cast<double> (outward), 0.99 * static_cast<double> (sphere_faces));
-  EXPECT_LT (quantile (distance, 0.99), 0.5 * volume.config ().voxel_size);
+  EXPECT_LT (quantile (distance, 0.99), 0.5 * volume.getConfig ().voxel_size);
 
   // The PLY writer keeps every vertex, face and the label property.
   test::TempDir dir;
@@ -273,9 +273,9 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
   const std::string path = dir.str () + "/volume.tsdf";
   volume.save (path);
   const TSDFVolume loaded = TSDFVolume::load (path);
-  EXPECT_EQ (loaded.config ().voxel_size, config.voxel_size);
-  ASSERT_TRUE (loaded.config ().bounds.has_value ());
-  EXPECT_TRUE (loaded.config ().bounds->isApprox (*config.bounds));
+  EXPECT_EQ (loaded.getConfig ().voxel_size, config.voxel_size);
+  ASSERT_TRUE (loaded.getConfig ().bounds.has_value ());
+  EXPECT_TRUE (loaded.getConfig ().bounds->isApprox (*config.bounds));
   ASSERT_EQ (loaded.blockCount (), volume.blockCount ());
   // Both volumes mirror each block's first layers in its neighbours' aprons (what cells
   // across blocks read), and refreshDistances () keeps them so after a direct write.
@@ -329,7 +329,7 @@ TEST (TSDFVolume, MemoryFollowsTheSurfaceNotTheViewedVolume)
   const io::RenderedView view = io::SceneRenderer (scene).render (scene.camera, pose);
   TSDFVolume volume;
   volume.integrate (view.depth, view.color, scene.camera, pose);
-  const double block = volume.config ().blockSize ();
+  const double block = volume.getConfig ().blockSize ();
   // The view's footprint on the wall is 4.9 m × 3.7 m; its band (2τ = 8 cm) fits in one or
   // two block layers. Filling the frustum in front of the wall would take ~17 times more.
   const double footprint = (4.0 * 320 / 262.5) * (4.0 * 240 / 262.5);
@@ -341,8 +341,8 @@ TEST (TSDFVolume, MemoryFollowsTheSurfaceNotTheViewedVolume)
   for (const auto& b : volume.blocks ())
   {
     const double y_near = b->index.y () * block, y_far = y_near + block;
-    EXPECT_GT (y_far, 4.0 - volume.config ().truncation () - 1e-9);
-    EXPECT_LT (y_near, 4.0 + volume.config ().truncation () + 1e-9);
+    EXPECT_GT (y_far, 4.0 - volume.getConfig ().truncation () - 1e-9);
+    EXPECT_LT (y_near, 4.0 + volume.getConfig ().truncation () + 1e-9);
   }
   EXPECT_GE (volume.memoryUsage (), volume.blockCount () * sizeof (VoxelBlock));
   volume.reset ();
@@ -432,7 +432,7 @@ TEST (TSDFVolume, HintBehindTheSurfaceStillFindsIt)
   volume.integrate (view.depth, view.color, scene.camera, pose);
   RaycastResult full, hinted;
   volume.raycast (scene.camera, pose, full);
-  cv::Mat hint = view.depth + 5.0 * volume.config ().voxel_size;
+  cv::Mat hint = view.depth + 5.0 * volume.getConfig ().voxel_size;
   volume.raycast (scene.camera, pose, hint, hinted);
   const cv::Mat a = full.depth (), b = hinted.depth ();
   // Away from the view's rim, whose cells have unobserved corners (both marches then

@@ -292,6 +292,35 @@ TEST (VectorKernels, PixelGathersReadTheNamedPixels)
             << "lane " << i << ", corner " << k;
   }
 }
+
+/** avx2::kinectNoiseAtNormalIncidence of eight depths. */
+static CUEFUSION_AVX2 void
+noiseLanes (const float* z, float* out)
+{
+  _mm256_storeu_ps (out, avx2::kinectNoiseAtNormalIncidence (_mm256_loadu_ps (z)));
+}
+
+TEST (VectorKernels, NoiseModelLanesAreTheScalarOne)
+{
+  // One noise model: the float form every kernel uses is the double model at θ = 0 to
+  // float precision, and its eight-lane version is bit for bit the scalar one (ICP's
+  // weights, the raycast's reach and propagation's bound use them in both paths).
+  std::mt19937 rng (5);
+  std::uniform_real_distribution<float> depth (0.f, 12.f);
+  for (int round = 0; round < 1000; ++round)
+  {
+    float z[8], lanes[8] = {};
+    for (float& d : z)
+      d = depth (rng);
+    for (const float d : z)
+      ASSERT_NEAR (KinectNoiseModel::atNormalIncidence (d), kinectAxialNoise (d, 0.0), 1e-6 * kinectAxialNoise (d, 0.0)) << d;
+    if (!cpuHasAvx2Fma ())
+      continue;
+    noiseLanes (z, lanes);
+    for (int i = 0; i < 8; ++i)
+      ASSERT_EQ (lanes[i], KinectNoiseModel::atNormalIncidence (z[i])) << "depth " << z[i];
+  }
+}
 #endif
 
 TEST (VectorKernels, NormalMapIsTheScalarOne)

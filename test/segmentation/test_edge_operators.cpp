@@ -70,7 +70,7 @@ TEST (ConcavityEdgeEstimation, MarksTheValleyNotTheRoof)
   {
     Cloud::Ptr cloud;
     Normals::Ptr normals;
-    ConcavityEdgeConfig config;
+    ConcavityEdgeEstimationConfig config;
     config.convexity_test = test;
     ConcavityEdgeEstimation<pcl::PointXYZ, pcl::Normal> concavity (config);
     pcl::PointCloud<pcl::Label> edges;
@@ -124,7 +124,7 @@ TEST (ConcavityEdgeEstimation, SymmetricTestKeepsRoundedConvexEdgesClean)
     cloud, normals);
   pcl::PointCloud<pcl::Label> edges;
   auto count = [&] (ConvexityTest test) {
-    ConcavityEdgeConfig config;
+    ConcavityEdgeEstimationConfig config;
     config.convexity_test = test;
     ConcavityEdgeEstimation<pcl::PointXYZ, pcl::Normal> concavity (config);
     concavity.setInputCloud (cloud);
@@ -278,7 +278,7 @@ TEST (SegmentationInput, BadInputIsAClearError)
   geometric.setInputNormals (nullptr);
   test::expectError ([&] { geometric.segment (labels); }, "GeometricSegmentation", "no input normals");
 
-  ConcavityEdgeConfig config;
+  ConcavityEdgeEstimationConfig config;
   config.threshold = 1.5f;
   EXPECT_THROW (concavity.setConfig (config), ParameterError);
   EXPECT_THROW (discontinuity.setNoiseFactor (-1.f), ParameterError);

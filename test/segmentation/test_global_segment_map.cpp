@@ -61,7 +61,7 @@ TEST (PairEvidence, UnitesAfterFiveFramesTogetherWhileTheyAreTheMajority)
   EXPECT_EQ (evidence.trackedPairs (), 1u);
   EXPECT_FALSE (evidence.tracked (3, 4));
 
-  SegmentMergingConfig bad;
+  GlobalSegmentMapConfig bad;
   bad.together_share = 1.f;
   EXPECT_THROW (PairEvidence {bad}, ParameterError);
 }
@@ -344,7 +344,7 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
   const PinholeCamera& camera = frame->camera;
   cv::Mat labels = cv::Mat::zeros (frame->depth.size (), CV_32S);
   labels.colRange (0, labels.cols / 2).setTo (7);
-  const float truncation = static_cast<float> (volume->config ().truncation ());
+  const float truncation = static_cast<float> (volume->getConfig ().truncation ());
   for (const bool vector : {false, true})
     for (const float band : {1.f, 0.5f})
     {
@@ -367,7 +367,7 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
           EXPECT_LT (seen.gap, truncation);
           EXPECT_LT (std::abs (volume->blocks ()[seen.voxel / reconstruction::kBlockVoxels]->voxels[seen.voxel % reconstruction::kBlockVoxels].sdf), 1.f);
         }
-      SegmentUpdateConfig config;
+      VoxelLabelUpdateConfig config;
       config.band = band;
       const std::size_t writes = updateVoxelLabels (*volume, labels, GlobalSegmentMap (), config);
 
@@ -387,7 +387,7 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
             continue;  // not updated by this frame
           const Eigen::Vector3i v = block.index * reconstruction::kBlockSide +
                                     Eigen::Vector3i (i % 8, (i / 8) % 8, i / 64);
-          const Eigen::Vector3d p = world_to_camera * (v.cast<double> () * volume->config ().voxel_size);
+          const Eigen::Vector3d p = world_to_camera * (v.cast<double> () * volume->getConfig ().voxel_size);
           const int u = static_cast<int> (std::floor (camera.fx * p.x () / p.z () + camera.cx + 0.5));
           const int r = static_cast<int> (std::floor (camera.fy * p.y () / p.z () + camera.cy + 0.5));
           ASSERT_TRUE (u >= 0 && r >= 0 && u < camera.width && r < camera.height);  // it was updated

@@ -76,7 +76,7 @@ TEST (InstanceGuidedRegionMerge, AMaskOverTwoObjectsMergesThem)
 {
   // Documented behaviour (thesis Fig. 5.19): when the network reports the two touching
   // boxes as one instance, each box's segment lies > 70 % inside it and L_t unites them.
-  // The geometric boundary is not used to veto the merge; the map (issue 6) is where a
+  // The geometric boundary is not used to veto the merge; the map (GlobalSegmentMap) is where a
   // wrong merge can be outvoted by later frames.
   io::DetectorErrorConfig merging;
   merging.merge_probability = 1.0;
@@ -106,7 +106,7 @@ TEST (InstanceGuidedRegionMerge, NoMasksLeaveGeometryAndLabelsAreDeterministic)
   instances.push_back (Instance ());
   instances.back ().mask = cv::Mat::zeros (10, 10, CV_8U);
   test::expectError ([&] { fuse (view, instances); }, "InstanceGuidedRegionMerge", "640x480");
-  segmentation::InstanceGuidedMergeConfig config;
+  segmentation::InstanceGuidedRegionMergeConfig config;
   config.min_overlap = 1.5f;
   EXPECT_THROW (InstanceGuidedRegionMerge bad (config), ParameterError);
 }

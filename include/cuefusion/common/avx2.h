@@ -23,6 +23,20 @@ namespace cuefusion
 {
 namespace avx2
 {
+/** \brief KinectNoiseModel::atNormalIncidence in eight lanes, in the same operations, so
+  * the result is the scalar one bit for bit. The scalar form rounds the product before the
+  * sum; GCC would fuse the two intrinsics into one FMA here (-ffp-contract=fast is its
+  * default), so an empty asm statement hides the product from that contraction.
+  */
+CUEFUSION_AVX2 inline __m256
+kinectNoiseAtNormalIncidence (__m256 z)
+{
+  const __m256 dz = _mm256_sub_ps (z, _mm256_set1_ps (static_cast<float> (KinectNoiseModel::offset)));
+  __m256 quadratic = _mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (static_cast<float> (KinectNoiseModel::quadratic)), dz), dz);
+  __asm__ ("" : "+x"(quadratic));
+  return _mm256_add_ps (_mm256_set1_ps (static_cast<float> (KinectNoiseModel::base)), quadratic);
+}
+
 /** \brief x, y, z of eight consecutive 3-float pixels (a CV_32FC3 row) starting at \a p:
   * three loads, two blends and a permute per coordinate (gathers were slower: AMD's
   * gather issues one load per lane).

@@ -98,14 +98,32 @@ struct FloatIntrinsics
   }
 };
 
-/** \brief The terms of kinectAxialNoise at normal incidence, σ_z(z, 0) = base +
-  * quadratic · (z − offset)², for kernels that evaluate it in float lanes.
+/** \brief The Kinect axial noise model of Nguyen et al. 2012 at normal incidence,
+  * σ_z(z, 0) = base + quadratic · (z − offset)²: its terms, and the one float form every
+  * kernel evaluates (atNormalIncidence; avx2::kinectNoiseAtNormalIncidence in eight lanes,
+  * the same operations in the same order, so scalar and vector paths agree bit for bit).
+  * kinectAxialNoise adds the angular term in double.
   */
 struct KinectNoiseModel
 {
   static constexpr double base = 0.0012;
   static constexpr double quadratic = 0.0019;
   static constexpr double offset = 0.4;
+
+  /** \brief σ_z(z, 0) in metres, in float: base + (quadratic · dz) · dz, dz = z − offset,
+    * the product rounded before the sum also where this is inlined into code compiled for
+    * FMA (the empty asm keeps GCC from fusing them).
+    */
+  static float
+  atNormalIncidence (float z)
+  {
+    const float dz = z - static_cast<float> (offset);
+    float quadratic_term = static_cast<float> (quadratic) * dz * dz;
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+    __asm__ ("" : "+x"(quadratic_term));
+#endif
+    return static_cast<float> (base) + quadratic_term;
+  }
 };
 
 /** \brief Kinect axial depth noise σ_z(z, θ) of Nguyen et al. 2012 (metres).

@@ -63,7 +63,7 @@ public:
     */
   RandomView view (std::size_t index, int width, int height) const;
 
-  const RandomSceneConfig& config () const { return config_; }
+  const RandomSceneConfig& getConfig () const { return config_; }
   std::uint64_t seed () const { return seed_; }
 
 private:

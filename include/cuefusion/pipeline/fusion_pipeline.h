@@ -41,10 +41,10 @@ struct FusionPipelineConfig
   reconstruction::DenseReconstructionConfig reconstruction;
   segmentation::SurfacePreprocessingConfig preprocessing;
   segmentation::GeometricSegmentationConfig geometry;
-  segmentation::InstanceGuidedMergeConfig instance_merge;
+  segmentation::InstanceGuidedRegionMergeConfig instance_merge;
   segmentation::SegmentPropagationConfig propagation;
-  segmentation::SegmentMergingConfig merging;
-  segmentation::SegmentUpdateConfig update;
+  segmentation::GlobalSegmentMapConfig merging;
+  segmentation::VoxelLabelUpdateConfig update;
   SegmentationMode mode = SegmentationMode::Fused;
   /** One depth smoothing for tracking and segmentation (as in the reference, where the
     * segmentation reads the maps KinectFusion's preprocessing made): tracking uses the
@@ -93,7 +93,7 @@ class FusionPipeline
 {
 public:
   explicit FusionPipeline (const FusionPipelineConfig& config = FusionPipelineConfig ());
-  const FusionPipelineConfig& config () const { return config_; }
+  const FusionPipelineConfig& getConfig () const { return config_; }
 
   /** \param[in] instances the frame's instance masks, nullptr when there are none */
   PipelineFrameReport process (const RGBDFrame& frame, const std::vector<Instance>* instances);

@@ -12,7 +12,7 @@ namespace cuefusion
 namespace recognition
 {
 /** \brief Parameters of OnnxInstanceSegmenter. */
-struct OnnxSegmenterConfig
+struct OnnxInstanceSegmenterConfig
 {
   std::string model_path;             ///< the user's .onnx file (never downloaded)
   std::string classes_path;           ///< class names, one per line; "" = data/classes/coco.names (YOLO layouts)
@@ -33,6 +33,8 @@ struct OnnxSegmenterConfig
   int max_detections = 100;
   void validate () const;
 };
+/// The name before 0.2 (one config per class, named after it).
+using OnnxSegmenterConfig [[deprecated ("renamed OnnxInstanceSegmenterConfig")]] = OnnxInstanceSegmenterConfig;
 
 /** \brief The model layouts OnnxInstanceSegmenter recognises by their output shapes. */
 enum class OnnxLayout
@@ -75,7 +77,7 @@ class OnnxInstanceSegmenter : public InstanceSegmenter
 {
 public:
   /** \brief Loads the model and class names; throws cuefusion::Error naming the file. */
-  explicit OnnxInstanceSegmenter (const OnnxSegmenterConfig& config);
+  explicit OnnxInstanceSegmenter (const OnnxInstanceSegmenterConfig& config);
 
   bool segment (const RGBDFrame& frame, std::vector<Instance>& instances) override;
   std::string name () const override;
@@ -90,7 +92,7 @@ public:
     * of one letterboxed frame. Throws cuefusion::Error on an unknown layout.
     */
   static std::vector<Instance> decode (const std::vector<cv::Mat>& outputs, const Letterbox& box,
-                                       const OnnxSegmenterConfig& config,
+                                       const OnnxInstanceSegmenterConfig& config,
                                        const std::vector<std::string>& class_names, OnnxLayout* layout = nullptr);
 
   /** \brief Instances from the xyz layout's output [1, 2, h, w] (logits). \a content is
@@ -104,7 +106,7 @@ public:
     * stability (stability_delta), at most max_detections kept (highest scores).
     */
   static std::vector<Instance> decodeDense (const cv::Mat& output, cv::Size content, cv::Size frame,
-                                            const OnnxSegmenterConfig& config);
+                                            const OnnxInstanceSegmenterConfig& config);
 
   /** \brief The xyz layout's input for \a frame: [1, 3, H, W] blob and the size of the
     * frame inside it (top-left). Throws cuefusion::Error without depth.
@@ -112,7 +114,7 @@ public:
   static cv::Mat xyzInput (const RGBDFrame& frame, int dense_width, cv::Size& content);
 
 private:
-  OnnxSegmenterConfig config_;
+  OnnxInstanceSegmenterConfig config_;
   std::vector<std::string> class_names_;
   cv::dnn::Net net_;
   std::vector<std::string> output_names_;

@@ -50,7 +50,7 @@ class CameraTracker
 public:
   explicit CameraTracker (const CameraTrackerConfig& config = CameraTrackerConfig ());
 
-  const CameraTrackerConfig& config () const { return config_; }
+  const CameraTrackerConfig& getConfig () const { return config_; }
 
   TrackingResult
   track (const FramePyramid& frame, const FramePyramid& model, const Eigen::Isometry3d& model_pose,

@@ -18,7 +18,7 @@ namespace reconstruction
 struct DenseReconstructionConfig
 {
   TSDFVolumeConfig volume;
-  DepthPreprocessingConfig preprocessing;
+  DepthPreprocessorConfig preprocessing;
   CameraTrackerConfig tracking;
   bool use_reference_poses = false;   ///< integrate with the frames' own poses, no tracking
   /// Rays behind holes of the depth that found no surface in the last raycast are searched
@@ -77,7 +77,7 @@ struct FrameReport
   *
   * The first frame is placed at its reference pose when it has one (so the trajectory
   * shares the dataset's frame), else at the origin. A frame whose tracking is rejected is
-  * relocalised (config().relocalise): candidate poses — ICP's own estimate when only its
+  * relocalised (getConfig().relocalise): candidate poses — ICP's own estimate when only its
   * motion was implausible (a jump after dropped frames), then the poses of the most
   * similar keyframes (KeyframeDatabase; tracked frames that look new are added) — are
   * each verified by ICP of the frame against the model raycast at the candidate, with the
@@ -90,7 +90,7 @@ class DenseReconstruction
 public:
   explicit DenseReconstruction (const DenseReconstructionConfig& config = DenseReconstructionConfig ());
 
-  const DenseReconstructionConfig& config () const { return config_; }
+  const DenseReconstructionConfig& getConfig () const { return config_; }
 
   FrameReport
   process (const RGBDFrame& frame);
@@ -127,8 +127,8 @@ public:
     * has one; a run continuing the same dataset shares its frame), then the keyframes most
     * similar to it, each verified by ICP as after a tracking failure. Until one frame
     * passes, frames are reported lost ("not placed in the loaded volume") and nothing is
-    * fused. The volume's configuration and the keyframes' replace config().volume and
-    * config().keyframes; with use_reference_poses frames are placed at their own poses.
+    * fused. The volume's configuration and the keyframes' replace getConfig().volume and
+    * getConfig().keyframes; with use_reference_poses frames are placed at their own poses.
     */
   void
   continueFrom (TSDFVolume volume, KeyframeDatabase keyframes);

@@ -57,7 +57,7 @@ public:
 
   explicit KeyframeDatabase (const KeyframeDatabaseConfig& config = KeyframeDatabaseConfig ());
 
-  const KeyframeDatabaseConfig& config () const { return config_; }
+  const KeyframeDatabaseConfig& getConfig () const { return config_; }
 
   /** \brief The fern code of a depth image (CV_32F metres, 0 or NaN = missing). */
   Code

@@ -11,7 +11,7 @@ namespace cuefusion
 namespace reconstruction
 {
 /** \brief Depth preprocessing for tracking (§4.1.2). */
-struct DepthPreprocessingConfig
+struct DepthPreprocessorConfig
 {
   bool bilateral_filter = true;
   int bilateral_diameter = 5;        ///< pixels
@@ -27,6 +27,8 @@ struct DepthPreprocessingConfig
 
   void validate () const;
 };
+/// The name before 0.2 (one config per class, named after it).
+using DepthPreprocessingConfig [[deprecated ("renamed DepthPreprocessorConfig")]] = DepthPreprocessorConfig;
 
 /** \brief One level of a vertex/normal pyramid, all maps of the level camera's size. */
 struct PyramidLevel
@@ -49,15 +51,15 @@ using FramePyramid = std::vector<PyramidLevel>;
 class DepthPreprocessor
 {
 public:
-  explicit DepthPreprocessor (const DepthPreprocessingConfig& config = DepthPreprocessingConfig ());
+  explicit DepthPreprocessor (const DepthPreprocessorConfig& config = DepthPreprocessorConfig ());
 
-  const DepthPreprocessingConfig& config () const { return config_; }
+  const DepthPreprocessorConfig& getConfig () const { return config_; }
 
   void
   compute (const cv::Mat& depth, const PinholeCamera& camera, FramePyramid& pyramid) const;
 
 private:
-  DepthPreprocessingConfig config_;
+  DepthPreprocessorConfig config_;
 };
 
 /** \brief Bilateral filter of a depth map (CV_32F metres, ≤ 0 invalid) whose range σ is

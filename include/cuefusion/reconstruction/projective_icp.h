@@ -76,10 +76,10 @@ class ProjectiveICP
 public:
   explicit ProjectiveICP (const ProjectiveICPConfig& config = ProjectiveICPConfig ());
 
-  const ProjectiveICPConfig& config () const { return config_; }
+  const ProjectiveICPConfig& getConfig () const { return config_; }
 
   /** \brief Aligns \a source to \a target starting from \a guess (source → target camera).
-    * Both pyramids need as many levels as config().iterations has entries (or more).
+    * Both pyramids need as many levels as getConfig().iterations has entries (or more).
     */
   ICPResult
   align (const FramePyramid& source, const FramePyramid& target, const Eigen::Isometry3d& guess) const;

@@ -95,7 +95,7 @@ public:
 
   explicit TSDFVolume (const TSDFVolumeConfig& config = TSDFVolumeConfig ());
 
-  const TSDFVolumeConfig& config () const { return config_; }
+  const TSDFVolumeConfig& getConfig () const { return config_; }
 
   /** \brief Fuses one depth map (CV_32F metres, 0/NaN invalid) and its registered colour
     * (CV_8UC3 BGR of the same size, or empty) seen by \a camera at camera-to-world

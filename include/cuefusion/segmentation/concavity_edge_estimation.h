@@ -19,7 +19,7 @@ enum class ConvexityTest
 };
 
 /** \brief Parameters of ConcavityEdgeEstimation (§4.2.1.1). */
-struct ConcavityEdgeConfig
+struct ConcavityEdgeEstimationConfig
 {
   ConvexityTest convexity_test = ConvexityTest::NormalDivergence;
   float threshold = 0.991f;   ///< edge where Φ(u) < threshold (the reference's value)
@@ -34,6 +34,8 @@ struct ConcavityEdgeConfig
   float noise_slope = 65.f;
   void validate () const;
 };
+/// The name before 0.2 (one config per class, named after it).
+using ConcavityEdgeConfig [[deprecated ("renamed ConcavityEdgeEstimationConfig")]] = ConcavityEdgeEstimationConfig;
 
 /** \brief The concavity-aware edge map of §4.2.1.1.
   *
@@ -53,17 +55,17 @@ struct ConcavityEdgeConfig
   * \endcode
   */
 template <typename PointT, typename PointNT>
-class ConcavityEdgeEstimation : public OrganizedCloudWithNormals<PointT, PointNT, ConcavityEdgeConfig>
+class ConcavityEdgeEstimation : public OrganizedCloudWithNormals<PointT, PointNT, ConcavityEdgeEstimationConfig>
 {
 public:
   using Ptr = std::shared_ptr<ConcavityEdgeEstimation>;
   using ConstPtr = std::shared_ptr<const ConcavityEdgeEstimation>;
 
-  explicit ConcavityEdgeEstimation (const ConcavityEdgeConfig& config = ConcavityEdgeConfig ()) { this->setConfig (config); }
+  explicit ConcavityEdgeEstimation (const ConcavityEdgeEstimationConfig& config = ConcavityEdgeEstimationConfig ()) { this->setConfig (config); }
 
-  void setThreshold (float threshold) { this->updateConfig ([=] (ConcavityEdgeConfig& c) { c.threshold = threshold; }); }
+  void setThreshold (float threshold) { this->updateConfig ([=] (ConcavityEdgeEstimationConfig& c) { c.threshold = threshold; }); }
   float getThreshold () const { return this->config_.threshold; }
-  void setNeighbourStep (int step) { this->updateConfig ([=] (ConcavityEdgeConfig& c) { c.neighbour_step = step; }); }
+  void setNeighbourStep (int step) { this->updateConfig ([=] (ConcavityEdgeEstimationConfig& c) { c.neighbour_step = step; }); }
   int getNeighbourStep () const { return this->config_.neighbour_step; }
 
   /** \brief Organized edge map of the input's size (label 1 = concave edge), and the raw

@@ -12,12 +12,14 @@ namespace cuefusion
 namespace segmentation
 {
 /** \brief Parameters of DepthDiscontinuityEdgeEstimation (§4.2.1.1). */
-struct DepthDiscontinuityEdgeConfig
+struct DepthDiscontinuityEdgeEstimationConfig
 {
   float noise_factor = 1.f;   ///< k: edge where Γ(u) > k·σ_d(u) (the reference thresholds at σ_d)
   int neighbour_step = 1;     ///< pixels between u and its 8 neighbours
   void validate () const;
 };
+/// The name before 0.2 (one config per class, named after it).
+using DepthDiscontinuityEdgeConfig [[deprecated ("renamed DepthDiscontinuityEdgeEstimationConfig")]] = DepthDiscontinuityEdgeEstimationConfig;
 
 /** \brief The geometry-aware (depth discontinuity) edge map of §4.2.1.1.
   *
@@ -30,20 +32,20 @@ struct DepthDiscontinuityEdgeConfig
   * pixels without a finite point get no value (Γ = NaN, not an edge).
   */
 template <typename PointT, typename PointNT>
-class DepthDiscontinuityEdgeEstimation : public OrganizedCloudWithNormals<PointT, PointNT, DepthDiscontinuityEdgeConfig>
+class DepthDiscontinuityEdgeEstimation : public OrganizedCloudWithNormals<PointT, PointNT, DepthDiscontinuityEdgeEstimationConfig>
 {
 public:
   using Ptr = std::shared_ptr<DepthDiscontinuityEdgeEstimation>;
   using ConstPtr = std::shared_ptr<const DepthDiscontinuityEdgeEstimation>;
 
-  explicit DepthDiscontinuityEdgeEstimation (const DepthDiscontinuityEdgeConfig& config = DepthDiscontinuityEdgeConfig ())
+  explicit DepthDiscontinuityEdgeEstimation (const DepthDiscontinuityEdgeEstimationConfig& config = DepthDiscontinuityEdgeEstimationConfig ())
   {
     this->setConfig (config);
   }
 
-  void setNoiseFactor (float k) { this->updateConfig ([=] (DepthDiscontinuityEdgeConfig& c) { c.noise_factor = k; }); }
+  void setNoiseFactor (float k) { this->updateConfig ([=] (DepthDiscontinuityEdgeEstimationConfig& c) { c.noise_factor = k; }); }
   float getNoiseFactor () const { return this->config_.noise_factor; }
-  void setNeighbourStep (int step) { this->updateConfig ([=] (DepthDiscontinuityEdgeConfig& c) { c.neighbour_step = step; }); }
+  void setNeighbourStep (int step) { this->updateConfig ([=] (DepthDiscontinuityEdgeEstimationConfig& c) { c.neighbour_step = step; }); }
   int getNeighbourStep () const { return this->config_.neighbour_step; }
 
   /** \brief Organized edge map of the input's size (label 1 = depth edge), and the raw Γ

@@ -133,14 +133,14 @@ protected:
 
 /** \brief Concave edges only (ConcavityEdgeEstimation's test) as a pcl::Comparator. */
 template <typename PointT, typename PointNT>
-class ConcavityEdgeComparator : public ConfiguredEdgeComparator<PointT, PointNT, ConcavityEdgeConfig>
+class ConcavityEdgeComparator : public ConfiguredEdgeComparator<PointT, PointNT, ConcavityEdgeEstimationConfig>
 {
 public:
   using Ptr = std::shared_ptr<ConcavityEdgeComparator>;
   using ConstPtr = std::shared_ptr<const ConcavityEdgeComparator>;
 
-  explicit ConcavityEdgeComparator (const ConcavityEdgeConfig& config = ConcavityEdgeConfig ())
-    : ConfiguredEdgeComparator<PointT, PointNT, ConcavityEdgeConfig> (config)
+  explicit ConcavityEdgeComparator (const ConcavityEdgeEstimationConfig& config = ConcavityEdgeEstimationConfig ())
+    : ConfiguredEdgeComparator<PointT, PointNT, ConcavityEdgeEstimationConfig> (config)
   {
   }
 
@@ -159,14 +159,14 @@ protected:
   * pcl::Comparator.
   */
 template <typename PointT, typename PointNT>
-class DepthDiscontinuityEdgeComparator : public ConfiguredEdgeComparator<PointT, PointNT, DepthDiscontinuityEdgeConfig>
+class DepthDiscontinuityEdgeComparator : public ConfiguredEdgeComparator<PointT, PointNT, DepthDiscontinuityEdgeEstimationConfig>
 {
 public:
   using Ptr = std::shared_ptr<DepthDiscontinuityEdgeComparator>;
   using ConstPtr = std::shared_ptr<const DepthDiscontinuityEdgeComparator>;
 
-  explicit DepthDiscontinuityEdgeComparator (const DepthDiscontinuityEdgeConfig& config = DepthDiscontinuityEdgeConfig ())
-    : ConfiguredEdgeComparator<PointT, PointNT, DepthDiscontinuityEdgeConfig> (config)
+  explicit DepthDiscontinuityEdgeComparator (const DepthDiscontinuityEdgeEstimationConfig& config = DepthDiscontinuityEdgeEstimationConfig ())
+    : ConfiguredEdgeComparator<PointT, PointNT, DepthDiscontinuityEdgeEstimationConfig> (config)
   {
   }
 

@@ -66,8 +66,7 @@ axialNoiseAt (const Eigen::Vector3f& v, const Eigen::Vector3f& n)
 inline float
 axialNoiseLowerBound (float z)
 {
-  const float dz = z - 0.4f;
-  return 0.0012f + 0.0019f * dz * dz;
+  return KinectNoiseModel::atNormalIncidence (z);
 }
 
 /** \brief The depth-discontinuity decision of §4.2.1.1: Γ(u) > k·σ_d(u). */

@@ -37,8 +37,8 @@ struct GeometricSegmentationConfig
 {
   bool use_concavity_edges = true;
   bool use_discontinuity_edges = true;
-  ConcavityEdgeConfig concavity;
-  DepthDiscontinuityEdgeConfig discontinuity;
+  ConcavityEdgeEstimationConfig concavity;
+  DepthDiscontinuityEdgeEstimationConfig discontinuity;
   EdgeLabelingConfig labeling;
   void validate () const;
 };

@@ -52,7 +52,7 @@ private:
 };
 
 /** \brief Parameters of segment grouping (§4.2.3, as evidence). */
-struct SegmentMergingConfig
+struct GlobalSegmentMapConfig
 {
   /** Frames that must show a pair as one object before it is united (the thesis confirms
     * a merge at Ψ^m = 5).
@@ -64,6 +64,8 @@ struct SegmentMergingConfig
   float together_share = 0.5f;
   void validate () const;
 };
+/// The name before 0.2 (one config per class, named after it).
+using SegmentMergingConfig [[deprecated ("renamed GlobalSegmentMapConfig")]] = GlobalSegmentMapConfig;
 
 /** \brief What one frame says of a pair of map segments it sees. */
 enum class PairVote
@@ -86,7 +88,7 @@ public:
   {
     int together = 0, apart = 0;
   };
-  explicit PairEvidence (const SegmentMergingConfig& config = SegmentMergingConfig ());
+  explicit PairEvidence (const GlobalSegmentMapConfig& config = GlobalSegmentMapConfig ());
 
   /** \brief One vote of the current frame (each pair once per frame: the caller's job).
     * Returns whether it changed the pair's verdict (united()).
@@ -101,11 +103,11 @@ public:
   /** \brief Whether the pair has been voted on at all. */
   bool tracked (std::uint32_t a, std::uint32_t b) const;
   std::size_t trackedPairs () const { return counts_.size (); }
-  const SegmentMergingConfig& config () const { return config_; }
+  const GlobalSegmentMapConfig& getConfig () const { return config_; }
   const std::map<std::pair<std::uint32_t, std::uint32_t>, Counts>& pairs () const { return counts_; }
 
 private:
-  SegmentMergingConfig config_;
+  GlobalSegmentMapConfig config_;
   std::map<std::pair<std::uint32_t, std::uint32_t>, Counts> counts_;  ///< by (smaller, larger) label
 };
 
@@ -148,7 +150,7 @@ public:
   using Ptr = std::shared_ptr<GlobalSegmentMap>;
   using ConstPtr = std::shared_ptr<const GlobalSegmentMap>;
 
-  explicit GlobalSegmentMap (const SegmentMergingConfig& merging = SegmentMergingConfig ());
+  explicit GlobalSegmentMap (const GlobalSegmentMapConfig& merging = GlobalSegmentMapConfig ());
 
   /** \brief A fresh global label, first seen at \a frame. */
   std::uint32_t newSegment (std::size_t frame);

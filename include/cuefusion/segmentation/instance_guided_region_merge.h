@@ -18,7 +18,7 @@ namespace cuefusion
 namespace segmentation
 {
 /** \brief Parameters of InstanceGuidedRegionMerge (§4.2.1.3). */
-struct InstanceGuidedMergeConfig
+struct InstanceGuidedRegionMergeConfig
 {
   float min_overlap = 0.70f;  ///< α(l_s, l_g) must exceed this for l_g to join instance l_s
   /** A geometric segment is cut along the masks where two or more instances each cover at
@@ -36,6 +36,8 @@ struct InstanceGuidedMergeConfig
   float occlusion_split_share = 0.25f;
   void validate () const;
 };
+/// The name before 0.2 (one config per class, named after it).
+using InstanceGuidedMergeConfig [[deprecated ("renamed InstanceGuidedRegionMergeConfig")]] = InstanceGuidedRegionMergeConfig;
 
 /** \brief What one segment of L_t is: the instance it was merged under (class and score
   * from the instance cue), or a purely geometric segment (instance −1, class −1).
@@ -79,10 +81,10 @@ public:
   using Ptr = std::shared_ptr<InstanceGuidedRegionMerge>;
   using ConstPtr = std::shared_ptr<const InstanceGuidedRegionMerge>;
 
-  explicit InstanceGuidedRegionMerge (const InstanceGuidedMergeConfig& config = InstanceGuidedMergeConfig ());
+  explicit InstanceGuidedRegionMerge (const InstanceGuidedRegionMergeConfig& config = InstanceGuidedRegionMergeConfig ());
 
-  void setConfig (const InstanceGuidedMergeConfig& config);
-  const InstanceGuidedMergeConfig& getConfig () const { return config_; }
+  void setConfig (const InstanceGuidedRegionMergeConfig& config);
+  const InstanceGuidedRegionMergeConfig& getConfig () const { return config_; }
 
   /** \param[in] geometric L^G, CV_32S, 0 = no segment
     * \param[in] instances masks of the frame's size (CV_8U); may be empty (then L_t = L^G
@@ -138,7 +140,7 @@ public:
               std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr) const;
 
 private:
-  InstanceGuidedMergeConfig config_;
+  InstanceGuidedRegionMergeConfig config_;
 };
 /** \brief The masks alone as segments (the "masks" mode): label i + 1 for instance i,
   * the higher score where masks overlap, on pixels with a point in \a planes only (a

@@ -34,7 +34,7 @@ struct SegmentPropagationConfig
     */
   float placement_share = 0.5f;
   /** A frame segment whose best instance covers less than this share of it is one the
-    * masks leave out (1 − InstanceGuidedMergeConfig::min_overlap by default).
+    * masks leave out (1 − InstanceGuidedRegionMergeConfig::min_overlap by default).
     */
   float uncovered_overlap = 0.3f;
   void validate () const;
@@ -83,7 +83,7 @@ public:
   using ConstPtr = std::shared_ptr<const SegmentPropagation>;
 
   explicit SegmentPropagation (const SegmentPropagationConfig& config = SegmentPropagationConfig ());
-  const SegmentPropagationConfig& config () const { return config_; }
+  const SegmentPropagationConfig& getConfig () const { return config_; }
 
   /** \param[in] vertices, normals frame V and N (CV_32FC3, camera frame, NaN = none)
     * \param[in] frame_labels L_t (CV_32S, 0 = none)
@@ -103,12 +103,14 @@ private:
 };
 
 /** \brief Parameters of the per-voxel label update (§4.2.4). */
-struct SegmentUpdateConfig
+struct VoxelLabelUpdateConfig
 {
   int max_confidence = 10;    ///< Ψ_max
   float band = 1.f;           ///< voxels within band × truncation of the surface (by sdf and along the pixel's ray) are updated: the whole band, as §4.2.4 says (measured: 0.25 lost 20–30 % IoU)
   void validate () const;
 };
+/// The name before 0.2 (one config per class, named after it).
+using SegmentUpdateConfig [[deprecated ("renamed VoxelLabelUpdateConfig")]] = VoxelLabelUpdateConfig;
 
 /** \brief §4.2.4: every voxel the frame last integrated into \a volume saw inside the
   * truncation band of the surface its pixel shows (|z_voxel − D(u)| < band · τ along that
@@ -123,7 +125,7 @@ struct SegmentUpdateConfig
   */
 std::size_t
 updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const GlobalSegmentMap& map,
-                   const SegmentUpdateConfig& config = SegmentUpdateConfig ());
+                   const VoxelLabelUpdateConfig& config = VoxelLabelUpdateConfig ());
 
 /** \brief A raycast label map (voxel labels) resolved through the map's equivalence. */
 cv::Mat

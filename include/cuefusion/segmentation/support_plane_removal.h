@@ -17,7 +17,7 @@ namespace cuefusion
 namespace segmentation
 {
 /** \brief Parameters of SupportPlaneRemoval. */
-struct SupportPlaneConfig
+struct SupportPlaneRemovalConfig
 {
   float distance_threshold = 0.015f;        ///< RANSAC inlier band (metres), ~3σ of Kinect noise at 1.5 m
   int max_iterations = 200;                 ///< RANSAC iterations
@@ -27,13 +27,15 @@ struct SupportPlaneConfig
   float max_normal_angle_deg = 25.f;        ///< other in-band pixels go too when their normal is this close
   void validate () const;
 };
+/// The name before 0.2 (one config per class, named after it).
+using SupportPlaneConfig [[deprecated ("renamed SupportPlaneRemovalConfig")]] = SupportPlaneRemovalConfig;
 
 /** \brief The work of SupportPlaneRemoval on SurfacePlanes (normals may be all NaN).
   * Returns false, leaving \a labels as they are, when there is no dominant plane; else
   * the plane (unit normal towards the sensor) in \a plane.
   */
 bool
-removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneConfig& config, cv::Mat& labels,
+removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneRemovalConfig& config, cv::Mat& labels,
                     Eigen::Vector4f& plane);
 
 /** \brief Finds the dominant plane of an organized cloud (table or floor: PCL's RANSAC
@@ -51,12 +53,12 @@ public:
   using ConstPtr = std::shared_ptr<const SupportPlaneRemoval>;
   using NormalCloudConstPtr = typename pcl::PointCloud<pcl::Normal>::ConstPtr;
 
-  explicit SupportPlaneRemoval (const SupportPlaneConfig& config = SupportPlaneConfig ()) { setConfig (config); }
+  explicit SupportPlaneRemoval (const SupportPlaneRemovalConfig& config = SupportPlaneRemovalConfig ()) { setConfig (config); }
 
   void setInputNormals (const NormalCloudConstPtr& normals) { normals_ = normals; }
   /** \brief Throws cuefusion::ParameterError for an invalid configuration. */
-  void setConfig (const SupportPlaneConfig& config);
-  const SupportPlaneConfig& getConfig () const { return config_; }
+  void setConfig (const SupportPlaneRemovalConfig& config);
+  const SupportPlaneRemovalConfig& getConfig () const { return config_; }
 
   /** \brief Removes the plane from \a labels (CV_32S, the cloud's size). Returns false
     * (labels untouched) when no dominant plane was found. With indices (setIndices) the
@@ -76,7 +78,7 @@ protected:
   using pcl::PCLBase<PointT>::input_;
 
   NormalCloudConstPtr normals_;
-  SupportPlaneConfig config_;
+  SupportPlaneRemovalConfig config_;
   SurfacePlanes planes_;
   Eigen::Vector4f plane_ = Eigen::Vector4f::Zero ();
 };

@@ -18,7 +18,7 @@ namespace cuefusion
 namespace segmentation
 {
 enum class ConvexityTest;
-struct ConcavityEdgeConfig;
+struct ConcavityEdgeEstimationConfig;
 
 /** \brief Points and normals of an organized cloud as six float planes (row-major, NaN =
   * none). The edge operators run over these one neighbour direction at a time, so the
@@ -115,10 +115,10 @@ void
 computeDiscontinuityMap (const SurfacePlanes& planes, int step, cv::Mat& gamma);
 
 /** \brief Edge mask (CV_8U, 1 = edge) from Φ: Φ < the threshold of \a config at each
-  * pixel's depth (ConcavityEdgeConfig::noise_slope).
+  * pixel's depth (ConcavityEdgeEstimationConfig::noise_slope).
   */
 void
-concavityEdges (const SurfacePlanes& planes, const cv::Mat& phi, const ConcavityEdgeConfig& config, cv::Mat& edges);
+concavityEdges (const SurfacePlanes& planes, const cv::Mat& phi, const ConcavityEdgeEstimationConfig& config, cv::Mat& edges);
 
 /** \brief Edge mask (CV_8U, 1 = edge) from Γ: Γ > k·σ_d(u), σ_d at each pixel's depth
   * and viewing angle; +inf always an edge, NaN never.
@@ -131,7 +131,7 @@ discontinuityEdges (const SurfacePlanes& planes, const cv::Mat& gamma, float k, 
   * and Γ images.
   */
 void
-computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeConfig& concavity, float noise_factor, cv::Mat& concave,
+computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& concavity, float noise_factor, cv::Mat& concave,
                   cv::Mat& depth_edges);
 }  // namespace segmentation
 }  // namespace cuefusion

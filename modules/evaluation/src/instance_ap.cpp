@@ -17,7 +17,7 @@ void
 InstanceAPConfig::validate () const
 {
   if (min_region_size == 0)
-    throw ParameterError ("min_region_size", "must be at least 1");
+    throw ParameterError ("InstanceAPConfig::min_region_size", "must be at least 1");
 }
 
 std::vector<double>

@@ -90,7 +90,7 @@ void
 FrameIoUConfig::validate () const
 {
   if (min_truth_pixels == 0)
-    throw ParameterError ("min_truth_pixels", "must be at least 1");
+    throw ParameterError ("FrameIoUConfig::min_truth_pixels", "must be at least 1");
 }
 
 namespace

@@ -426,7 +426,7 @@ namespace
 nlohmann::json
 generatorJson (const RandomSceneGenerator& generator)
 {
-  const RandomSceneConfig& c = generator.config ();
+  const RandomSceneConfig& c = generator.getConfig ();
   return {{"seed", generator.seed ()},
           {"min_objects", c.min_objects},
           {"max_objects", c.max_objects},

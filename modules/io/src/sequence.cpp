@@ -28,7 +28,7 @@ parseSequenceFormat (const std::string& name)
     return SequenceFormat::ScanNet;
   if (n == "openni2" || n == "oni")
     return SequenceFormat::OpenNI2;
-  throw ParameterError ("--format", "unknown format '" + name + "' (auto, tum, redwood, 7scenes, scannet, openni2)");
+  throw ParameterError ("SequenceFormat", "unknown format '" + name + "' (auto, tum, redwood, 7scenes, scannet, openni2)");
 }
 
 std::string

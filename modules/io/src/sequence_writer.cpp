@@ -28,7 +28,7 @@ parseDatasetLayout (const std::string& name)
     return DatasetLayout::Redwood;
   if (name == "7scenes")
     return DatasetLayout::SevenScenes;
-  throw ParameterError ("--layout", "unknown layout '" + name + "' (tum, scannet, redwood, 7scenes)");
+  throw ParameterError ("DatasetLayout", "unknown layout '" + name + "' (tum, scannet, redwood, 7scenes)");
 }
 
 namespace
@@ -218,7 +218,7 @@ SequenceWriter::create (DatasetLayout layout, const std::string& dir, const Pinh
     case DatasetLayout::Redwood: return std::make_unique<RedwoodWriter> (dir, camera);
     case DatasetLayout::SevenScenes: return std::make_unique<SevenScenesWriter> (dir, camera);
   }
-  throw ParameterError ("--layout", "unknown layout");
+  throw ParameterError ("DatasetLayout", "unknown layout");
 }
 }  // namespace io
 }  // namespace cuefusion

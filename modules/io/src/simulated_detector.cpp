@@ -23,19 +23,19 @@ DetectorErrorConfig::validate () const
     if (!(p >= 0.0 && p <= 1.0))
       throw ParameterError (option, "must be a probability in [0, 1]");
   };
-  probability (merge_probability, "--mask-merge");
-  probability (miss_probability, "--mask-miss");
-  probability (split_probability, "--mask-split");
+  probability (merge_probability, "DetectorErrorConfig::merge_probability");
+  probability (miss_probability, "DetectorErrorConfig::miss_probability");
+  probability (split_probability, "DetectorErrorConfig::split_probability");
   if (!(false_positives >= 0.0 && false_positives <= 100.0))
-    throw ParameterError ("--mask-false-positives", "must lie in [0, 100] per frame");
+    throw ParameterError ("DetectorErrorConfig::false_positives", "must lie in [0, 100] per frame");
   if (std::abs (boundary_px) > 100)
-    throw ParameterError ("--mask-boundary", "must lie in [-100, 100] pixels");
+    throw ParameterError ("DetectorErrorConfig::boundary_px", "must lie in [-100, 100] pixels");
   if (boundary_jitter_px < 0 || boundary_jitter_px > 100)
-    throw ParameterError ("--mask-jitter", "must lie in [0, 100] pixels");
+    throw ParameterError ("DetectorErrorConfig::boundary_jitter_px", "must lie in [0, 100] pixels");
   if (min_pixels < 0)
-    throw ParameterError ("--mask-min-pixels", "must not be negative");
+    throw ParameterError ("DetectorErrorConfig::min_pixels", "must not be negative");
   if (!(min_score >= 0.0 && min_score <= max_score && max_score <= 1.0))
-    throw ParameterError ("detector scores", "need 0 <= min <= max <= 1");
+    throw ParameterError ("DetectorErrorConfig::min_score", "need 0 <= min <= max <= 1");
 }
 
 SimulatedDetector::SimulatedDetector (const SyntheticScene& scene, const DetectorErrorConfig& config,

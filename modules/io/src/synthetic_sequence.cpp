@@ -18,13 +18,13 @@ void
 SyntheticSequenceConfig::validate () const
 {
   if (frames < 1 || frames > 1000000)
-    throw ParameterError ("--frames", "must lie in [1, 1000000]");
+    throw ParameterError ("SyntheticSequenceConfig::frames", "must lie in [1, 1000000]");
   if (!(fps > 0.0 && fps <= 1000.0))
-    throw ParameterError ("--fps", "must lie in (0, 1000]");
+    throw ParameterError ("SyntheticSequenceConfig::fps", "must lie in (0, 1000]");
   if (width < 0 || height < 0 || width > 8192 || height > 8192 || ((width == 0) != (height == 0)))
-    throw ParameterError ("--size", "width and height must both be given, each in [1, 8192]");
+    throw ParameterError ("SyntheticSequenceConfig::width", "width and height must both be given, each in [1, 8192]");
   if (!(gt_cloud_spacing >= 0.001 && gt_cloud_spacing <= 1.0))
-    throw ParameterError ("--gt-spacing", "must lie in [0.001, 1] metres");
+    throw ParameterError ("SyntheticSequenceConfig::gt_cloud_spacing", "must lie in [0.001, 1] metres");
   detector.validate ();
 }
 

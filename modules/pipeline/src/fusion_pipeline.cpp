@@ -20,7 +20,7 @@ parseSegmentationMode (const std::string& name)
     return SegmentationMode::Geometry;
   if (name == "masks")
     return SegmentationMode::Masks;
-  throw ParameterError ("--mode", "must be fused, geometry or masks, not '" + name + "'");
+  throw ParameterError ("SegmentationMode", "must be fused, geometry or masks, not '" + name + "'");
 }
 
 std::string

@@ -36,23 +36,23 @@ struct Candidate
 }  // namespace
 
 void
-OnnxSegmenterConfig::validate () const
+OnnxInstanceSegmenterConfig::validate () const
 {
   if (input_size < 32 || input_size > 4096 || input_size % 32 != 0)
-    throw ParameterError ("OnnxSegmenterConfig::input_size", "must be a multiple of 32 in [32, 4096]");
+    throw ParameterError ("OnnxInstanceSegmenterConfig::input_size", "must be a multiple of 32 in [32, 4096]");
   for (const auto& [value, field] :
        {std::make_pair (score_threshold, "score_threshold"), std::make_pair (nms_threshold, "nms_threshold"),
         std::make_pair (mask_threshold, "mask_threshold"), std::make_pair (boundary_threshold, "boundary_threshold")})
     if (!(std::isfinite (value) && value >= 0.f && value <= 1.f))
-      throw ParameterError (std::string ("OnnxSegmenterConfig::") + field, "must lie in [0, 1]");
+      throw ParameterError (std::string ("OnnxInstanceSegmenterConfig::") + field, "must lie in [0, 1]");
   if (!(std::isfinite (stability_delta) && stability_delta >= 0.f && stability_delta <= 0.5f))
-    throw ParameterError ("OnnxSegmenterConfig::stability_delta", "must lie in [0, 0.5]");
+    throw ParameterError ("OnnxInstanceSegmenterConfig::stability_delta", "must lie in [0, 0.5]");
   if (max_detections < 1)
-    throw ParameterError ("OnnxSegmenterConfig::max_detections", "must be at least 1");
+    throw ParameterError ("OnnxInstanceSegmenterConfig::max_detections", "must be at least 1");
   if (dense_width < 16 || dense_width > 4096)
-    throw ParameterError ("OnnxSegmenterConfig::dense_width", "must lie in [16, 4096] pixels");
+    throw ParameterError ("OnnxInstanceSegmenterConfig::dense_width", "must lie in [16, 4096] pixels");
   if (min_mask_pixels < 0)
-    throw ParameterError ("OnnxSegmenterConfig::min_mask_pixels", "must not be negative");
+    throw ParameterError ("OnnxInstanceSegmenterConfig::min_mask_pixels", "must not be negative");
 }
 
 cv::Mat
@@ -74,7 +74,7 @@ OnnxInstanceSegmenter::letterbox (const cv::Mat& color, int size, Letterbox& box
 
 std::vector<Instance>
 OnnxInstanceSegmenter::decode (const std::vector<cv::Mat>& outputs, const Letterbox& box,
-                               const OnnxSegmenterConfig& config, const std::vector<std::string>& class_names,
+                               const OnnxInstanceSegmenterConfig& config, const std::vector<std::string>& class_names,
                                OnnxLayout* layout_out)
 {
   const cv::Mat* det = nullptr;
@@ -302,7 +302,7 @@ bestMatchIoU (const cv::Mat& labels, int count, const cv::Mat& other, int other_
 }  // namespace
 
 std::vector<Instance>
-OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv::Size frame, const OnnxSegmenterConfig& config)
+OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv::Size frame, const OnnxInstanceSegmenterConfig& config)
 {
   if (output.dims != 4 || output.size[0] != 1 || output.size[1] != 2 || output.type () != CV_32F || !output.isContinuous ())
     throw Error ("ONNX model", "output " + shapeOf (output) + " is not the xyz layout [1, 2, H, W]");
@@ -374,7 +374,7 @@ OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv:
   return instances;
 }
 
-OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxSegmenterConfig& config) : config_ (config)
+OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxInstanceSegmenterConfig& config) : config_ (config)
 {
   config_.validate ();
   boost::system::error_code ec;

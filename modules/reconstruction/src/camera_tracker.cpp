@@ -13,13 +13,13 @@ CameraTrackerConfig::validate () const
 {
   icp.validate ();
   if (!(min_inlier_fraction >= 0.0 && min_inlier_fraction <= 1.0))
-    throw ParameterError ("tracking.min_inlier_fraction", "must lie in [0, 1]");
+    throw ParameterError ("CameraTrackerConfig::min_inlier_fraction", "must lie in [0, 1]");
   if (!(max_rmse > 0.0))
-    throw ParameterError ("tracking.max_rmse", "must be positive");
+    throw ParameterError ("CameraTrackerConfig::max_rmse", "must be positive");
   if (!(max_translation > 0.0 && max_rotation_deg > 0.0))
-    throw ParameterError ("tracking.max_translation", "motion limits must be positive");
+    throw ParameterError ("CameraTrackerConfig::max_translation", "motion limits must be positive");
   if (!(min_translation_conditioning >= 0.0 && min_translation_conditioning < 1.0))
-    throw ParameterError ("tracking.min_translation_conditioning", "must lie in [0, 1)");
+    throw ParameterError ("CameraTrackerConfig::min_translation_conditioning", "must lie in [0, 1)");
 }
 
 CameraTracker::CameraTracker (const CameraTrackerConfig& config) : config_ (config), icp_ (config.icp)

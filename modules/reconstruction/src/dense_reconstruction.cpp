@@ -36,9 +36,9 @@ DenseReconstructionConfig::validate () const
   preprocessing.validate ();
   tracking.validate ();
   if (hole_refresh_period < 1 || hole_refresh_period > 1000)
-    throw ParameterError ("hole_refresh_period", "must lie in [1, 1000] frames");
+    throw ParameterError ("DenseReconstructionConfig::hole_refresh_period", "must lie in [1, 1000] frames");
   if (static_cast<std::size_t> (preprocessing.pyramid_levels) < tracking.icp.iterations.size ())
-    throw ParameterError ("pyramid_levels", "must be at least the number of ICP levels");
+    throw ParameterError ("DenseReconstructionConfig::preprocessing.pyramid_levels", "must be at least the number of ICP levels");
   keyframes.validate ();
   if (keyframe_period < 1 || keyframe_period > 1000)
     throw ParameterError ("DenseReconstructionConfig::keyframe_period", "must lie in [1, 1000] frames");
@@ -92,8 +92,8 @@ DenseReconstruction::continueFrom (TSDFVolume volume, KeyframeDatabase keyframes
   volume_ = std::move (volume);
   volume_.setRecordObservedSurface (record);
   keyframes_ = std::move (keyframes);
-  config_.volume = volume_.config ();
-  config_.keyframes = keyframes_.config ();
+  config_.volume = volume_.getConfig ();
+  config_.keyframes = keyframes_.getConfig ();
   awaiting_placement_ = !config_.use_reference_poses;
 }
 

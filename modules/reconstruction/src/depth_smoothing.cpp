@@ -16,8 +16,8 @@ namespace reconstruction
 {
 namespace
 {
-// The noise model σ_z(z) = a + b (z − z0)² of Nguyen et al. at θ = 0 (kinectAxialNoise).
-constexpr double kA = 0.0012, kB = 0.0019, kZ0 = 0.4;
+// The noise model σ_z(z) = a + b (z − z0)² of Nguyen et al. at θ = 0 (KinectNoiseModel).
+constexpr double kA = KinectNoiseModel::base, kB = KinectNoiseModel::quadratic, kZ0 = KinectNoiseModel::offset;
 
 /** Depth in "noise units": u(z) = ∫ dz / σ_z(z) = atan(√(b/a) (z − z0)) / √(ab). A
   * step of one σ_z is one unit at every depth, so a fixed range σ on u is a range σ

@@ -347,23 +347,23 @@ buildModelPyramid (const cv::Mat& vertices, const cv::Mat& normals, const Pinhol
 }
 
 void
-DepthPreprocessingConfig::validate () const
+DepthPreprocessorConfig::validate () const
 {
   if (bilateral_filter && !(bilateral_diameter >= 1 && bilateral_diameter <= 31))
-    throw ParameterError ("bilateral_diameter", "must lie in [1, 31] pixels");
+    throw ParameterError ("DepthPreprocessorConfig::bilateral_diameter", "must lie in [1, 31] pixels");
   if (bilateral_filter && !(sigma_depth > 0.0 && sigma_space > 0.0))
-    throw ParameterError ("sigma_depth", "bilateral sigmas must be positive");
+    throw ParameterError ("DepthPreprocessorConfig::sigma_depth", "bilateral sigmas must be positive");
   if (!(noise_range_sigma >= 0.0 && noise_range_sigma <= 100.0))
-    throw ParameterError ("noise_range_sigma", "must lie in [0, 100] noise units (0 = fixed range sigma)");
+    throw ParameterError ("DepthPreprocessorConfig::noise_range_sigma", "must lie in [0, 100] noise units (0 = fixed range sigma)");
   if (!(pyramid_levels >= 1 && pyramid_levels <= 6))
-    throw ParameterError ("pyramid_levels", "must lie in [1, 6]");
+    throw ParameterError ("DepthPreprocessorConfig::pyramid_levels", "must lie in [1, 6]");
   if (!(min_depth >= 0.0 && max_depth > min_depth))
-    throw ParameterError ("max_depth", "depth range must satisfy 0 <= min < max");
+    throw ParameterError ("DepthPreprocessorConfig::max_depth", "depth range must satisfy 0 <= min < max");
   if (!(max_depth_jump > 0.0))
-    throw ParameterError ("max_depth_jump", "must be positive");
+    throw ParameterError ("DepthPreprocessorConfig::max_depth_jump", "must be positive");
 }
 
-DepthPreprocessor::DepthPreprocessor (const DepthPreprocessingConfig& config) : config_ (config)
+DepthPreprocessor::DepthPreprocessor (const DepthPreprocessorConfig& config) : config_ (config)
 {
   config_.validate ();
 }

@@ -26,14 +26,6 @@ using Accumulator = std::array<double, 30>;
 /** \brief The same for one image row, in float (cheap; a row holds < 10^4 terms). */
 using RowAccumulator = std::array<float, 30>;
 
-/** \brief σ_z(z) of KinectNoiseModel (normal incidence) in float. */
-inline float
-axialNoise (float z)
-{
-  const float dz = z - static_cast<float> (KinectNoiseModel::offset);
-  return static_cast<float> (KinectNoiseModel::base) + static_cast<float> (KinectNoiseModel::quadratic) * dz * dz;
-}
-
 /** \brief Weight of a term at model depth \a z: the inverse variance of the axial noise
   * there, relative to a point at 1 m (1 when \a weighted is false).
   */
@@ -42,7 +34,7 @@ noiseWeight (float z, bool weighted)
 {
   if (!weighted)
     return 1.f;
-  const float ratio = axialNoise (1.f) / axialNoise (z);
+  const float ratio = KinectNoiseModel::atNormalIncidence (1.f) / KinectNoiseModel::atNormalIncidence (z);
   return ratio * ratio;
 }
 
@@ -126,10 +118,7 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
   const __m256 height = _mm256_set1_ps (static_cast<float> (target.camera.height));
   const __m256 minus_one = _mm256_set1_ps (-1.f), zero = _mm256_setzero_ps (), half = _mm256_set1_ps (0.5f);
   const __m256 max_sq = _mm256_set1_ps (max_distance_sq), cos_limit = _mm256_set1_ps (min_cos);
-  const __m256 noise_base = _mm256_set1_ps (static_cast<float> (KinectNoiseModel::base));
-  const __m256 noise_quadratic = _mm256_set1_ps (static_cast<float> (KinectNoiseModel::quadratic));
-  const __m256 noise_offset = _mm256_set1_ps (static_cast<float> (KinectNoiseModel::offset));
-  const __m256 noise_at_one = _mm256_set1_ps (axialNoise (1.f)), one = _mm256_set1_ps (1.f);
+  const __m256 noise_at_one = _mm256_set1_ps (KinectNoiseModel::atNormalIncidence (1.f)), one = _mm256_set1_ps (1.f);
 
   __m256 acc[28];
   for (__m256& a : acc)
@@ -196,9 +185,7 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
     __m256 weight = one;
     if (weighted)
     {
-      const __m256 dz_noise = _mm256_sub_ps (gz, noise_offset);
-      const __m256 ratio =
-        _mm256_div_ps (noise_at_one, _mm256_fmadd_ps (noise_quadratic, _mm256_mul_ps (dz_noise, dz_noise), noise_base));
+      const __m256 ratio = _mm256_div_ps (noise_at_one, avx2::kinectNoiseAtNormalIncidence (gz));
       weight = _mm256_mul_ps (ratio, ratio);
     }
     weight = _mm256_and_ps (weight, ok);
@@ -301,14 +288,14 @@ void
 ProjectiveICPConfig::validate () const
 {
   if (iterations.empty () || iterations.size () > 6)
-    throw ParameterError ("icp.iterations", "needs one to six pyramid levels");
+    throw ParameterError ("ProjectiveICPConfig::iterations", "needs one to six pyramid levels");
   for (const int n : iterations)
     if (n < 0 || n > 100)
-      throw ParameterError ("icp.iterations", "must lie in [0, 100] per level");
+      throw ParameterError ("ProjectiveICPConfig::iterations", "must lie in [0, 100] per level");
   if (!(max_distance > 0.0))
-    throw ParameterError ("icp.max_distance", "must be positive");
+    throw ParameterError ("ProjectiveICPConfig::max_distance", "must be positive");
   if (!(max_angle_deg > 0.0 && max_angle_deg <= 180.0))
-    throw ParameterError ("icp.max_angle", "must lie in (0, 180] degrees");
+    throw ParameterError ("ProjectiveICPConfig::max_angle_deg", "must lie in (0, 180] degrees");
 }
 
 ProjectiveICP::ProjectiveICP (const ProjectiveICPConfig& config) : config_ (config)

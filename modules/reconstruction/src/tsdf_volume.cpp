@@ -259,10 +259,7 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
 inline float
 newtonReach (float z, float truncation_voxels, float inv_voxel)
 {
-  const float dz = z - static_cast<float> (KinectNoiseModel::offset);
-  return truncation_voxels +
-         3.f * (static_cast<float> (KinectNoiseModel::base) + static_cast<float> (KinectNoiseModel::quadratic) * dz * dz) *
-             inv_voxel;
+  return truncation_voxels + 3.f * KinectNoiseModel::atNormalIncidence (z) * inv_voxel;
 }
 
 /** \brief With a depth hint (the frame just fused at this pose), the surface lies within a
@@ -335,14 +332,9 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
                                                              _mm256_mul_ps (dz, dz)));
   const __m256 zero = _mm256_setzero_ps (), scale = _mm256_set1_ps (1.f / kDistanceScale);
   // newtonReach per lane, in the same float operations.
-  const __m256 noise_dz = _mm256_sub_ps (z_hint, _mm256_set1_ps (static_cast<float> (KinectNoiseModel::offset)));
   const __m256 reach = _mm256_add_ps (
       _mm256_set1_ps (truncation_voxels),
-      _mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (3.f),
-                                    _mm256_add_ps (_mm256_set1_ps (static_cast<float> (KinectNoiseModel::base)),
-                                                   _mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (static_cast<float> (KinectNoiseModel::quadratic)), noise_dz),
-                                                                  noise_dz))),
-                     _mm256_set1_ps (inv_voxel)));
+      _mm256_mul_ps (_mm256_mul_ps (_mm256_set1_ps (3.f), avx2::kinectNoiseAtNormalIncidence (z_hint)), _mm256_set1_ps (inv_voxel)));
   __m256 z = z_hint, z_result = zero, gx_result = zero, gy_result = zero, gz_result = zero;
   alignas (32) std::int32_t block_x[8], block_y[8], block_z[8];
   // The cells' corners as read: pairs[p][i] holds lane i's x-pair p (corners 2p and 2p + 1,
@@ -521,15 +513,15 @@ void
 TSDFVolumeConfig::validate () const
 {
   if (!(voxel_size > 0.0005 && voxel_size <= 1.0))
-    throw ParameterError ("voxel_size", "must lie in (0.0005, 1] metres");
+    throw ParameterError ("TSDFVolumeConfig::voxel_size", "must lie in (0.0005, 1] metres");
   if (!(truncation_voxels >= 1.0 && truncation_voxels <= 64.0))
-    throw ParameterError ("truncation", "must lie in [1, 64] voxels");
+    throw ParameterError ("TSDFVolumeConfig::truncation_voxels", "must lie in [1, 64] voxels");
   if (!(max_weight >= 1.f && max_weight <= 1e6f))
-    throw ParameterError ("max_weight", "must lie in [1, 1e6]");
+    throw ParameterError ("TSDFVolumeConfig::max_weight", "must lie in [1, 1e6]");
   if (!(min_depth >= 0.0 && max_depth > min_depth && std::isfinite (max_depth)))
-    throw ParameterError ("max_depth", "depth range must satisfy 0 <= min < max < inf");
+    throw ParameterError ("TSDFVolumeConfig::max_depth", "depth range must satisfy 0 <= min < max < inf");
   if (bounds && (bounds->isEmpty () || !bounds->min ().allFinite () || !bounds->max ().allFinite ()))
-    throw ParameterError ("bounds", "must be a finite, non-empty box");
+    throw ParameterError ("TSDFVolumeConfig::bounds", "must be a finite, non-empty box");
 }
 
 cv::Mat

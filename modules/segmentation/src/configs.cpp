@@ -22,17 +22,17 @@ require (bool ok, const char* parameter, const char* what)
 }  // namespace
 
 void
-ConcavityEdgeConfig::validate () const
+ConcavityEdgeEstimationConfig::validate () const
 {
   require (std::isfinite (threshold) && threshold > -1.f && threshold <= 1.f, "--concavity-threshold",
            "must lie in (-1, 1] (it compares a cosine)");
   require (neighbour_step >= 1 && neighbour_step <= 16, "--concavity-step", "must be 1..16 pixels");
-  require (std::isfinite (noise_slope) && noise_slope >= 0.f && noise_slope <= 1000.f, "ConcavityEdgeConfig::noise_slope",
+  require (std::isfinite (noise_slope) && noise_slope >= 0.f && noise_slope <= 1000.f, "ConcavityEdgeEstimationConfig::noise_slope",
            "must lie in [0, 1000]");
 }
 
 void
-DepthDiscontinuityEdgeConfig::validate () const
+DepthDiscontinuityEdgeEstimationConfig::validate () const
 {
   require (std::isfinite (noise_factor) && noise_factor > 0.f, "--noise-factor", "must be positive");
   require (neighbour_step >= 1 && neighbour_step <= 16, "--depth-edge-step", "must be 1..16 pixels");
@@ -67,7 +67,7 @@ SurfacePreprocessingConfig::validate () const
 }
 
 void
-SupportPlaneConfig::validate () const
+SupportPlaneRemovalConfig::validate () const
 {
   require (std::isfinite (distance_threshold) && distance_threshold > 0.f, "--plane-distance", "must be positive");
   require (max_iterations >= 1, "--plane-iterations", "must be at least 1");

@@ -118,7 +118,7 @@ edgeRow (const SurfacePlanes& planes, int y, int step, ConvexityTest test, float
 }
 
 /** Φ < the threshold at each pixel's depth: the configured one, lowered where the
-  * normals' noise exceeds it (ConcavityEdgeConfig::noise_slope): with θ = s·σ_z(z)/z,
+  * normals' noise exceeds it (ConcavityEdgeEstimationConfig::noise_slope): with θ = s·σ_z(z)/z,
   * 1 − θ²/2 (the cosine to second order, so the loop vectorises).
   */
 CUEFUSION_AVX2_CLONES void
@@ -245,7 +245,7 @@ computeDiscontinuityMap (const SurfacePlanes& planes, int step, cv::Mat& gamma)
 }
 
 void
-concavityEdges (const SurfacePlanes& planes, const cv::Mat& phi, const ConcavityEdgeConfig& config, cv::Mat& edges)
+concavityEdges (const SurfacePlanes& planes, const cv::Mat& phi, const ConcavityEdgeEstimationConfig& config, cv::Mat& edges)
 {
   edges.create (phi.size (), CV_8U);
   parallelFor (phi.rows, [&] (int y) {
@@ -264,7 +264,7 @@ discontinuityEdges (const SurfacePlanes& planes, const cv::Mat& gamma, float k, 
 }
 
 void
-computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeConfig& concavity, float noise_factor, cv::Mat& concave,
+computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& concavity, float noise_factor, cv::Mat& concave,
                   cv::Mat& depth_edges)
 {
   concave.create (planes.height, planes.width, CV_8U);

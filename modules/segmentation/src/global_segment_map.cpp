@@ -40,15 +40,15 @@ LabelEquivalence::unite (std::uint32_t a, std::uint32_t b)
 }
 
 void
-SegmentMergingConfig::validate () const
+GlobalSegmentMapConfig::validate () const
 {
   if (confirm_confidence < 1 || confirm_confidence > 1000)
-    throw ParameterError ("SegmentMergingConfig::confirm_confidence", "must lie in [1, 1000]");
+    throw ParameterError ("GlobalSegmentMapConfig::confirm_confidence", "must lie in [1, 1000]");
   if (!(together_share >= 0.f && together_share < 1.f))
-    throw ParameterError ("SegmentMergingConfig::together_share", "must lie in [0, 1)");
+    throw ParameterError ("GlobalSegmentMapConfig::together_share", "must lie in [0, 1)");
 }
 
-PairEvidence::PairEvidence (const SegmentMergingConfig& config) : config_ (config) { config_.validate (); }
+PairEvidence::PairEvidence (const GlobalSegmentMapConfig& config) : config_ (config) { config_.validate (); }
 
 bool
 PairEvidence::add (std::uint32_t a, std::uint32_t b, PairVote vote)
@@ -108,7 +108,7 @@ SegmentRecord::bestScore () const
   return it == class_votes.end () || it->second.first == 0 ? 0.f : it->second.second / static_cast<float> (it->second.first);
 }
 
-GlobalSegmentMap::GlobalSegmentMap (const SegmentMergingConfig& merging) : evidence_ (merging) {}
+GlobalSegmentMap::GlobalSegmentMap (const GlobalSegmentMapConfig& merging) : evidence_ (merging) {}
 
 std::uint32_t
 GlobalSegmentMap::newSegment (std::size_t frame)
@@ -287,7 +287,7 @@ GlobalSegmentMap::segments (const std::unordered_map<std::uint32_t, std::uint32_
 std::unordered_map<std::uint32_t, std::uint32_t>
 GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
 {
-  const auto confirm = static_cast<std::size_t> (evidence_.config ().confirm_confidence);
+  const auto confirm = static_cast<std::size_t> (evidence_.getConfig ().confirm_confidence);
   std::unordered_map<std::uint32_t, bool> kept;  // object → confirmed or still being seen
   for (const auto& [label, record] : records_)
   {

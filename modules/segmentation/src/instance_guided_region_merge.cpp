@@ -12,22 +12,22 @@ namespace cuefusion
 namespace segmentation
 {
 void
-InstanceGuidedMergeConfig::validate () const
+InstanceGuidedRegionMergeConfig::validate () const
 {
   if (!(std::isfinite (min_overlap) && min_overlap >= 0.f && min_overlap < 1.f))
-    throw ParameterError ("InstanceGuidedMergeConfig::min_overlap", "must lie in [0, 1)");
+    throw ParameterError ("InstanceGuidedRegionMergeConfig::min_overlap", "must lie in [0, 1)");
   if (!(std::isfinite (split_share) && split_share > 0.f && split_share <= 0.5f))
-    throw ParameterError ("InstanceGuidedMergeConfig::split_share", "must lie in (0, 0.5]");
+    throw ParameterError ("InstanceGuidedRegionMergeConfig::split_share", "must lie in (0, 0.5]");
   if (split_min_pixels < 1)
-    throw ParameterError ("InstanceGuidedMergeConfig::split_min_pixels", "must be at least 1");
+    throw ParameterError ("InstanceGuidedRegionMergeConfig::split_min_pixels", "must be at least 1");
   if (!(std::isfinite (occlusion_split_share) && occlusion_split_share >= 0.f))
-    throw ParameterError ("InstanceGuidedMergeConfig::occlusion_split_share", "must be a share >= 0 (above 0.5: never)");
+    throw ParameterError ("InstanceGuidedRegionMergeConfig::occlusion_split_share", "must be a share >= 0 (above 0.5: never)");
 }
 
-InstanceGuidedRegionMerge::InstanceGuidedRegionMerge (const InstanceGuidedMergeConfig& config) { setConfig (config); }
+InstanceGuidedRegionMerge::InstanceGuidedRegionMerge (const InstanceGuidedRegionMergeConfig& config) { setConfig (config); }
 
 void
-InstanceGuidedRegionMerge::setConfig (const InstanceGuidedMergeConfig& config)
+InstanceGuidedRegionMerge::setConfig (const InstanceGuidedRegionMergeConfig& config)
 {
   config.validate ();
   config_ = config;

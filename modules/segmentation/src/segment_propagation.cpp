@@ -85,8 +85,7 @@ agreeingPixels8 (const float* v, const float* n, const float* vm, const float* n
                                     _mm256_mul_ps (_mm256_sub_ps (vz, mz), vz));
   const __m256 length = _mm256_sqrt_ps (_mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (vx, vx), _mm256_mul_ps (vy, vy)), _mm256_mul_ps (vz, vz)));
   const __m256 along_ray = _mm256_div_ps (avx2::abs (dot), length);
-  const __m256 dz = _mm256_sub_ps (vz, _mm256_set1_ps (0.4f));  // axialNoiseLowerBound
-  const __m256 bound = _mm256_add_ps (_mm256_set1_ps (0.0012f), _mm256_mul_ps (_mm256_set1_ps (0.0019f), _mm256_mul_ps (dz, dz)));
+  const __m256 bound = avx2::kinectNoiseAtNormalIncidence (vz);  // axialNoiseLowerBound
   const __m256 k = _mm256_set1_ps (noise_factor);
   const __m256 near = _mm256_cmp_ps (along_ray, _mm256_mul_ps (k, bound), _CMP_LT_OQ);
   accepted = _mm256_movemask_ps (_mm256_and_ps (ok, near));
@@ -136,7 +135,7 @@ void
 SegmentPropagationConfig::validate () const
 {
   if (!(normal_agreement >= -1.f && normal_agreement <= 1.f))
-    throw ParameterError ("--propagation-normal", "must lie in [-1, 1]");
+    throw ParameterError ("SegmentPropagationConfig::normal_agreement", "must lie in [-1, 1]");
   if (!(inherit_overlap >= 0.f && inherit_overlap < 1.f))
     throw ParameterError ("SegmentPropagationConfig::inherit_overlap", "must lie in [0, 1)");
   if (!(placement_share >= 0.5f && placement_share < 1.f))
@@ -144,18 +143,18 @@ SegmentPropagationConfig::validate () const
   if (!(uncovered_overlap >= 0.f && uncovered_overlap < 1.f))
     throw ParameterError ("SegmentPropagationConfig::uncovered_overlap", "must lie in [0, 1)");
   if (!(noise_factor > 0.f && std::isfinite (noise_factor)))
-    throw ParameterError ("--propagation-noise-factor", "must be positive");
+    throw ParameterError ("SegmentPropagationConfig::noise_factor", "must be positive");
   if (min_segment_size < 1)
-    throw ParameterError ("--min-segment-size", "must be at least 1 pixel");
+    throw ParameterError ("SegmentPropagationConfig::min_segment_size", "must be at least 1 pixel");
 }
 
 void
-SegmentUpdateConfig::validate () const
+VoxelLabelUpdateConfig::validate () const
 {
   if (max_confidence < 1 || max_confidence > 255)
-    throw ParameterError ("--max-label-confidence", "must lie in [1, 255]");
+    throw ParameterError ("VoxelLabelUpdateConfig::max_confidence", "must lie in [1, 255]");
   if (!(band > 0.f && band <= 1.f))
-    throw ParameterError ("--label-band", "must lie in (0, 1] truncation units");
+    throw ParameterError ("VoxelLabelUpdateConfig::band", "must lie in (0, 1] truncation units");
 }
 
 SegmentPropagation::SegmentPropagation (const SegmentPropagationConfig& config) : config_ (config) { config_.validate (); }
@@ -490,7 +489,7 @@ updateVoxelLabel (reconstruction::TsdfVoxel& voxel, std::uint32_t label, const G
 
 std::size_t
 updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const GlobalSegmentMap& map,
-                   const SegmentUpdateConfig& config)
+                   const VoxelLabelUpdateConfig& config)
 {
   config.validate ();
   if (!volume.getRecordObservedSurface ())
@@ -502,7 +501,7 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
   // and lists those inside the truncation band of the surface their pixel sees. Visiting
   // every voxel of those blocks again here (a second projection and depth lookup per
   // voxel, mostly of voxels outside the band) was 3 ms a frame on 7scenes-redkitchen.
-  const float max_gap = config.band * static_cast<float> (volume.config ().truncation ());
+  const float max_gap = config.band * static_cast<float> (volume.getConfig ().truncation ());
   const float band = config.band;
   const auto max_confidence = static_cast<std::uint8_t> (config.max_confidence);
   const std::vector<std::vector<reconstruction::SurfaceObservation>>& lists = volume.lastObservedSurface ();

@@ -16,7 +16,7 @@ namespace cuefusion
 namespace segmentation
 {
 bool
-removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneConfig& config, cv::Mat& labels, Eigen::Vector4f& plane)
+removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneRemovalConfig& config, cv::Mat& labels, Eigen::Vector4f& plane)
 {
   config.validate ();
   const int w = planes.width, h = planes.height;

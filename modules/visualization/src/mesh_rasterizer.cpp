@@ -14,7 +14,7 @@ void
 MeshRasterizerConfig::validate () const
 {
   if (!(near_plane > 0.f))
-    throw ParameterError ("near_plane", "must be positive");
+    throw ParameterError ("MeshRasterizerConfig::near_plane", "must be positive");
 }
 
 MeshRasterizer::MeshRasterizer (const MeshRasterizerConfig& config) : config_ (config)
@@ -26,7 +26,7 @@ MeshView
 MeshRasterizer::render (const io::TriangleMesh& mesh, const PinholeCamera& camera, const Eigen::Isometry3d& pose) const
 {
   if (camera.width <= 0 || camera.height <= 0)
-    throw ParameterError ("camera", "image size must be positive");
+    throw ParameterError ("MeshRasterizer::render camera", "image size must be positive");
   MeshView view;
   view.labels = cv::Mat::zeros (camera.height, camera.width, CV_32S);
   view.depth = cv::Mat::zeros (camera.height, camera.width, CV_32F);
@@ -118,7 +118,7 @@ std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
 orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views, const Eigen::Vector3d& up_direction)
 {
   if (views < 1)
-    throw ParameterError ("views", "must be at least 1");
+    throw ParameterError ("orbitViews views", "must be at least 1");
   if (mesh.vertices.empty ())
     throw Error ("orbitViews", "the mesh has no vertices");
   Eigen::AlignedBox3f box;

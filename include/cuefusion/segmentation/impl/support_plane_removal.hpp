@@ -12,7 +12,7 @@ namespace segmentation
 {
 template <typename PointT>
 void
-SupportPlaneRemoval<PointT>::setConfig (const SupportPlaneConfig& config)
+SupportPlaneRemoval<PointT>::setConfig (const SupportPlaneRemovalConfig& config)
 {
   config.validate ();
   config_ = config;
