@@ -210,96 +210,132 @@ runAggregate (const std::vector<std::string>& dirs, std::string out, bool no_plo
   writeSummary (out, rows, no_plots);
   return 0;
 }
-}  // namespace
-
-int
-runEval (const std::vector<std::string>& args)
+/** eval's options. */
+struct EvalSettings
 {
-  std::vector<std::string> run_specs;
-  std::string gt, out, format, intrinsics, labels_from;
+  std::vector<std::string> run_specs, aggregate;
+  std::string gt, out, format = "auto", intrinsics, labels_from = "final";
   std::size_t every = 1, min_pixels = 100, min_region = 100;
   double match_radius = 0.0;
   bool no_plots = false;
-  std::vector<std::string> aggregate;
+
+  /** Per-frame IoU from the final map seen from each pose (else the run's labels/). */
+  bool finalMap () const { return labels_from == "final"; }
+};
+
+/** The sequence's truth: its frames and poses, the labelled cloud when it has one, and
+  * the instances that are not objects (floor, walls). */
+struct EvalTruth
+{
+  io::DatasetGrabber::Ptr dataset;
+  io::Trajectory reference;
+  std::optional<io::GroundTruthCloud> cloud;
+  std::set<std::uint32_t> stuff;
+
+  std::string
+  classOf (std::uint32_t instance) const
+  {
+    if (!cloud)
+      return std::string ();
+    const auto it = cloud->class_names.find (instance);
+    return it == cloud->class_names.end () ? std::string () : it->second;
+  }
+};
+
+/** What eval has found so far: report.json's entry of each run and the CSV files. */
+struct EvalReport
+{
+  std::vector<nlohmann::json> runs;
+  std::ostringstream tracking_csv, iou_csv, iou_frames_csv, ap_csv;
+  std::set<std::uint32_t> all_objects;  ///< scored in some frame of some run
+  std::size_t frames_with_masks = 0;
+};
+
+/** Parses eval's command line into \a s; false when --help was given. */
+bool
+parseEvalSettings (const std::vector<std::string>& args, EvalSettings& s, po::variables_map& vm)
+{
   po::options_description options ("options");
   options.add_options ()
-    ("run", po::value (&run_specs)->composing (), "[NAME=]DIR of a `cuefusion run`; repeat to compare runs (e.g. geometry=out/geo --run fused=out/fused)")
-    ("gt", po::value (&gt), "the sequence the runs processed (its poses, instance masks and, when present, labelled ground-truth cloud)")
-    ("out", po::value (&out), "report folder: report.json, CSV files, plots/ (with --aggregate: summary.json, summary.csv, summary_plots/)")
-    ("aggregate", po::value (&aggregate)->multitoken (), "instead of evaluating: summarize existing results, DIR... being report folders of "
+    ("run", po::value (&s.run_specs)->composing (), "[NAME=]DIR of a `cuefusion run`; repeat to compare runs (e.g. geometry=out/geo --run fused=out/fused)")
+    ("gt", po::value (&s.gt), "the sequence the runs processed (its poses, instance masks and, when present, labelled ground-truth cloud)")
+    ("out", po::value (&s.out), "report folder: report.json, CSV files, plots/ (with --aggregate: summary.json, summary.csv, summary_plots/)")
+    ("aggregate", po::value (&s.aggregate)->multitoken (), "instead of evaluating: summarize existing results, DIR... being report folders of "
      "`cuefusion eval` or folders of `cuefusion batch` (--out defaults to a single batch folder); AP pooled over the "
      "sequences as the ScanNet benchmark does")
-    ("format", po::value (&format)->default_value ("auto"), "layout of --gt: auto, tum, redwood, 7scenes, scannet")
-    ("intrinsics", po::value (&intrinsics), "intrinsics file overriding the sequence's own")
-    ("labels", po::value (&labels_from)->default_value ("final"), "per-frame IoU from the 'final' map seen from each estimated pose, or the run's 'per-frame' labels/ (run --save-every)")
-    ("every", po::value (&every)->default_value (every), "score every K-th frame")
-    ("min-pixels", po::value (&min_pixels)->default_value (min_pixels), "objects with fewer visible pixels in a frame are not scored there")
-    ("min-region", po::value (&min_region)->default_value (min_region), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
-    ("match-radius", po::value (&match_radius)->default_value (0.0), "3D AP: ground-truth points take the label of the nearest map point within this (metres; 0 = two voxels)")
-    ("no-plots", po::bool_switch (&no_plots), "write report.json and CSV only");
+    ("format", po::value (&s.format)->default_value (s.format), "layout of --gt: auto, tum, redwood, 7scenes, scannet")
+    ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
+    ("labels", po::value (&s.labels_from)->default_value (s.labels_from), "per-frame IoU from the 'final' map seen from each estimated pose, or the run's 'per-frame' labels/ (run --save-every)")
+    ("every", po::value (&s.every)->default_value (s.every), "score every K-th frame")
+    ("min-pixels", po::value (&s.min_pixels)->default_value (s.min_pixels), "objects with fewer visible pixels in a frame are not scored there")
+    ("min-region", po::value (&s.min_region)->default_value (s.min_region), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
+    ("match-radius", po::value (&s.match_radius)->default_value (s.match_radius), "3D AP: ground-truth points take the label of the nearest map point within this (metres; 0 = two voxels)")
+    ("no-plots", po::bool_switch (&s.no_plots), "write report.json and CSV only");
   po::positional_options_description positional;
-  po::variables_map vm;
-  if (!parseCommandLine ("eval", "--run [NAME=]DIR [--run ...] --gt SEQUENCE --out REPORT_DIR [options]\n"
-                         "       cuefusion eval --aggregate DIR... [--out SUMMARY_DIR] [--no-plots]", args, options, positional, vm))
-    return 0;
-  if (given (vm, "aggregate"))
-    return runAggregate (aggregate, out, no_plots);
-  if (gt.empty () || out.empty ())
-    throw UsageError (gt.empty () ? "--gt is required" : "--out is required");
-  if (run_specs.empty ())
-    throw UsageError ("at least one --run is needed");
-  if (labels_from != "final" && labels_from != "per-frame")
-    throw ParameterError ("--labels", "must be 'final' or 'per-frame', not '" + labels_from + "'");
-  if (every == 0)
-    throw ParameterError ("--every", "must be at least 1");
-  if (min_pixels == 0 || min_region == 0)
-    throw ParameterError (min_pixels == 0 ? "--min-pixels" : "--min-region", "must be at least 1");
-  if (!(match_radius >= 0.0 && match_radius <= 1.0))
-    throw ParameterError ("--match-radius", "must lie in [0, 1] metres");
-  const bool final_map = labels_from == "final";
+  return parseCommandLine ("eval", "--run [NAME=]DIR [--run ...] --gt SEQUENCE --out REPORT_DIR [options]\n"
+                           "       cuefusion eval --aggregate DIR... [--out SUMMARY_DIR] [--no-plots]", args, options, positional, vm);
+}
 
-  std::vector<RunData> runs;
+void
+checkEvalSettings (const EvalSettings& s)
+{
+  if (s.gt.empty () || s.out.empty ())
+    throw UsageError (s.gt.empty () ? "--gt is required" : "--out is required");
+  if (s.run_specs.empty ())
+    throw UsageError ("at least one --run is needed");
+  if (s.labels_from != "final" && s.labels_from != "per-frame")
+    throw ParameterError ("--labels", "must be 'final' or 'per-frame', not '" + s.labels_from + "'");
+  if (s.every == 0)
+    throw ParameterError ("--every", "must be at least 1");
+  if (s.min_pixels == 0 || s.min_region == 0)
+    throw ParameterError (s.min_pixels == 0 ? "--min-pixels" : "--min-region", "must be at least 1");
+  if (!(s.match_radius >= 0.0 && s.match_radius <= 1.0))
+    throw ParameterError ("--match-radius", "must lie in [0, 1] metres");
+}
+
+/** Every --run, each name once. */
+std::vector<RunData>
+loadRuns (const EvalSettings& s)
+{
   std::set<std::string> names;
-  for (const std::string& spec : run_specs)
+  for (const std::string& spec : s.run_specs)
   {
     const std::string name = splitRunSpec (spec).first;
     if (!names.insert (name).second)
       throw UsageError ("two runs are called '" + name + "'; name them with --run NAME=DIR");
   }
-  for (const std::string& spec : run_specs)
-    runs.push_back (loadRun (spec, final_map));
+  std::vector<RunData> runs;
+  for (const std::string& spec : s.run_specs)
+    runs.push_back (loadRun (spec, s.finalMap ()));
+  return runs;
+}
 
+EvalTruth
+loadTruth (const EvalSettings& s)
+{
   io::SequenceOptions opts;
-  opts.format = io::parseSequenceFormat (format);
-  opts.intrinsics_path = intrinsics;
+  opts.format = io::parseSequenceFormat (s.format);
+  opts.intrinsics_path = s.intrinsics;
   if (opts.format == io::SequenceFormat::OpenNI2)
     throw ParameterError ("--format", "eval needs a recorded sequence folder");
-  const io::DatasetGrabber::Ptr dataset = io::openDataset (gt, opts);
-  const std::optional<io::GroundTruthCloud> gt_cloud = io::findGroundTruthCloud (gt);
-  std::set<std::uint32_t> stuff = gt_cloud ? gt_cloud->ignored : io::syntheticStuffInstances (gt);
-  const auto classOf = [&] (std::uint32_t instance) {
-    if (!gt_cloud)
-      return std::string ();
-    const auto it = gt_cloud->class_names.find (instance);
-    return it == gt_cloud->class_names.end () ? std::string () : it->second;
-  };
+  EvalTruth truth;
+  truth.dataset = io::openDataset (s.gt, opts);
+  truth.cloud = io::findGroundTruthCloud (s.gt);
+  truth.stuff = truth.cloud ? truth.cloud->ignored : io::syntheticStuffInstances (s.gt);
+  truth.reference = referenceTrajectory (*truth.dataset);
+  return truth;
+}
 
-  // The report is written to a staging folder and replaces the previous report as a
-  // whole (io::OutputSet); report.json, moved in last, marks it complete.
-  io::OutputSet outputs (out, {"tracking.csv", "object_iou.csv", "object_iou_frames.csv", "instance_ap.csv", "plots", "report.json"},
-                         "report.json");
-  const fs::path report_dir (out);
-
-  // --- tracking
-  const io::Trajectory reference = referenceTrajectory (*dataset);
-  nlohmann::json report = {{"sequence", gt}, {"labels", labels_from}, {"runs", nlohmann::json::array ()}};
-  std::ostringstream tracking_csv;
-  tracking_csv << "run,pairs,ate_rmse_m,ate_mean_m,ate_median_m,ate_max_m,rpe_frame_trans_rmse_m,rpe_frame_rot_rmse_deg,"
-                  "rpe_1s_trans_rmse_m,rpe_1s_rot_rmse_deg\n";
-  std::vector<nlohmann::json> run_reports (runs.size ());
+/** ATE and RPE (one frame, one second) of each run against the reference. */
+void
+evaluateTracking (const std::vector<RunData>& runs, const io::Trajectory& reference, EvalReport& report)
+{
+  report.tracking_csv << "run,pairs,ate_rmse_m,ate_mean_m,ate_median_m,ate_max_m,rpe_frame_trans_rmse_m,rpe_frame_rot_rmse_deg,"
+                         "rpe_1s_trans_rmse_m,rpe_1s_rot_rmse_deg\n";
+  report.runs.resize (runs.size ());
   for (std::size_t k = 0; k < runs.size (); ++k)
   {
-    RunData& run = runs[k];
+    const RunData& run = runs[k];
     nlohmann::json tracking = nullptr;
     const evaluation::PosePairs pairs = evaluation::associatePoses (run.trajectory, reference, 1e-3);
     if (pairs.size () >= 3)
@@ -329,241 +365,240 @@ runEval (const std::vector<std::string>& args)
         }
         ++column;
       }
-      tracking_csv << csvText (run.name) << "," << ate.pairs << "," << csvNumber (ate.rmse) << "," << csvNumber (ate.mean) << ","
-                   << csvNumber (ate.median) << "," << csvNumber (ate.max) << "," << rpe_cells[0][0] << "," << rpe_cells[0][1] << ","
-                   << rpe_cells[1][0] << "," << rpe_cells[1][1] << "\n";
+      report.tracking_csv << csvText (run.name) << "," << ate.pairs << "," << csvNumber (ate.rmse) << "," << csvNumber (ate.mean) << ","
+                          << csvNumber (ate.median) << "," << csvNumber (ate.max) << "," << rpe_cells[0][0] << "," << rpe_cells[0][1] << ","
+                          << rpe_cells[1][0] << "," << rpe_cells[1][1] << "\n";
     }
-    run_reports[k] = {{"name", run.name}, {"dir", run.dir}, {"tracking", tracking}};
+    report.runs[k] = {{"name", run.name}, {"dir", run.dir}, {"tracking", tracking}};
   }
+}
 
-  // --- per-frame object IoU
-  std::size_t frames_with_masks = 0;
+/** The labels \a run shows in frame \a i (the final map rendered at the run's pose, or
+  * its labels/ image); empty when the run has none for that frame. */
+cv::Mat
+predictedLabels (const EvalSettings& s, const visualization::MeshRasterizer& rasterizer, const RunData& run, const RGBDFrame& frame,
+                 std::size_t i, const cv::Size& size)
+{
+  if (s.finalMap ())
+  {
+    const auto pose = run.pose_at.find (microseconds (frame.timestamp));
+    if (pose == run.pose_at.end ())
+      return cv::Mat ();  // not fused (tracking lost) or beyond the run's frames
+    return rasterizer.render (run.mesh, frame.camera, pose->second).labels;
+  }
+  std::ostringstream name;
+  name << std::setw (6) << std::setfill ('0') << i << ".png";
+  const fs::path path = fs::path (run.dir) / "labels" / name.str ();
+  if (!fs::exists (path))
+    return cv::Mat ();
+  cv::Mat predicted = io::readLabelImage (path.string ());
+  if (predicted.size () != size)
+    throw Error (path.string (), "label image size differs from the sequence's frames");
+  return predicted;
+}
+
+/** Per-frame object IoU of every run on every --every-th frame with instance masks. */
+void
+scoreFrames (const EvalSettings& s, const EvalTruth& truth, std::vector<RunData>& runs, EvalReport& report)
+{
   const visualization::MeshRasterizer rasterizer;
   evaluation::FrameIoUConfig iou_config;
-  iou_config.min_truth_pixels = min_pixels;
-  ProgressReporter progress ("eval", dataset->size ());
-  for (std::size_t i = 0; i < dataset->size (); i += every)
+  iou_config.min_truth_pixels = s.min_pixels;
+  const io::DatasetGrabber& dataset = *truth.dataset;
+  ProgressReporter progress ("eval", dataset.size ());
+  for (std::size_t i = 0; i < dataset.size (); i += s.every)
   {
     progress.update (i + 1);
-    if (dataset->records ()[i].instance_path.empty ())
+    if (dataset.records ()[i].instance_path.empty ())
       continue;
-    const RGBDFrame::Ptr frame = dataset->readFrame (i);
-    ++frames_with_masks;
-    cv::Mat truth = frame->instance_mask.clone ();
-    for (int r = 0; r < truth.rows; ++r)
-      for (int c = 0; c < truth.cols; ++c)
-        if (stuff.count (truth.at<std::uint16_t> (r, c)))
-          truth.at<std::uint16_t> (r, c) = 0;
+    const RGBDFrame::Ptr frame = dataset.readFrame (i);
+    ++report.frames_with_masks;
+    cv::Mat objects = frame->instance_mask.clone ();
+    for (int r = 0; r < objects.rows; ++r)
+      for (int c = 0; c < objects.cols; ++c)
+        if (truth.stuff.count (objects.at<std::uint16_t> (r, c)))
+          objects.at<std::uint16_t> (r, c) = 0;
     cv::Mat valid (frame->depth.size (), CV_8U);
     for (int r = 0; r < valid.rows; ++r)
       for (int c = 0; c < valid.cols; ++c)
         valid.at<std::uint8_t> (r, c) = isValidDepth (frame->depth.at<float> (r, c)) ? 255 : 0;
     for (RunData& run : runs)
     {
-      cv::Mat predicted;
-      if (final_map)
+      const cv::Mat predicted = predictedLabels (s, rasterizer, run, *frame, i, objects.size ());
+      if (predicted.empty ())
       {
-        const auto pose = run.pose_at.find (microseconds (frame->timestamp));
-        if (pose == run.pose_at.end ())
-        {
-          ++run.frames_skipped;  // not fused (tracking lost) or beyond the run's frames
-          continue;
-        }
-        predicted = rasterizer.render (run.mesh, frame->camera, pose->second).labels;
+        ++run.frames_skipped;
+        continue;
       }
-      else
-      {
-        std::ostringstream name;
-        name << std::setw (6) << std::setfill ('0') << i << ".png";
-        const fs::path path = fs::path (run.dir) / "labels" / name.str ();
-        if (!fs::exists (path))
-        {
-          ++run.frames_skipped;
-          continue;
-        }
-        predicted = io::readLabelImage (path.string ());
-        if (predicted.size () != truth.size ())
-          throw Error (path.string (), "label image size differs from the sequence's frames");
-      }
-      run.frame_iou.push_back (evaluation::frameObjectIoU (predicted, truth, valid, iou_config));
+      run.frame_iou.push_back (evaluation::frameObjectIoU (predicted, objects, valid, iou_config));
       run.frame_index.push_back (i);
     }
   }
   progress.finish ();
+}
 
-  std::ostringstream iou_csv, iou_frames_csv, ap_csv;
-  iou_csv << "run,instance,class,frames,mean_iou\n";
-  iou_frames_csv << "run,frame,instance,class,segment,truth_pixels,segment_pixels,iou\n";
-  ap_csv << "run,class,ap,ap50,ap25\n";
-  std::set<std::uint32_t> all_objects;
+/** Each run's object IoU per object and frame, into the report and the CSV files. */
+void
+summarizeObjectIoU (const EvalTruth& truth, const std::vector<RunData>& runs, EvalReport& report)
+{
+  report.iou_csv << "run,instance,class,frames,mean_iou\n";
+  report.iou_frames_csv << "run,frame,instance,class,segment,truth_pixels,segment_pixels,iou\n";
   for (std::size_t k = 0; k < runs.size (); ++k)
   {
-    RunData& run = runs[k];
+    const RunData& run = runs[k];
     const evaluation::SequenceIoU summary = evaluation::summarizeObjectIoU (run.frame_iou);
     nlohmann::json objects = nlohmann::json::array ();
     for (const auto& [id, mean] : summary.object_mean)
     {
-      all_objects.insert (id);
-      objects.push_back ({{"instance", id}, {"class", classOf (id)}, {"frames", summary.object_frames.at (id)}, {"mean_iou", mean}});
-      iou_csv << csvText (run.name) << "," << id << "," << csvText (classOf (id)) << "," << summary.object_frames.at (id) << ","
-              << csvNumber (mean) << "\n";
+      report.all_objects.insert (id);
+      objects.push_back ({{"instance", id}, {"class", truth.classOf (id)}, {"frames", summary.object_frames.at (id)}, {"mean_iou", mean}});
+      report.iou_csv << csvText (run.name) << "," << id << "," << csvText (truth.classOf (id)) << "," << summary.object_frames.at (id) << ","
+                     << csvNumber (mean) << "\n";
     }
     for (std::size_t f = 0; f < run.frame_iou.size (); ++f)
       for (const evaluation::ObjectIoU& o : run.frame_iou[f])
-        iou_frames_csv << csvText (run.name) << "," << run.frame_index[f] << "," << o.instance << "," << csvText (classOf (o.instance))
-                       << "," << o.segment << "," << o.truth_pixels << "," << o.segment_pixels << "," << csvNumber (o.iou) << "\n";
-    run_reports[k]["object_iou"] = {{"mean", run.frame_iou.empty () ? nlohmann::json (nullptr) : nlohmann::json (summary.mean)},
+        report.iou_frames_csv << csvText (run.name) << "," << run.frame_index[f] << "," << o.instance << ","
+                              << csvText (truth.classOf (o.instance)) << "," << o.segment << "," << o.truth_pixels << ","
+                              << o.segment_pixels << "," << csvNumber (o.iou) << "\n";
+    report.runs[k]["object_iou"] = {{"mean", run.frame_iou.empty () ? nlohmann::json (nullptr) : nlohmann::json (summary.mean)},
                                     {"frames_scored", run.frame_iou.size ()},
                                     {"frames_skipped", run.frames_skipped},
                                     {"objects", objects}};
   }
+}
 
-  // --- 3D instance AP against the labelled ground-truth cloud
-  if (gt_cloud)
+/** 3D instance AP of each run's map.pcd against the labelled ground-truth cloud. */
+void
+scoreInstanceAP (const EvalSettings& s, const io::GroundTruthCloud& gt_cloud, const std::vector<RunData>& runs, EvalReport& report)
+{
+  for (std::size_t k = 0; k < runs.size (); ++k)
   {
-    for (std::size_t k = 0; k < runs.size (); ++k)
+    const RunData& run = runs[k];
+    const std::string map_path = (fs::path (run.dir) / "map.pcd").string ();
+    pcl::PointCloud<pcl::PointXYZL>::Ptr map (new pcl::PointCloud<pcl::PointXYZL>);
+    pcl::fromPCLPointCloud2 (io::readPCD (map_path, {"x", "y", "z", "label"}), *map);
+    evaluation::InstanceEvaluationInput input;
+    input.truth.reserve (gt_cloud.cloud->size ());
+    for (const auto& p : *gt_cloud.cloud)
+      input.truth.push_back (p.label);
+    input.predicted = transferLabels (*gt_cloud.cloud, map, s.match_radius > 0.0 ? s.match_radius : 2.0 * run.voxel_size);
+    for (const auto& [id, name] : gt_cloud.class_names)
+      input.truth_instances[id] = {name, gt_cloud.ignored.count (id) > 0};
+    input.predicted_instances.insert (run.segments.begin (), run.segments.end ());
+    evaluation::InstanceAPConfig ap_config;
+    ap_config.min_region_size = s.min_region;
+    const evaluation::InstanceAPResult ap = evaluation::evaluateInstanceAP (input, ap_config);
+    nlohmann::json per_class = nlohmann::json::object ();
+    for (const auto& [name, scores] : ap.per_class)
     {
-      RunData& run = runs[k];
-      const std::string map_path = (fs::path (run.dir) / "map.pcd").string ();
-      pcl::PointCloud<pcl::PointXYZL>::Ptr map (new pcl::PointCloud<pcl::PointXYZL>);
-      pcl::fromPCLPointCloud2 (io::readPCD (map_path, {"x", "y", "z", "label"}), *map);
-      evaluation::InstanceEvaluationInput input;
-      input.truth.reserve (gt_cloud->cloud->size ());
-      for (const auto& p : *gt_cloud->cloud)
-        input.truth.push_back (p.label);
-      input.predicted = transferLabels (*gt_cloud->cloud, map, match_radius > 0.0 ? match_radius : 2.0 * run.voxel_size);
-      for (const auto& [id, name] : gt_cloud->class_names)
-        input.truth_instances[id] = {name, gt_cloud->ignored.count (id) > 0};
-      input.predicted_instances.insert (run.segments.begin (), run.segments.end ());
-      evaluation::InstanceAPConfig ap_config;
-      ap_config.min_region_size = min_region;
-      const evaluation::InstanceAPResult ap = evaluation::evaluateInstanceAP (input, ap_config);
-      nlohmann::json per_class = nlohmann::json::object ();
-      for (const auto& [name, scores] : ap.per_class)
-      {
-        per_class[name] = apJson (scores);
-        ap_csv << csvText (run.name) << "," << csvText (name) << "," << csvNumber (scores.ap) << "," << csvNumber (scores.ap50) << ","
-               << csvNumber (scores.ap25) << "\n";
-      }
-      ap_csv << csvText (run.name) << ",(class-agnostic)," << csvNumber (ap.class_agnostic.ap) << "," << csvNumber (ap.class_agnostic.ap50)
-             << "," << csvNumber (ap.class_agnostic.ap25) << "\n";
-      run_reports[k]["instance_ap"] = {{"ground_truth", gt_cloud->source},
-                                       {"class_agnostic", apJson (ap.class_agnostic)},
-                                       {"class_mean", apJson (ap.class_mean)},
-                                       {"per_class", per_class},
-                                       {"matches", matchesJson (ap.matches)},
-                                       {"truth_instances", ap.truth_instances},
-                                       {"predicted_instances", ap.predicted_instances},
-                                       {"segmentation", {{"truth_instances", ap.counts.truth},
-                                                         {"segments", ap.counts.segments},
-                                                         {"over_segmented", ap.counts.over_segmented},
-                                                         {"extra_segments", ap.counts.extra_segments},
-                                                         {"under_segmented", ap.counts.under_segmented}}}};
+      per_class[name] = apJson (scores);
+      report.ap_csv << csvText (run.name) << "," << csvText (name) << "," << csvNumber (scores.ap) << "," << csvNumber (scores.ap50) << ","
+                    << csvNumber (scores.ap25) << "\n";
     }
+    report.ap_csv << csvText (run.name) << ",(class-agnostic)," << csvNumber (ap.class_agnostic.ap) << ","
+                  << csvNumber (ap.class_agnostic.ap50) << "," << csvNumber (ap.class_agnostic.ap25) << "\n";
+    report.runs[k]["instance_ap"] = {{"ground_truth", gt_cloud.source},
+                                     {"class_agnostic", apJson (ap.class_agnostic)},
+                                     {"class_mean", apJson (ap.class_mean)},
+                                     {"per_class", per_class},
+                                     {"matches", matchesJson (ap.matches)},
+                                     {"truth_instances", ap.truth_instances},
+                                     {"predicted_instances", ap.predicted_instances},
+                                     {"segmentation", {{"truth_instances", ap.counts.truth},
+                                                       {"segments", ap.counts.segments},
+                                                       {"over_segmented", ap.counts.over_segmented},
+                                                       {"extra_segments", ap.counts.extra_segments},
+                                                       {"under_segmented", ap.counts.under_segmented}}}};
   }
-  for (nlohmann::json& r : run_reports)
-  {
-    if (!r.contains ("instance_ap"))
-      r["instance_ap"] = nullptr;
-    report["runs"].push_back (r);
-  }
-  report["frames_with_masks"] = frames_with_masks;
-  report["ground_truth_cloud"] = gt_cloud ? nlohmann::json (gt_cloud->source) : nlohmann::json (nullptr);
+}
 
-  // --- plots
+/** The camera trajectories seen from above (the plane of the reference's two main
+  * directions), as plot_dir/trajectory.png; returns its path. */
+std::string
+trajectoryPlot (const std::string& gnuplot, const fs::path& plot_dir, const io::Trajectory& reference, const std::vector<RunData>& runs)
+{
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
+  for (const io::StampedPose& p : reference)
+    mean += p.pose.translation ();
+  mean /= static_cast<double> (reference.size ());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero ();
+  for (const io::StampedPose& p : reference)
+    covariance += (p.pose.translation () - mean) * (p.pose.translation () - mean).transpose ();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver (covariance);
+  const Eigen::Vector3d a = solver.eigenvectors ().col (2), b = solver.eigenvectors ().col (1);
+  const auto writeTrack = [&] (const io::Trajectory& track, const std::string& file) {
+    std::ostringstream data;
+    data << "# along_main_axis along_second_axis (metres)\n";
+    for (const io::StampedPose& p : track)
+      data << (p.pose.translation () - mean).dot (a) << " " << (p.pose.translation () - mean).dot (b) << "\n";
+    io::writeTextAtomic (file, data.str ());
+  };
+  PlotSpec spec;
+  spec.output_png = (plot_dir / "trajectory.png").string ();
+  spec.title = "camera trajectory, top view";
+  spec.xlabel = "main axis (m)";
+  spec.ylabel = "second axis (m)";
+  spec.equal_axes = true;
+  const std::string truth_file = (plot_dir / "trajectory_reference.dat").string ();
+  writeTrack (reference, truth_file);
+  spec.series.push_back ({truth_file, 1, 2, "ground truth", "lines"});
+  for (std::size_t k = 0; k < runs.size (); ++k)
+  {
+    const std::string file = (plot_dir / ("trajectory_run" + std::to_string (k) + ".dat")).string ();
+    writeTrack (runs[k].trajectory, file);
+    spec.series.push_back ({file, 1, 2, runs[k].name, "lines"});
+  }
+  renderPlot (gnuplot, spec);
+  return spec.output_png;
+}
+
+/** IoU per frame of each object (one line per run), the mean over the objects, and the
+  * trajectories, into \a plot_dir; returns the PNGs written. */
+std::vector<std::string>
+writePlots (const std::string& gnuplot, const fs::path& plot_dir, const EvalTruth& truth, const std::vector<RunData>& runs,
+            const std::set<std::uint32_t>& objects)
+{
   std::vector<std::string> plots;
-  std::string plot_note;
-  if (!no_plots)
+  for (const std::uint32_t object : objects)
   {
-    const std::string gnuplot = findGnuplot ();
-    if (gnuplot.empty ())
-      plot_note = "skipped: gnuplot not found (Debian package gnuplot-nox; scripts/setup installs it)";
-    else
-    {
-      const fs::path plot_dir = outputs.stagingPath ("plots/");
-      // Per object: IoU over frames, one line per run; then the mean over the objects
-      // visible in each frame.
-      for (const std::uint32_t object : all_objects)
-      {
-        const std::string cls = classOf (object);
-        plots.push_back (iouChart (gnuplot, plot_dir, "iou_object_" + std::to_string (object),
-                                   "object " + std::to_string (object) + (cls.empty () ? "" : " (" + cls + ")") + ": IoU per frame",
-                                   "IoU", "linespoints", runs, [object] (const RunData& run, std::size_t f, double& y) {
-                                     for (const evaluation::ObjectIoU& o : run.frame_iou[f])
-                                       if (o.instance == object)
-                                       {
-                                         y = o.iou;
-                                         return true;
-                                       }
-                                     return false;
-                                   }));
-      }
-      if (!all_objects.empty ())
-        plots.push_back (iouChart (gnuplot, plot_dir, "iou_mean", "mean object IoU per frame", "mean IoU", "lines", runs,
-                                   [] (const RunData& run, std::size_t f, double& y) {
-                                     if (run.frame_iou[f].empty ())
-                                       return false;
-                                     double sum = 0.0;
-                                     for (const evaluation::ObjectIoU& o : run.frame_iou[f])
-                                       sum += o.iou;
-                                     y = sum / static_cast<double> (run.frame_iou[f].size ());
+    const std::string cls = truth.classOf (object);
+    plots.push_back (iouChart (gnuplot, plot_dir, "iou_object_" + std::to_string (object),
+                               "object " + std::to_string (object) + (cls.empty () ? "" : " (" + cls + ")") + ": IoU per frame", "IoU",
+                               "linespoints", runs, [object] (const RunData& run, std::size_t f, double& y) {
+                                 for (const evaluation::ObjectIoU& o : run.frame_iou[f])
+                                   if (o.instance == object)
+                                   {
+                                     y = o.iou;
                                      return true;
-                                   }));
-      // Trajectory seen from above: the plane of the reference's two main directions.
-      if (reference.size () >= 3)
-      {
-        Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
-        for (const io::StampedPose& p : reference)
-          mean += p.pose.translation ();
-        mean /= static_cast<double> (reference.size ());
-        Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero ();
-        for (const io::StampedPose& p : reference)
-          covariance += (p.pose.translation () - mean) * (p.pose.translation () - mean).transpose ();
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver (covariance);
-        const Eigen::Vector3d a = solver.eigenvectors ().col (2), b = solver.eigenvectors ().col (1);
-        const auto writeTrack = [&] (const io::Trajectory& track, const std::string& file) {
-          std::ostringstream data;
-          data << "# along_main_axis along_second_axis (metres)\n";
-          for (const io::StampedPose& p : track)
-            data << (p.pose.translation () - mean).dot (a) << " " << (p.pose.translation () - mean).dot (b) << "\n";
-          io::writeTextAtomic (file, data.str ());
-        };
-        PlotSpec spec;
-        spec.output_png = (plot_dir / "trajectory.png").string ();
-        spec.title = "camera trajectory, top view";
-        spec.xlabel = "main axis (m)";
-        spec.ylabel = "second axis (m)";
-        spec.equal_axes = true;
-        const std::string truth_file = (plot_dir / "trajectory_reference.dat").string ();
-        writeTrack (reference, truth_file);
-        spec.series.push_back ({truth_file, 1, 2, "ground truth", "lines"});
-        for (std::size_t k = 0; k < runs.size (); ++k)
-        {
-          const std::string file = (plot_dir / ("trajectory_run" + std::to_string (k) + ".dat")).string ();
-          writeTrack (runs[k].trajectory, file);
-          spec.series.push_back ({file, 1, 2, runs[k].name, "lines"});
-        }
-        renderPlot (gnuplot, spec);
-        plots.push_back (spec.output_png);
-      }
-    }
+                                   }
+                                 return false;
+                               }));
   }
-  for (std::string& plot : plots)
-    plot = outputs.finalPath ("plots/" + fs::path (plot).filename ().string ());
-  report["plots"] = plots;
-  if (!plot_note.empty ())
-    report["plots_note"] = plot_note;
+  if (!objects.empty ())
+    plots.push_back (iouChart (gnuplot, plot_dir, "iou_mean", "mean object IoU per frame", "mean IoU", "lines", runs,
+                               [] (const RunData& run, std::size_t f, double& y) {
+                                 if (run.frame_iou[f].empty ())
+                                   return false;
+                                 double sum = 0.0;
+                                 for (const evaluation::ObjectIoU& o : run.frame_iou[f])
+                                   sum += o.iou;
+                                 y = sum / static_cast<double> (run.frame_iou[f].size ());
+                                 return true;
+                               }));
+  if (truth.reference.size () >= 3)
+    plots.push_back (trajectoryPlot (gnuplot, plot_dir, truth.reference, runs));
+  return plots;
+}
 
-  io::writeTextAtomic (outputs.stagingPath ("tracking.csv"), tracking_csv.str ());
-  io::writeTextAtomic (outputs.stagingPath ("object_iou.csv"), iou_csv.str ());
-  io::writeTextAtomic (outputs.stagingPath ("object_iou_frames.csv"), iou_frames_csv.str ());
-  io::writeTextAtomic (outputs.stagingPath ("instance_ap.csv"), ap_csv.str ());
-  io::writeTextAtomic (outputs.stagingPath ("report.json"), report.dump (2) + "\n");
-  outputs.commit ();
-
-  // Summary on stdout, one block per run.
-  std::cout << "evaluated " << runs.size () << " run(s) against " << gt << " (" << frames_with_masks << " frames with instance masks"
-            << (gt_cloud ? ", ground-truth cloud " + gt_cloud->source : std::string (", no labelled ground-truth cloud")) << ")\n";
+/** One block per run on stdout; where the report went. */
+void
+printEvalSummary (const nlohmann::json& report, const EvalSettings& s, const EvalTruth& truth, std::size_t frames_with_masks,
+                  const std::vector<std::string>& plots, const std::string& plot_note)
+{
+  const fs::path report_dir (s.out);
+  std::cout << "evaluated " << report["runs"].size () << " run(s) against " << s.gt << " (" << frames_with_masks
+            << " frames with instance masks"
+            << (truth.cloud ? ", ground-truth cloud " + truth.cloud->source : std::string (", no labelled ground-truth cloud")) << ")\n";
   std::cout << std::fixed << std::setprecision (3);
   for (const nlohmann::json& r : report["runs"])
   {
@@ -587,6 +622,67 @@ runEval (const std::vector<std::string>& args)
   std::cout << ")\n";
   if (!plot_note.empty ())
     std::cerr << "cuefusion eval: plots " << plot_note << "\n";
+}
+}  // namespace
+
+int
+runEval (const std::vector<std::string>& args)
+{
+  // Parse → load → evaluate (tracking, per-frame IoU, 3D AP) → write → report.
+  EvalSettings s;
+  po::variables_map vm;
+  if (!parseEvalSettings (args, s, vm))
+    return 0;
+  if (given (vm, "aggregate"))
+    return runAggregate (s.aggregate, s.out, s.no_plots);
+  checkEvalSettings (s);
+  std::vector<RunData> runs = loadRuns (s);
+  const EvalTruth truth = loadTruth (s);
+
+  // The report is written to a staging folder and replaces the previous report as a
+  // whole (io::OutputSet); report.json, moved in last, marks it complete.
+  io::OutputSet outputs (s.out, {"tracking.csv", "object_iou.csv", "object_iou_frames.csv", "instance_ap.csv", "plots", "report.json"},
+                         "report.json");
+  EvalReport found;
+  evaluateTracking (runs, truth.reference, found);
+  scoreFrames (s, truth, runs, found);
+  summarizeObjectIoU (truth, runs, found);
+  found.ap_csv << "run,class,ap,ap50,ap25\n";
+  if (truth.cloud)
+    scoreInstanceAP (s, *truth.cloud, runs, found);
+  nlohmann::json report = {{"sequence", s.gt}, {"labels", s.labels_from}, {"runs", nlohmann::json::array ()}};
+  for (nlohmann::json& r : found.runs)
+  {
+    if (!r.contains ("instance_ap"))
+      r["instance_ap"] = nullptr;
+    report["runs"].push_back (r);
+  }
+  report["frames_with_masks"] = found.frames_with_masks;
+  report["ground_truth_cloud"] = truth.cloud ? nlohmann::json (truth.cloud->source) : nlohmann::json (nullptr);
+
+  std::vector<std::string> plots;
+  std::string plot_note;
+  if (!s.no_plots)
+  {
+    const std::string gnuplot = findGnuplot ();
+    if (gnuplot.empty ())
+      plot_note = "skipped: gnuplot not found (Debian package gnuplot-nox; scripts/setup installs it)";
+    else
+      plots = writePlots (gnuplot, outputs.stagingPath ("plots/"), truth, runs, found.all_objects);
+  }
+  for (std::string& plot : plots)
+    plot = outputs.finalPath ("plots/" + fs::path (plot).filename ().string ());
+  report["plots"] = plots;
+  if (!plot_note.empty ())
+    report["plots_note"] = plot_note;
+
+  io::writeTextAtomic (outputs.stagingPath ("tracking.csv"), found.tracking_csv.str ());
+  io::writeTextAtomic (outputs.stagingPath ("object_iou.csv"), found.iou_csv.str ());
+  io::writeTextAtomic (outputs.stagingPath ("object_iou_frames.csv"), found.iou_frames_csv.str ());
+  io::writeTextAtomic (outputs.stagingPath ("instance_ap.csv"), found.ap_csv.str ());
+  io::writeTextAtomic (outputs.stagingPath ("report.json"), report.dump (2) + "\n");
+  outputs.commit ();
+  printEvalSummary (report, s, truth, found.frames_with_masks, plots, plot_note);
   return 0;
 }
 }  // namespace cli
