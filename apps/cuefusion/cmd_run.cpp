@@ -359,9 +359,430 @@ runPipelineConfig (const RunSettings& s)
   return pipeline_config;
 }
 
+namespace
+{
+/** One `cuefusion run`: the sequence, the mask source, the pipeline and what the frames
+  * gave, from set-up (the constructor) through the frames (onFrame, called by the
+  * grabber) to the outputs (writeOutputs) and the summary (printSummary). */
+class RunSession
+{
+public:
+  RunSession (const RunSettings& s, const po::variables_map& vm);
+
+  /** Grabs every frame (a recorded sequence) or until Ctrl-C / the grabber stops (a live
+    * camera); with --view the window runs on this thread and the frames on a worker. */
+  void run ();
+
+  /** Writes the staged outputs and replaces the folder's previous set with them. */
+  void writeOutputs ();
+
+  void printSummary () const;
+
+private:
+  void onFrame (const RGBDFrame::ConstPtr& frame);
+  /** The frame's masks from the mask source; false when it has none. */
+  bool masksFor (const RGBDFrame& frame, std::vector<Instance>& instances);
+  /** labels/INDEX.png, --render's PNG and --video's frame of a segmented frame. */
+  void writeFrameViews (const RGBDFrame& frame);
+  void postToViewer (const RGBDFrame& frame, const reconstruction::FrameReport& report);
+  void grabFrames ();
+  void runWithViewer ();
+  nlohmann::json trackingJson ();
+  /** The staging path of \a name; throws when a second signal came while writing. */
+  std::string staged (const std::string& name) const;
+
+  const RunSettings& s_;
+  const pipeline::FusionPipelineConfig pipeline_config_;
+  std::shared_ptr<recognition::InstanceSegmenter> mask_source_;
+  io::RGBDGrabber::Ptr grabber_;
+  io::DatasetGrabber::Ptr dataset_;  ///< the grabber when it reads a recorded sequence
+  bool asynchronous_masks_ = false;
+  io::OutputSet outputs_;
+  pipeline::FusionPipeline fusion_;
+  std::unique_ptr<VideoOutput> video_;
+  std::unique_ptr<visualization::LiveViewer> viewer_;
+  std::chrono::steady_clock::time_point last_view_post_ = std::chrono::steady_clock::now () - std::chrono::seconds (10);
+  RunOutputs result_;
+  std::mutex mutex_;
+  std::string callback_error_;
+  ProgressReporter progress_;
+  std::chrono::steady_clock::time_point t0_;
+  // What writeOutputs found, for printSummary.
+  double seconds_ = 0.0;
+  std::size_t map_points_ = 0, triangles_ = 0, lost_ = 0, relocalised_ = 0;
+  std::vector<segmentation::SegmentRecord> segments_;
+  std::string ate_line_;
+  std::unique_ptr<InterruptHandlers> interrupt_handlers_;
+};
+
+std::shared_ptr<recognition::InstanceSegmenter>
+makeMaskSource (const RunSettings& s)
+{
+  if (!s.masks.empty ())
+    return std::make_shared<recognition::MaskFolderSegmenter> (s.masks);
+  if (!s.onnx.model_path.empty ())
+    return std::make_shared<recognition::OnnxInstanceSegmenter> (s.onnx);
+  return nullptr;
+}
+
+/** --out, once the settings are known to suit the sequence (\a dataset: null for a camera). */
+const std::string&
+checkedOutputFolder (const RunSettings& s, const io::DatasetGrabber* dataset)
+{
+  if (s.use_gt_poses && (!dataset || !dataset->hasPoses ()))
+    throw ParameterError ("--use-gt-poses", s.source + " has no reference poses");
+  return s.out;
+}
+
+io::RGBDGrabber::Ptr
+openRunSequence (const RunSettings& s)
+{
+  io::SequenceOptions opts;
+  opts.format = io::parseSequenceFormat (s.format);
+  opts.intrinsics_path = s.intrinsics;
+  return io::openSequence (s.source, opts);
+}
+
+RunSession::RunSession (const RunSettings& s, const po::variables_map& vm)
+  : s_ (s)
+  , pipeline_config_ (runPipelineConfig (s))
+  , mask_source_ (makeMaskSource (s))
+  , grabber_ (openRunSequence (s))
+  , dataset_ (std::dynamic_pointer_cast<io::DatasetGrabber> (grabber_))
+  // Everything goes to a staging folder first and replaces the previous run's set as a
+  // whole at the end (io::OutputSet): an error or a second signal leaves it untouched.
+  , outputs_ (checkedOutputFolder (s, dataset_.get ()), kRunOutputs, "outputs.json")
+  , fusion_ (pipeline_config_)
+  , progress_ ("run", dataset_ ? dataset_->size () : 0)
+{
+  const std::size_t max_frames = static_cast<std::size_t> (s.frames);
+  if (dataset_)
+    dataset_->setFrameLimit (max_frames);
+  // A live camera does not wait for the network (thesis §6.1).
+  asynchronous_masks_ = mask_source_ && (s.async_masks || !dataset_);
+  if (asynchronous_masks_)  // the first frames go without masks until the first finish
+    mask_source_ = std::make_shared<recognition::AsynchronousSegmenter> (mask_source_);
+  if (!s.load_volume.empty ())
+    continueSavedVolume (s.load_volume, vm, pipeline_config_.reconstruction.keyframes, fusion_);
+  boost::system::error_code ec;
+  if (!s.render_dir.empty ())
+  {
+    fs::create_directories (s.render_dir, ec);
+    if (ec || !fs::is_directory (s.render_dir))
+      throw Error (s.render_dir, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
+  }
+  if (!s.video_path.empty ())
+    video_ = std::make_unique<VideoOutput> (s.video_path,
+                                            dataset_ && dataset_->getFramesPerSecond () > 0.f ? dataset_->getFramesPerSecond () : 30.0);
+  // The window belongs to this (the main) thread; processing moves to a worker in run().
+  if (s.view)
+    viewer_ = std::make_unique<visualization::LiveViewer> ("cuefusion run: " + s.source);
+}
+
+bool
+RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances)
+{
+  if (!mask_source_ || pipeline_config_.mode == pipeline::SegmentationMode::Geometry)
+    return false;
+  const bool have_masks = mask_source_->segment (frame, instances);
+  if (!have_masks && result_.frames_without_masks++ == 0 && !asynchronous_masks_)
+    std::cerr << "cuefusion run: no masks for frame " << frame.index << " (nor, maybe, for later frames): "
+              << "geometry only there\n";
+  return have_masks;
+}
+
+void
+RunSession::writeFrameViews (const RGBDFrame& frame)
+{
+  std::ostringstream name;
+  name << std::setw (6) << std::setfill ('0') << frame.index << ".png";
+  const std::size_t save_every = static_cast<std::size_t> (s_.save_every);
+  const bool save_labels = save_every > 0 && frame.index % save_every == 0;
+  if (!save_labels && s_.render_dir.empty () && !video_)
+    return;
+  const cv::Mat labels = fusion_.modelLabels ();
+  if (save_labels)
+  {
+    const std::string path = outputs_.stagingPath ("labels/" + name.str ());
+    io::writeImageAtomic (path, labelsAs16Bit (labels, outputs_.finalPath ("labels/" + name.str ())));
+  }
+  if (!s_.render_dir.empty () || video_)
+  {
+    const cv::Mat panel = visualization::composeFrameView (frame, labels);
+    if (!s_.render_dir.empty ())
+      io::writeImageAtomic ((fs::path (s_.render_dir) / name.str ()).string (), panel);
+    if (video_)
+      video_->write (panel);
+  }
+}
+
+void
+RunSession::postToViewer (const RGBDFrame& frame, const reconstruction::FrameReport& report)
+{
+  if (!viewer_ || !report.tracked)
+    return;
+  // The map is re-extracted at most twice a second: it grows with the scene.
+  const auto now = std::chrono::steady_clock::now ();
+  viewer_->postFrame (frame.camera, report.pose, toPointCloud (frame));
+  if (now - last_view_post_ > std::chrono::milliseconds (500))
+  {
+    viewer_->postMap (fusion_.labelledCloud ());
+    last_view_post_ = now;
+  }
+}
+
+void
+RunSession::onFrame (const RGBDFrame::ConstPtr& frame)
+{
+  const std::lock_guard<std::mutex> lock (mutex_);
+  const std::size_t max_frames = static_cast<std::size_t> (s_.frames);
+  if (!callback_error_.empty () || (max_frames && result_.reports.size () >= max_frames))
+    return;
+  try
+  {
+    std::vector<Instance> instances;
+    const bool have_masks = masksFor (*frame, instances);
+    const pipeline::PipelineFrameReport full = fusion_.process (*frame, have_masks ? &instances : nullptr);
+    reconstruction::FrameReport report = full.reconstruction;
+    if (full.segmented)
+    {
+      result_.segmentation.push_back (full.segmentation);
+      const reconstruction::StageTimings& t = full.reconstruction.timings;
+      result_.loop_ms.push_back (t.preprocess_ms + t.track_ms + t.integrate_ms + t.raycast_ms + full.segmentation.total ());
+      result_.merges += full.merges;
+      writeFrameViews (*frame);
+    }
+    postToViewer (*frame, report);
+    if (report.tracked)
+      result_.trajectory.push_back ({frame->timestamp, report.pose});
+    if (frame->pose)
+      result_.reference.push_back ({frame->timestamp, *frame->pose});
+    result_.reports.push_back (std::move (report));
+    result_.volume_bytes.push_back (fusion_.reconstruction ().volume ().memoryUsage ());
+    progress_.update (result_.reports.size ());
+  }
+  catch (const std::exception& e)  // a live camera's thread must not die with an exception
+  {
+    callback_error_ = describeException (e);
+  }
+}
+
+void
+RunSession::grabFrames ()
+{
+  grabber_->start ();
+  if (dataset_)
+  {
+    while (!InterruptHandlers::interrupted () && dataset_->trigger ())
+    {
+      const std::lock_guard<std::mutex> lock (mutex_);
+      if (!callback_error_.empty ())
+        break;
+    }
+  }
+  else
+  {
+    std::cerr << "cuefusion run: reconstructing from " << s_.source << "; Ctrl-C stops and writes the map\n";
+    const std::size_t max_frames = static_cast<std::size_t> (s_.frames);
+    for (;;)
+    {
+      std::this_thread::sleep_for (std::chrono::milliseconds (20));
+      const std::lock_guard<std::mutex> lock (mutex_);
+      if (InterruptHandlers::interrupted () || !grabber_->isRunning () || !callback_error_.empty () ||
+          (max_frames && result_.reports.size () >= max_frames))
+        break;
+    }
+  }
+  grabber_->stop ();
+}
+
+void
+RunSession::runWithViewer ()
+{
+  std::atomic<bool> done{false};
+  std::thread worker ([&] {
+    try
+    {
+      grabFrames ();
+    }
+    catch (const std::exception& e)
+    {
+      const std::lock_guard<std::mutex> lock (mutex_);
+      callback_error_ = describeException (e);
+    }
+    done = true;
+  });
+  bool window_open = true;
+  while (!done)
+    if (window_open && !viewer_->spinOnce (30))
+    {
+      window_open = false;  // closing the window stops the run, which still writes its map
+      int none = 0;  // as one signal: stop, then write everything
+      g_signals.compare_exchange_strong (none, 1);
+    }
+    else if (!window_open)
+      std::this_thread::sleep_for (std::chrono::milliseconds (30));
+  worker.join ();
+  if (window_open)
+  {
+    viewer_->postMap (fusion_.labelledCloud ());
+    viewer_->spinOnce (30);
+    if (!s_.screenshot.empty ())
+      viewer_->saveScreenshot (s_.screenshot);
+    else
+    {
+      std::cerr << "cuefusion run: done; close the window to write the outputs\n";
+      viewer_->setFollowCamera (false);  // the mouse has the view now
+      while (viewer_->spinOnce (30))
+      {
+      }
+    }
+  }
+  viewer_.reset ();
+}
+
+void
+RunSession::run ()
+{
+  t0_ = std::chrono::steady_clock::now ();
+  const boost::signals2::connection connection =
+    grabber_->registerCallback (std::function<io::RGBDGrabber::sig_cb_rgbd_frame> ([this] (const RGBDFrame::ConstPtr& frame) { onFrame (frame); }));
+  // Until the session ends: a second signal while the outputs are written keeps the old set.
+  interrupt_handlers_ = std::make_unique<InterruptHandlers> ();
+  if (viewer_)
+    runWithViewer ();
+  else
+    grabFrames ();
+  connection.disconnect ();
+  progress_.finish ();
+  if (!callback_error_.empty ())
+    throw Error (s_.source, callback_error_);
+  if (!grabber_->lastError ().empty ())
+    throw Error (s_.source, grabber_->lastError ());
+  if (result_.reports.empty ())
+    throw Error (s_.source, "no frame was processed");
+  seconds_ = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0_).count ();
+}
+
+std::string
+RunSession::staged (const std::string& name) const
+{
+  // A second signal while writing abandons the set; checked between the files.
+  if (InterruptHandlers::interruptedTwice ())
+    throw Error (s_.out, "interrupted again while writing the outputs: nothing written, the folder's previous outputs are unchanged");
+  return outputs_.stagingPath (name);
+}
+
+nlohmann::json
+RunSession::trackingJson ()
+{
+  const reconstruction::TSDFVolume& volume = fusion_.reconstruction ().volume ();
+  nlohmann::json tracking;
+  nlohmann::json lost = nlohmann::json::array ();
+  for (const auto& r : result_.reports)
+    if (!r.tracked)
+      lost.push_back ({{"index", r.index}, {"timestamp", r.timestamp}, {"reason", r.failure}});
+  nlohmann::json relocalised = nlohmann::json::array ();
+  for (const auto& r : result_.reports)
+    if (r.relocalised)
+      relocalised.push_back ({{"index", r.index}, {"timestamp", r.timestamp}, {"from", r.relocalised_from},
+                              {"ms", r.timings.relocalise_ms}});
+  lost_ = lost.size ();
+  relocalised_ = relocalised.size ();
+  tracking["frames"] = result_.reports.size ();
+  tracking["tracked"] = result_.trajectory.size ();
+  tracking["lost"] = lost;
+  tracking["relocalised"] = relocalised;
+  tracking["mode"] = s_.use_gt_poses ? "reference poses" : "frame-to-model ICP";
+  tracking["segmentation"] = {{"mode", pipeline::segmentationModeName (pipeline_config_.mode)},
+                              {"mask_source", mask_source_ ? mask_source_->name () : std::string ()},
+                              {"frames_without_masks", result_.frames_without_masks},
+                              {"merges", result_.merges}};
+  tracking["volume"] = {{"blocks", volume.blockCount ()}, {"bytes", volume.memoryUsage ()},
+                        {"voxel_size", volume.getConfig ().voxel_size}, {"truncation_voxels", volume.getConfig ().truncation_voxels}};
+  if (!s_.load_volume.empty ())
+    tracking["continued_from"] = s_.load_volume;
+  if (!s_.use_gt_poses && result_.reference.size () >= 3 && result_.trajectory.size () >= 3)
+  {
+    const evaluation::TrajectoryError ate = evaluation::absoluteTrajectoryError (result_.trajectory, result_.reference, 1e-4);
+    tracking["ate"] = {{"rmse", ate.rmse}, {"mean", ate.mean}, {"median", ate.median}, {"max", ate.max}, {"pairs", ate.pairs}};
+    std::ostringstream line;
+    line << std::fixed << std::setprecision (4) << "  ATE RMSE:   " << ate.rmse << " m against the sequence's poses ("
+         << ate.pairs << " frames)\n";
+    ate_line_ = line.str ();
+  }
+  return tracking;
+}
+
+void
+RunSession::writeOutputs ()
+{
+  const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr map = fusion_.labelledCloud ();
+  io::saveMapPCD (staged ("map.pcd"), *map);
+  map_points_ = map->size ();
+  const pcl::PolygonMesh mesh = fusion_.labelledMesh (true);
+  io::saveMeshPLY (staged ("mesh.ply"), mesh);
+  triangles_ = mesh.polygons.size ();
+  segments_ = fusion_.segments ();
+  io::writeTextAtomic (staged ("segments.json"), segmentsJson (segments_).dump (1) + "\n");
+  io::writeTumTrajectory (staged ("trajectory.txt"), result_.trajectory);
+  if (!result_.reference.empty ())  // for evaluating the estimate with any TUM tool
+    io::writeTumTrajectory (staged ("reference_trajectory.txt"), result_.reference);
+  if (s_.save_volume)
+    fusion_.saveVolume (staged ("volume.tsdf"), staged ("volume.keyframes"));
+  io::writeTextAtomic (staged ("tracking.json"), trackingJson ().dump (2) + "\n");
+  io::writeTextAtomic (staged ("timings.json"),
+                       timingsJson (result_.reports, result_.segmentation, result_.volume_bytes, result_.loop_ms).dump (2) + "\n");
+  nlohmann::json files = nlohmann::json::array ();
+  for (const std::string& name : kRunOutputs)
+    if (fs::exists (fs::path (outputs_.stagingPath (name))))
+      files.push_back (name);
+  const nlohmann::json manifest = {{"command", "run"},
+                                   {"sequence", s_.source},
+                                   {"frames", result_.reports.size ()},
+                                   {"seconds", seconds_},  // processing, opening the sequence to the last frame
+                                   {"complete", true},
+                                   // a recorded sequence cut short by a signal or a closed window
+                                   {"stopped_early", dataset_ != nullptr && InterruptHandlers::interrupted ()},
+                                   {"files", files}};
+  io::writeTextAtomic (staged ("outputs.json"), manifest.dump (2) + "\n");
+  if (video_)
+    video_->finish ();
+  outputs_.commit ();
+}
+
+void
+RunSession::printSummary () const
+{
+  const fs::path dir (s_.out);
+  const reconstruction::TSDFVolume& volume = fusion_.reconstruction ().volume ();
+  std::cout << "processed " << result_.reports.size () << " frames of " << s_.source << " (" << grabber_->formatName ()
+            << ") in " << std::fixed << std::setprecision (2) << seconds_ << " s; " << result_.trajectory.size ()
+            << " fused" << std::defaultfloat;
+  if (lost_ > 0)
+    std::cout << ", " << lost_ << " lost (tracking.json lists them)";
+  if (relocalised_ > 0)
+    std::cout << ", " << relocalised_ << " relocalised";
+  std::cout << "\n"
+            << ate_line_ << "  map:        " << (dir / "map.pcd").string () << " (" << map_points_ << " points)\n"
+            << "  mesh:       " << (dir / "mesh.ply").string () << " (" << triangles_ << " triangles)\n"
+            << "  trajectory: " << (dir / "trajectory.txt").string () << " (" << result_.trajectory.size ()
+            << " poses, TUM format)\n"
+            << "  segments:   " << (dir / "segments.json").string () << " (" << segments_.size () << " segments, "
+            << std::count_if (segments_.begin (), segments_.end (), [] (const segmentation::SegmentRecord& r) {
+                 return !r.bestClass ().empty ();
+               })
+            << " with a class; mode " << pipeline::segmentationModeName (pipeline_config_.mode) << ", " << result_.merges
+            << " merges)\n"
+            << "  volume:     " << volume.blockCount () << " blocks, "
+            << volume.memoryUsage () / (1024 * 1024) << " MiB\n";
+}
+}  // namespace
+
 int
 runRun (const std::vector<std::string>& args)
 {
+  // Parse → set up → process the frames → write → report.
   RunSettings settings;
   po::options_description options ("options");
   options.add_options ()
@@ -374,304 +795,10 @@ runRun (const std::vector<std::string>& args)
   if (!parseCommandLine ("run", "SEQUENCE --out DIR [options]", args, options, positional, vm))
     return 0;
   checkRunSettings (settings);
-  // The steps below name the settings as they were named before RunSettings gathered them.
-  const RunSettings& s = settings;
-  const std::string &source = s.source, &out = s.out, &format = s.format, &intrinsics = s.intrinsics;
-  const bool use_gt_poses = s.use_gt_poses, save_volume = s.save_volume, view = s.view, async_masks = s.async_masks;
-  const std::string &masks = s.masks, &render_dir = s.render_dir, &video_path = s.video_path, &screenshot = s.screenshot;
-  const recognition::OnnxInstanceSegmenterConfig& onnx = s.onnx;
-  const std::size_t max_frames = static_cast<std::size_t> (s.frames), save_every = static_cast<std::size_t> (s.save_every);
-
-  const pipeline::FusionPipelineConfig pipeline_config = runPipelineConfig (s);
-  std::shared_ptr<recognition::InstanceSegmenter> mask_source;
-  if (!masks.empty ())
-    mask_source = std::make_shared<recognition::MaskFolderSegmenter> (masks);
-  else if (!onnx.model_path.empty ())
-    mask_source = std::make_shared<recognition::OnnxInstanceSegmenter> (onnx);
-
-  io::SequenceOptions opts;
-  opts.format = io::parseSequenceFormat (format);
-  opts.intrinsics_path = intrinsics;
-  const io::RGBDGrabber::Ptr grabber = io::openSequence (source, opts);
-  const auto dataset = std::dynamic_pointer_cast<io::DatasetGrabber> (grabber);
-  if (use_gt_poses && (!dataset || !dataset->hasPoses ()))
-    throw ParameterError ("--use-gt-poses", source + " has no reference poses");
-  if (dataset)
-    dataset->setFrameLimit (max_frames);
-  // A live camera does not wait for the network (thesis §6.1).
-  const bool asynchronous_masks = mask_source && (async_masks || !dataset);
-  if (asynchronous_masks)  // the first frames go without masks until the first finish
-    mask_source = std::make_shared<recognition::AsynchronousSegmenter> (mask_source);
-
-  // Everything goes to a staging folder first and replaces the previous run's set as a
-  // whole at the end (io::OutputSet): an error or a second signal leaves it untouched.
-  io::OutputSet outputs (out, kRunOutputs, "outputs.json");
-  pipeline::FusionPipeline fusion (pipeline_config);
-  if (!s.load_volume.empty ())
-    continueSavedVolume (s.load_volume, vm, pipeline_config.reconstruction.keyframes, fusion);
-  boost::system::error_code ec;
-  if (!render_dir.empty ())
-  {
-    fs::create_directories (render_dir, ec);
-    if (ec || !fs::is_directory (render_dir))
-      throw Error (render_dir, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
-  }
-  std::unique_ptr<VideoOutput> video;
-  if (!video_path.empty ())
-    video = std::make_unique<VideoOutput> (video_path, dataset && dataset->getFramesPerSecond () > 0.f ? dataset->getFramesPerSecond () : 30.0);
-  // The window belongs to this (the main) thread; processing moves to a worker below.
-  std::unique_ptr<visualization::LiveViewer> viewer;
-  if (view)
-    viewer = std::make_unique<visualization::LiveViewer> ("cuefusion run: " + source);
-  auto last_view_post = std::chrono::steady_clock::now () - std::chrono::seconds (10);
-  RunOutputs result;
-  std::mutex mutex;
-  std::string callback_error;
-  ProgressReporter progress ("run", dataset ? dataset->size () : 0);
-  const auto t0 = std::chrono::steady_clock::now ();
-  std::function<io::RGBDGrabber::sig_cb_rgbd_frame> on_frame = [&] (const RGBDFrame::ConstPtr& frame) {
-    const std::lock_guard<std::mutex> lock (mutex);
-    if (!callback_error.empty () || (max_frames && result.reports.size () >= max_frames))
-      return;
-    try
-    {
-      std::vector<Instance> instances;
-      bool have_masks = false;
-      if (mask_source && pipeline_config.mode != pipeline::SegmentationMode::Geometry)
-      {
-        have_masks = mask_source->segment (*frame, instances);
-        if (!have_masks && result.frames_without_masks++ == 0 && !asynchronous_masks)
-          std::cerr << "cuefusion run: no masks for frame " << frame->index << " (nor, maybe, for later frames): "
-                    << "geometry only there\n";
-      }
-      const pipeline::PipelineFrameReport full = fusion.process (*frame, have_masks ? &instances : nullptr);
-      reconstruction::FrameReport report = full.reconstruction;
-      if (full.segmented)
-      {
-        result.segmentation.push_back (full.segmentation);
-        const reconstruction::StageTimings& t = full.reconstruction.timings;
-        result.loop_ms.push_back (t.preprocess_ms + t.track_ms + t.integrate_ms + t.raycast_ms + full.segmentation.total ());
-        result.merges += full.merges;
-        std::ostringstream name;
-        name << std::setw (6) << std::setfill ('0') << frame->index << ".png";
-        const bool save_labels = save_every > 0 && frame->index % save_every == 0;
-        if (save_labels || !render_dir.empty () || video)
-        {
-          const cv::Mat labels = fusion.modelLabels ();
-          if (save_labels)
-          {
-            const std::string path = outputs.stagingPath ("labels/" + name.str ());
-            io::writeImageAtomic (path, labelsAs16Bit (labels, outputs.finalPath ("labels/" + name.str ())));
-          }
-          if (!render_dir.empty () || video)
-          {
-            const cv::Mat panel = visualization::composeFrameView (*frame, labels);
-            if (!render_dir.empty ())
-              io::writeImageAtomic ((fs::path (render_dir) / name.str ()).string (), panel);
-            if (video)
-              video->write (panel);
-          }
-        }
-      }
-      if (viewer && report.tracked)
-      {
-        // The map is re-extracted at most twice a second: it grows with the scene.
-        const auto now = std::chrono::steady_clock::now ();
-        viewer->postFrame (frame->camera, report.pose, toPointCloud (*frame));
-        if (now - last_view_post > std::chrono::milliseconds (500))
-        {
-          viewer->postMap (fusion.labelledCloud ());
-          last_view_post = now;
-        }
-      }
-      if (report.tracked)
-        result.trajectory.push_back ({frame->timestamp, report.pose});
-      if (frame->pose)
-        result.reference.push_back ({frame->timestamp, *frame->pose});
-      result.reports.push_back (std::move (report));
-      result.volume_bytes.push_back (fusion.reconstruction ().volume ().memoryUsage ());
-      progress.update (result.reports.size ());
-    }
-    catch (const std::exception& e)  // a live camera's thread must not die with an exception
-    {
-      callback_error = describeException (e);
-    }
-  };
-  const boost::signals2::connection connection = grabber->registerCallback (on_frame);
-  const InterruptHandlers interrupt_handlers;
-  const auto process = [&] {
-    grabber->start ();
-    if (dataset)
-    {
-      while (!InterruptHandlers::interrupted () && dataset->trigger ())
-      {
-        const std::lock_guard<std::mutex> lock (mutex);
-        if (!callback_error.empty ())
-          break;
-      }
-    }
-    else
-    {
-      std::cerr << "cuefusion run: reconstructing from " << source << "; Ctrl-C stops and writes the map\n";
-      for (;;)
-      {
-        std::this_thread::sleep_for (std::chrono::milliseconds (20));
-        const std::lock_guard<std::mutex> lock (mutex);
-        if (InterruptHandlers::interrupted () || !grabber->isRunning () || !callback_error.empty () ||
-            (max_frames && result.reports.size () >= max_frames))
-          break;
-      }
-    }
-    grabber->stop ();
-  };
-  if (viewer)
-  {
-    std::atomic<bool> done{false};
-    std::thread worker ([&] {
-      try
-      {
-        process ();
-      }
-      catch (const std::exception& e)
-      {
-        const std::lock_guard<std::mutex> lock (mutex);
-        callback_error = describeException (e);
-      }
-      done = true;
-    });
-    bool window_open = true;
-    while (!done)
-      if (window_open && !viewer->spinOnce (30))
-      {
-        window_open = false;  // closing the window stops the run, which still writes its map
-        int none = 0;  // as one signal: stop, then write everything
-        g_signals.compare_exchange_strong (none, 1);
-      }
-      else if (!window_open)
-        std::this_thread::sleep_for (std::chrono::milliseconds (30));
-    worker.join ();
-    if (window_open)
-    {
-      viewer->postMap (fusion.labelledCloud ());
-      viewer->spinOnce (30);
-      if (!screenshot.empty ())
-        viewer->saveScreenshot (screenshot);
-      else
-      {
-        std::cerr << "cuefusion run: done; close the window to write the outputs\n";
-        viewer->setFollowCamera (false);  // the mouse has the view now
-        while (viewer->spinOnce (30))
-        {
-        }
-      }
-    }
-    viewer.reset ();
-  }
-  else
-    process ();
-  connection.disconnect ();
-  progress.finish ();
-  if (!callback_error.empty ())
-    throw Error (source, callback_error);
-  if (!grabber->lastError ().empty ())
-    throw Error (source, grabber->lastError ());
-  if (result.reports.empty ())
-    throw Error (source, "no frame was processed");
-  const double seconds = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
-
-  const fs::path dir (out);
-  // A second signal while writing abandons the set; checked between the files.
-  const auto staged = [&] (const std::string& name) {
-    if (InterruptHandlers::interruptedTwice ())
-      throw Error (out, "interrupted again while writing the outputs: nothing written, the folder's previous outputs are unchanged");
-    return outputs.stagingPath (name);
-  };
-  const reconstruction::TSDFVolume& volume = fusion.reconstruction ().volume ();
-  const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr map_cloud = fusion.labelledCloud ();
-  const pcl::PointCloud<pcl::PointXYZRGBL>& map = *map_cloud;
-  io::saveMapPCD (staged ("map.pcd"), map);
-  const pcl::PolygonMesh mesh = fusion.labelledMesh (true);
-  io::saveMeshPLY (staged ("mesh.ply"), mesh);
-  const std::vector<segmentation::SegmentRecord> segments = fusion.segments ();
-  io::writeTextAtomic (staged ("segments.json"), segmentsJson (segments).dump (1) + "\n");
-  io::writeTumTrajectory (staged ("trajectory.txt"), result.trajectory);
-  if (!result.reference.empty ())  // for evaluating the estimate with any TUM tool
-    io::writeTumTrajectory (staged ("reference_trajectory.txt"), result.reference);
-  if (save_volume)
-    fusion.saveVolume (staged ("volume.tsdf"), staged ("volume.keyframes"));
-
-  nlohmann::json tracking;
-  nlohmann::json lost = nlohmann::json::array ();
-  for (const auto& r : result.reports)
-    if (!r.tracked)
-      lost.push_back ({{"index", r.index}, {"timestamp", r.timestamp}, {"reason", r.failure}});
-  nlohmann::json relocalised = nlohmann::json::array ();
-  for (const auto& r : result.reports)
-    if (r.relocalised)
-      relocalised.push_back ({{"index", r.index}, {"timestamp", r.timestamp}, {"from", r.relocalised_from},
-                              {"ms", r.timings.relocalise_ms}});
-  tracking["frames"] = result.reports.size ();
-  tracking["tracked"] = result.trajectory.size ();
-  tracking["lost"] = lost;
-  tracking["relocalised"] = relocalised;
-  tracking["mode"] = use_gt_poses ? "reference poses" : "frame-to-model ICP";
-  tracking["segmentation"] = {{"mode", pipeline::segmentationModeName (pipeline_config.mode)},
-                              {"mask_source", mask_source ? mask_source->name () : std::string ()},
-                              {"frames_without_masks", result.frames_without_masks},
-                              {"merges", result.merges}};
-  tracking["volume"] = {{"blocks", volume.blockCount ()}, {"bytes", volume.memoryUsage ()},
-                        {"voxel_size", volume.getConfig ().voxel_size}, {"truncation_voxels", volume.getConfig ().truncation_voxels}};
-  if (!s.load_volume.empty ())
-    tracking["continued_from"] = s.load_volume;
-  std::string ate_line;
-  if (!use_gt_poses && result.reference.size () >= 3 && result.trajectory.size () >= 3)
-  {
-    const evaluation::TrajectoryError ate = evaluation::absoluteTrajectoryError (result.trajectory, result.reference, 1e-4);
-    tracking["ate"] = {{"rmse", ate.rmse}, {"mean", ate.mean}, {"median", ate.median}, {"max", ate.max}, {"pairs", ate.pairs}};
-    std::ostringstream line;
-    line << std::fixed << std::setprecision (4) << "  ATE RMSE:   " << ate.rmse << " m against the sequence's poses ("
-         << ate.pairs << " frames)\n";
-    ate_line = line.str ();
-  }
-  io::writeTextAtomic (staged ("tracking.json"), tracking.dump (2) + "\n");
-  io::writeTextAtomic (staged ("timings.json"), timingsJson (result.reports, result.segmentation, result.volume_bytes, result.loop_ms).dump (2) + "\n");
-  nlohmann::json files = nlohmann::json::array ();
-  for (const std::string& name : kRunOutputs)
-    if (fs::exists (fs::path (outputs.stagingPath (name))))
-      files.push_back (name);
-  const nlohmann::json manifest = {{"command", "run"},
-                                   {"sequence", source},
-                                   {"frames", result.reports.size ()},
-                                   {"seconds", seconds},  // processing, opening the sequence to the last frame
-                                   {"complete", true},
-                                   // a recorded sequence cut short by a signal or a closed window
-                                   {"stopped_early", dataset != nullptr && InterruptHandlers::interrupted ()},
-                                   {"files", files}};
-  io::writeTextAtomic (staged ("outputs.json"), manifest.dump (2) + "\n");
-  if (video)
-    video->finish ();
-  outputs.commit ();
-
-  std::cout << "processed " << result.reports.size () << " frames of " << source << " (" << grabber->formatName ()
-            << ") in " << std::fixed << std::setprecision (2) << seconds << " s; " << result.trajectory.size ()
-            << " fused" << std::defaultfloat;
-  if (!lost.empty ())
-    std::cout << ", " << lost.size () << " lost (tracking.json lists them)";
-  if (!relocalised.empty ())
-    std::cout << ", " << relocalised.size () << " relocalised";
-  std::cout << "\n"
-            << ate_line << "  map:        " << (dir / "map.pcd").string () << " (" << map.size () << " points)\n"
-            << "  mesh:       " << (dir / "mesh.ply").string () << " (" << mesh.polygons.size () << " triangles)\n"
-            << "  trajectory: " << (dir / "trajectory.txt").string () << " (" << result.trajectory.size ()
-            << " poses, TUM format)\n"
-            << "  segments:   " << (dir / "segments.json").string () << " (" << segments.size () << " segments, "
-            << std::count_if (segments.begin (), segments.end (), [] (const segmentation::SegmentRecord& r) {
-                 return !r.bestClass ().empty ();
-               })
-            << " with a class; mode " << pipeline::segmentationModeName (pipeline_config.mode) << ", " << result.merges
-            << " merges)\n"
-            << "  volume:     " << volume.blockCount () << " blocks, "
-            << volume.memoryUsage () / (1024 * 1024) << " MiB\n";
+  RunSession session (settings, vm);
+  session.run ();
+  session.writeOutputs ();
+  session.printSummary ();
   return 0;
 }
 }  // namespace cli
