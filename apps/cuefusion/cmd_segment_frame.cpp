@@ -33,6 +33,7 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <set>
 
 namespace fs = boost::filesystem;
@@ -222,42 +223,49 @@ companionImage (const std::string& folder, const std::string& input)
   }
   throw Error (folder, "no colour image named " + stem + ".png/.jpg for " + input);
 }
-}  // namespace
-
-int
-runSegmentFrame (const std::vector<std::string>& args)
+/** segment-frame's options, checked (parseSegmentFrameSettings). */
+struct SegmentFrameSettings
 {
-  std::string input, out, intrinsics_path, rgb, png, edges_png, timings_path, normals = "central", convexity = "divergence";
-  std::string masks, mode;
+  std::string input, out, intrinsics_path, rgb, png, edges_png, timings_path, masks, mode;
   recognition::OnnxInstanceSegmenterConfig onnx;
-  segmentation::InstanceGuidedRegionMergeConfig merge_config;
+  segmentation::InstanceGuidedRegionMergeConfig merge;
   double depth_scale = 1000.0;
-  bool drop_plane = false, verbose = false, no_concavity = false, no_depth_edges = false;
+  bool drop_plane = false, verbose = false;
   segmentation::SurfacePreprocessingConfig pre;
   segmentation::GeometricSegmentationConfig geo;
   segmentation::SupportPlaneRemovalConfig plane;
+};
+
+/** Parses and checks segment-frame's command line; false when --help was given. */
+bool
+parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSettings& s)
+{
+  std::string normals = "central", convexity = "divergence";
+  bool no_concavity = false, no_depth_edges = false;
+  segmentation::SurfacePreprocessingConfig& pre = s.pre;
+  segmentation::GeometricSegmentationConfig& geo = s.geo;
   po::options_description options ("options");
   options.add_options ()
-    ("input", po::value (&input)->required (), "organized PCD, 16-bit depth PNG, or a folder of them")
-    ("out", po::value (&out)->required (), "output PCD (PointXYZRGBL, organized; label 0 = no segment), or a folder for folder input")
-    ("intrinsics", po::value (&intrinsics_path), "intrinsics file for depth PNG input (JSON, 3x3/4x4 matrix or a line)")
-    ("depth-scale", po::value (&depth_scale)->default_value (1000.0), "depth PNG units per metre (TUM: 5000)")
-    ("rgb", po::value (&rgb), "colour image for the output's colours (a folder for folder input: same stems)")
-    ("png", po::value (&png), "also write a colour-coded label PNG (a folder for folder input)")
-    ("edges-png", po::value (&edges_png), "also write the edge maps (red concave, green depth edges, grey no depth; a folder for folder input)")
-    ("masks", po::value (&masks), "instance masks: a 16-bit id PNG (+ JSON of the same stem), or for folder input a folder of them matched by file stem")
-    ("model", po::value (&onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
+    ("input", po::value (&s.input)->required (), "organized PCD, 16-bit depth PNG, or a folder of them")
+    ("out", po::value (&s.out)->required (), "output PCD (PointXYZRGBL, organized; label 0 = no segment), or a folder for folder input")
+    ("intrinsics", po::value (&s.intrinsics_path), "intrinsics file for depth PNG input (JSON, 3x3/4x4 matrix or a line)")
+    ("depth-scale", po::value (&s.depth_scale)->default_value (1000.0), "depth PNG units per metre (TUM: 5000)")
+    ("rgb", po::value (&s.rgb), "colour image for the output's colours (a folder for folder input: same stems)")
+    ("png", po::value (&s.png), "also write a colour-coded label PNG (a folder for folder input)")
+    ("edges-png", po::value (&s.edges_png), "also write the edge maps (red concave, green depth edges, grey no depth; a folder for folder input)")
+    ("masks", po::value (&s.masks), "instance masks: a 16-bit id PNG (+ JSON of the same stem), or for folder input a folder of them matched by file stem")
+    ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
      "data/models/xyz_instances.onnx, or a YOLO-seg export run on the colour image")
-    ("classes", po::value (&onnx.classes_path), "class names of --model, one per line (default data/classes/coco.names)")
-    ("input-size", po::value (&onnx.input_size)->default_value (onnx.input_size), "network input size of --model (px)")
-    ("score-threshold", po::value (&onnx.score_threshold)->default_value (onnx.score_threshold), "--model detections below are dropped")
-    ("boundary-threshold", po::value (&onnx.boundary_threshold)->default_value (onnx.boundary_threshold),
+    ("classes", po::value (&s.onnx.classes_path), "class names of --model, one per line (default data/classes/coco.names)")
+    ("input-size", po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
+    ("score-threshold", po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
+    ("boundary-threshold", po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
      "--model of the xyz layout: instances are cut where the boundary probability reaches this")
-    ("mode", po::value (&mode), "geometry (L^G), masks (instance masks only) or fused (InstanceGuidedRegionMerge, the default with --masks/--model)")
-    ("min-overlap", po::value (&merge_config.min_overlap)->default_value (merge_config.min_overlap), "fused: share of a geometric segment inside one instance to join it")
-    ("drop-support-plane", po::bool_switch (&drop_plane), "label the dominant plane (table, floor) 0")
-    ("verbose,v", po::bool_switch (&verbose), "print per-stage timings per frame")
-    ("timings", po::value (&timings_path), "write per-frame stage timings (ms) to this JSON file")
+    ("mode", po::value (&s.mode), "geometry (L^G), masks (instance masks only) or fused (InstanceGuidedRegionMerge, the default with --masks/--model)")
+    ("min-overlap", po::value (&s.merge.min_overlap)->default_value (s.merge.min_overlap), "fused: share of a geometric segment inside one instance to join it")
+    ("drop-support-plane", po::bool_switch (&s.drop_plane), "label the dominant plane (table, floor) 0")
+    ("verbose,v", po::bool_switch (&s.verbose), "print per-stage timings per frame")
+    ("timings", po::value (&s.timings_path), "write per-frame stage timings (ms) to this JSON file")
     ("normals", po::value (&normals)->default_value ("central"), "normal estimation: central (differences, §4.1.2) or integral (PCL integral image)")
     ("range-sigma", po::value (&pre.range_sigma)->default_value (pre.range_sigma), "bilateral range sigma in units of the sensor noise sigma_z(z)")
     ("sigma-space", po::value (&pre.sigma_space)->default_value (pre.sigma_space), "bilateral spatial sigma (px)")
@@ -278,12 +286,12 @@ runSegmentFrame (const std::vector<std::string>& args)
     ("closings", po::value (&geo.labeling.closing_iterations)->default_value (geo.labeling.closing_iterations), "closing iterations of the edge map (0 = off)")
     ("min-segment-size", po::value (&geo.labeling.min_segment_size)->default_value (geo.labeling.min_segment_size), "smaller segments get label 0 (px)")
     ("edge-radius", po::value (&geo.labeling.edge_assignment_radius)->default_value (geo.labeling.edge_assignment_radius), "give edge pixels to the adjacent segment up to N px out (0 = off)")
-    ("plane-distance", po::value (&plane.distance_threshold)->default_value (plane.distance_threshold), "support plane inlier band (m)");
+    ("plane-distance", po::value (&s.plane.distance_threshold)->default_value (s.plane.distance_threshold), "support plane inlier band (m)");
   po::positional_options_description positional;
   positional.add ("input", 1);
   po::variables_map vm;
   if (!parseCommandLine ("segment-frame", "INPUT --out OUT.pcd [options]", args, options, positional, vm))
-    return 0;
+    return false;
 
   if (normals == "central")
     pre.normal_method = segmentation::NormalMethod::CentralDifference;
@@ -299,171 +307,231 @@ runSegmentFrame (const std::vector<std::string>& args)
     throw ParameterError ("--convexity-test", "must be divergence or tangent, not '" + convexity + "'");
   if (vm.count ("no-bilateral"))
     pre.bilateral_filter = false;
-  if (!(depth_scale > 0.0) || !std::isfinite (depth_scale))
+  if (!(s.depth_scale > 0.0) || !std::isfinite (s.depth_scale))
     throw ParameterError ("--depth-scale", "must be a positive number");
   geo.use_concavity_edges = !no_concavity;
   geo.use_discontinuity_edges = !no_depth_edges;
   geo.labeling.max_depth_jump = pre.max_depth_jump;
   pre.validate ();
   geo.validate ();
-  plane.validate ();
-  merge_config.validate ();
-  mode = pipeline::segmentationModeName (chooseSegmentationMode (mode, masks, onnx.model_path));
+  s.plane.validate ();
+  s.merge.validate ();
+  s.mode = pipeline::segmentationModeName (chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path));
+  return true;
+}
 
+/** Segments one input after another with the same objects (the fast path: smoothed
+  * points and normals stay in SurfacePlanes, reused from frame to frame, without copies
+  * into PCL clouds; the PCL-typed interface gives the same labels). */
+class FrameSegmenter
+{
+public:
+  FrameSegmenter (const SegmentFrameSettings& s, bool folder);
+
+  /** Segments \a path (input number \a index) and writes its outputs; its report entry. */
+  nlohmann::json segment (const std::string& path, std::size_t index, double& segmentation_ms);
+
+private:
+  Cloud::Ptr load (const std::string& path, FrameTimes& t) const;
+  /** The masks' word on \a label_image (fused or masks mode); fills \a segments. */
+  cv::Mat applyMasks (const std::string& path, std::size_t index, const Cloud& cloud, cv::Mat label_image,
+                      std::vector<segmentation::SegmentInstance>& segments);
+  void write (const std::string& path, const Cloud& cloud, const cv::Mat& label_image,
+              const std::vector<segmentation::SegmentInstance>& segments) const;
+
+  const SegmentFrameSettings& s_;
+  const bool folder_;
+  std::unique_ptr<recognition::InstanceSegmenter> source_;
+  const segmentation::InstanceGuidedRegionMerge merger_;
+  std::optional<PinholeCamera> camera_;
+  bool warned_missing_ = false;
+  segmentation::SurfacePreprocessing<pcl::PointXYZRGBA> preprocessor_;
+  segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmenter_;
+  segmentation::SupportPlaneRemoval<pcl::PointXYZRGBA> plane_removal_;
+  segmentation::SurfacePlanes planes_;
+};
+
+FrameSegmenter::FrameSegmenter (const SegmentFrameSettings& s, bool folder)
+  : s_ (s), folder_ (folder), merger_ (s.merge), preprocessor_ (s.pre), segmenter_ (s.geo), plane_removal_ (s.plane)
+{
   boost::system::error_code ec;
-  const bool folder = fs::is_directory (input, ec);
-  const std::vector<std::string> inputs = listInputs (input, {".pcd", ".png"});
+  if (!s.masks.empty ())
+  {
+    if (folder != fs::is_directory (s.masks, ec))
+      throw Error (s.masks, folder ? "folder input needs a folder of masks" : "a single input needs a single mask PNG");
+    if (folder)
+      source_ = std::make_unique<recognition::MaskFolderSegmenter> (s.masks);
+  }
+  else if (!s.onnx.model_path.empty ())
+    source_ = std::make_unique<recognition::OnnxInstanceSegmenter> (s.onnx);
+  if (!s.intrinsics_path.empty ())
+    camera_ = io::readIntrinsics (s.intrinsics_path);
+}
+
+Cloud::Ptr
+FrameSegmenter::load (const std::string& path, FrameTimes& t) const
+{
+  pcl::StopWatch watch;
+  std::string extension = fs::path (path).extension ().string ();
+  std::transform (extension.begin (), extension.end (), extension.begin (), ::tolower);
+  const std::string rgb_path = s_.rgb.empty () ? "" : (folder_ ? companionImage (s_.rgb, path) : s_.rgb);
+  Cloud::Ptr cloud;
+  if (extension == ".png")
+  {
+    if (!camera_)
+      throw UsageError ("depth PNG input " + path + " needs --intrinsics");
+    cloud = loadDepthPNG (path, *camera_, s_.depth_scale, rgb_path);
+  }
+  else
+  {
+    cloud = loadOrganizedPCD (path);
+    if (!rgb_path.empty ())
+      applyColorImage (rgb_path, *cloud);
+  }
+  t.load_ms = watch.getTime ();
+  return cloud;
+}
+
+cv::Mat
+FrameSegmenter::applyMasks (const std::string& path, std::size_t index, const Cloud& cloud, cv::Mat label_image,
+                            std::vector<segmentation::SegmentInstance>& segments)
+{
+  std::vector<Instance> instances;
+  bool have_masks = true;
+  if (!source_)
+    instances = recognition::MaskFolderSegmenter::readInstanceMasks (s_.masks, label_image.size ());
+  else
+  {
+    RGBDFrame frame = fromOrganizedCloud (cloud);  // the xyz network needs depth and a camera
+    frame.index = index;
+    frame.name = fs::path (path).stem ().string ();
+    have_masks = source_->segment (frame, instances);
+  }
+  if (!have_masks && !warned_missing_)
+  {
+    std::cerr << "segment-frame: no masks for " << path << " (nor, maybe, for later inputs): geometry only there\n";
+    warned_missing_ = true;
+  }
+  if (!have_masks)
+    return label_image;
+  return s_.mode == "fused" ? fuseWithMasks (merger_, label_image, instances, planes_, segments)
+                            : masksOnlyLabels (instances, planes_, segments);
+}
+
+void
+FrameSegmenter::write (const std::string& path, const Cloud& cloud, const cv::Mat& label_image,
+                       const std::vector<segmentation::SegmentInstance>& segments) const
+{
+  pcl::PointCloud<pcl::PointXYZRGBL> labelled;
+  segmentation::toLabelledCloud (cloud, label_image, labelled);  // original, unsmoothed points
+  io::saveMapPCD (outputPath (s_.out, folder_, path, ".pcd"), labelled);
+  if (!s_.png.empty ())
+    io::writeImageAtomic (outputPath (s_.png, folder_, path, ".png"), colorizeLabels (label_image));
+  if (!segments.empty ())
+    io::writeTextAtomic (folder_ ? outputPath (s_.out, true, path, ".json") : fs::path (s_.out).replace_extension (".json").string (),
+                         segmentsJson (segments, label_image));
+  if (!s_.edges_png.empty ())
+    io::writeImageAtomic (outputPath (s_.edges_png, folder_, path, ".png"),
+                          edgePicture (segmenter_.getConcavityEdges (), segmenter_.getDiscontinuityEdges (), cloud));
+}
+
+nlohmann::json
+FrameSegmenter::segment (const std::string& path, std::size_t index, double& segmentation_ms)
+{
+  FrameTimes t;
+  const Cloud::Ptr cloud = load (path, t);
+  try
+  {
+    preprocessor_.setInputCloud (cloud);
+    preprocessor_.compute (planes_);
+    t.smoothing_ms = preprocessor_.getSmoothingTime ();
+    t.normals_ms = preprocessor_.getNormalTime ();
+    segmenter_.segment (planes_);
+  }
+  catch (const Error& e)
+  {
+    throw Error (path, e.what ());
+  }
+  const auto& st = segmenter_.getTimings ();
+  t.edges_ms = st.edges_ms;
+  t.labeling_ms = st.labeling_ms;
+  cv::Mat label_image = segmenter_.getLabelImage ().clone ();
+  std::vector<segmentation::SegmentInstance> segments;
+  pcl::StopWatch watch;
+  if (s_.mode != "geometry")
+  {
+    label_image = applyMasks (path, index, *cloud, label_image, segments);
+    t.masks_ms = watch.getTime ();
+  }
+  if (s_.drop_plane)
+  {
+    watch.reset ();
+    plane_removal_.apply (planes_, label_image);
+    t.plane_ms = watch.getTime ();
+  }
+  watch.reset ();
+  write (path, *cloud, label_image, segments);
+  t.write_ms = watch.getTime ();
+
+  std::set<std::int32_t> distinct;
+  for (int y = 0; y < label_image.rows; ++y)
+    for (int x = 0; x < label_image.cols; ++x)
+      if (label_image.at<std::int32_t> (y, x) > 0)
+        distinct.insert (label_image.at<std::int32_t> (y, x));
+  segmentation_ms = t.segmentation ();
+  if (s_.verbose)
+    std::cout << std::fixed << std::setprecision (2) << fs::path (path).filename ().string () << ": "
+              << distinct.size () << " segments; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
+              << ", normals " << t.normals_ms << ", edges (concave + depth) " << t.edges_ms << ", labelling " << t.labeling_ms << ", segmentation total "
+              << t.segmentation () << (s_.drop_plane ? ", plane " + std::to_string (t.plane_ms) : std::string ())
+              << ", write " << t.write_ms << "\n";
+  return {{"input", path},
+          {"segments", distinct.size ()},
+          {"load_ms", t.load_ms},
+          {"smoothing_ms", t.smoothing_ms},
+          {"normals_ms", t.normals_ms},
+          {"edges_ms", t.edges_ms},
+          {"labeling_ms", t.labeling_ms},
+          {"segmentation_ms", t.segmentation ()},
+          {"masks_ms", t.masks_ms},
+          {"plane_ms", t.plane_ms},
+          {"write_ms", t.write_ms}};
+}
+}  // namespace
+
+int
+runSegmentFrame (const std::vector<std::string>& args)
+{
+  // Parse → list the inputs and prepare the output folders → segment each → timings.
+  SegmentFrameSettings s;
+  if (!parseSegmentFrameSettings (args, s))
+    return 0;
+  boost::system::error_code ec;
+  const bool folder = fs::is_directory (s.input, ec);
+  const std::vector<std::string> inputs = listInputs (s.input, {".pcd", ".png"});
   if (inputs.empty ())
-    throw Error (input, "folder holds no .pcd or .png file");
+    throw Error (s.input, "folder holds no .pcd or .png file");
   if (folder)
   {
-    if (fs::exists (out, ec) && !fs::is_directory (out, ec))
-      throw Error (out, "exists and is not a folder (folder input needs an output folder)");
-    for (const std::string& dir : {out, png, edges_png})
+    if (fs::exists (s.out, ec) && !fs::is_directory (s.out, ec))
+      throw Error (s.out, "exists and is not a folder (folder input needs an output folder)");
+    for (const std::string& dir : {s.out, s.png, s.edges_png})
       if (!dir.empty () && !fs::create_directories (dir, ec) && ec)
         throw Error (dir, "cannot create folder: " + ec.message ());
   }
-  std::unique_ptr<recognition::InstanceSegmenter> source;
-  if (!masks.empty ())
-  {
-    if (folder != fs::is_directory (masks, ec))
-      throw Error (masks, folder ? "folder input needs a folder of masks" : "a single input needs a single mask PNG");
-    if (folder)
-      source = std::make_unique<recognition::MaskFolderSegmenter> (masks);
-  }
-  else if (!onnx.model_path.empty ())
-    source = std::make_unique<recognition::OnnxInstanceSegmenter> (onnx);
-  const segmentation::InstanceGuidedRegionMerge merger (merge_config);
-  bool warned_missing = false;
-  PinholeCamera camera;
-  bool have_camera = false;
-  if (!intrinsics_path.empty ())
-  {
-    camera = io::readIntrinsics (intrinsics_path);
-    have_camera = true;
-  }
-
-  segmentation::SurfacePreprocessing<pcl::PointXYZRGBA> preprocessor (pre);
-  segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmenter (geo);
-  segmentation::SupportPlaneRemoval<pcl::PointXYZRGBA> plane_removal (plane);
-  // Smoothed points and normals stay in SurfacePlanes, reused from frame to frame: the
-  // classes' fast path, without copies into PCL clouds (the PCL-typed interface gives the
-  // same labels).
-  segmentation::SurfacePlanes planes;
+  FrameSegmenter segmenter (s, folder);
   nlohmann::json frames = nlohmann::json::array ();
   std::vector<double> totals;
-  for (const std::string& path : inputs)
+  for (std::size_t i = 0; i < inputs.size (); ++i)
   {
-    FrameTimes t;
-    pcl::StopWatch watch;
-    std::string extension = fs::path (path).extension ().string ();
-    std::transform (extension.begin (), extension.end (), extension.begin (), ::tolower);
-    const std::string rgb_path = rgb.empty () ? "" : (folder ? companionImage (rgb, path) : rgb);
-    Cloud::Ptr cloud;
-    if (extension == ".png")
-    {
-      if (!have_camera)
-        throw UsageError ("depth PNG input " + path + " needs --intrinsics");
-      cloud = loadDepthPNG (path, camera, depth_scale, rgb_path);
-    }
-    else
-    {
-      cloud = loadOrganizedPCD (path);
-      if (!rgb_path.empty ())
-        applyColorImage (rgb_path, *cloud);
-    }
-    t.load_ms = watch.getTime ();
-
-    try
-    {
-      preprocessor.setInputCloud (cloud);
-      preprocessor.compute (planes);
-      t.smoothing_ms = preprocessor.getSmoothingTime ();
-      t.normals_ms = preprocessor.getNormalTime ();
-      segmenter.segment (planes);
-    }
-    catch (const Error& e)
-    {
-      throw Error (path, e.what ());
-    }
-    const auto& st = segmenter.getTimings ();
-    t.edges_ms = st.edges_ms;
-    t.labeling_ms = st.labeling_ms;
-    cv::Mat label_image = segmenter.getLabelImage ().clone ();
-    std::vector<segmentation::SegmentInstance> segments;
-    if (mode != "geometry")
-    {
-      watch.reset ();
-      std::vector<Instance> instances;
-      bool have_masks = true;
-      if (!source)
-        instances = recognition::MaskFolderSegmenter::readInstanceMasks (masks, label_image.size ());
-      else
-      {
-        RGBDFrame frame = fromOrganizedCloud (*cloud);  // the xyz network needs depth and a camera
-        frame.index = static_cast<std::size_t> (&path - inputs.data ());
-        frame.name = fs::path (path).stem ().string ();
-        have_masks = source->segment (frame, instances);
-      }
-      if (!have_masks && !warned_missing)
-      {
-        std::cerr << "segment-frame: no masks for " << path << " (nor, maybe, for later inputs): geometry only there\n";
-        warned_missing = true;
-      }
-      if (have_masks)
-        label_image = mode == "fused" ? fuseWithMasks (merger, label_image, instances, planes, segments)
-                                      : masksOnlyLabels (instances, planes, segments);
-      t.masks_ms = watch.getTime ();
-    }
-    if (drop_plane)
-    {
-      watch.reset ();
-      plane_removal.apply (planes, label_image);
-      t.plane_ms = watch.getTime ();
-    }
-
-    watch.reset ();
-    pcl::PointCloud<pcl::PointXYZRGBL> labelled;
-    segmentation::toLabelledCloud (*cloud, label_image, labelled);  // original, unsmoothed points
-    io::saveMapPCD (outputPath (out, folder, path, ".pcd"), labelled);
-    if (!png.empty ())
-      io::writeImageAtomic (outputPath (png, folder, path, ".png"), colorizeLabels (label_image));
-    if (!segments.empty ())
-      io::writeTextAtomic (folder ? outputPath (out, true, path, ".json") : fs::path (out).replace_extension (".json").string (),
-                           segmentsJson (segments, label_image));
-    if (!edges_png.empty ())
-      io::writeImageAtomic (outputPath (edges_png, folder, path, ".png"),
-                            edgePicture (segmenter.getConcavityEdges (), segmenter.getDiscontinuityEdges (), *cloud));
-    t.write_ms = watch.getTime ();
-
-    std::set<std::int32_t> distinct;
-    for (int y = 0; y < label_image.rows; ++y)
-      for (int x = 0; x < label_image.cols; ++x)
-        if (label_image.at<std::int32_t> (y, x) > 0)
-          distinct.insert (label_image.at<std::int32_t> (y, x));
-    totals.push_back (t.segmentation ());
-    frames.push_back ({{"input", path},
-                       {"segments", distinct.size ()},
-                       {"load_ms", t.load_ms},
-                       {"smoothing_ms", t.smoothing_ms},
-                       {"normals_ms", t.normals_ms},
-                       {"edges_ms", t.edges_ms},
-                       {"labeling_ms", t.labeling_ms},
-                       {"segmentation_ms", t.segmentation ()},
-                       {"masks_ms", t.masks_ms},
-                       {"plane_ms", t.plane_ms},
-                       {"write_ms", t.write_ms}});
-    if (verbose)
-      std::cout << std::fixed << std::setprecision (2) << fs::path (path).filename ().string () << ": "
-                << distinct.size () << " segments; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
-                << ", normals " << t.normals_ms << ", edges (concave + depth) " << t.edges_ms << ", labelling " << t.labeling_ms << ", segmentation total "
-                << t.segmentation () << (drop_plane ? ", plane " + std::to_string (t.plane_ms) : std::string ())
-                << ", write " << t.write_ms << "\n";
+    double segmentation_ms = 0.0;
+    frames.push_back (segmenter.segment (inputs[i], i, segmentation_ms));
+    totals.push_back (segmentation_ms);
   }
-  if (!timings_path.empty ())
-    io::writeTextAtomic (timings_path,
+  if (!s.timings_path.empty ())
+    io::writeTextAtomic (s.timings_path,
                          nlohmann::json ({{"segmentation_ms", timingSummary (totals)}, {"frames", frames}}).dump (1) + "\n");
-  if (verbose || inputs.size () > 1)
+  if (s.verbose || inputs.size () > 1)
     std::cout << inputs.size () << " frame(s) segmented; geometric segmentation median "
               << timingSummary (totals)["median"].get<double> () << " ms per frame\n";
   return 0;
