@@ -457,6 +457,61 @@ runBatchTask (const std::vector<std::string>& args)
   return ok ? 0 : 1;
 }
 
+namespace
+{
+/** The sequences named on the command line (@FILE expanded), each once, canonical. */
+std::vector<fs::path>
+sequencePaths (const std::vector<std::string>& args)
+{
+  const std::vector<std::string> listed = expandSequences (args);
+  if (listed.empty ())
+    throw UsageError ("no sequences given");
+  std::vector<fs::path> paths;
+  std::set<fs::path> seen;
+  for (const std::string& s : listed)
+  {
+    if (s == "openni2" || s.rfind ("openni2:", 0) == 0)
+      throw UsageError ("batch processes recorded sequences, not live cameras ('" + s + "')");
+    boost::system::error_code ec;
+    if (!fs::exists (s, ec))
+      throw Error (s, "no such sequence folder or file");
+    const fs::path p = fs::canonical (s, ec);
+    if (!seen.insert (p).second)
+      throw UsageError (s + " is listed twice");
+    paths.push_back (p);
+  }
+  return paths;
+}
+
+/** Runs the \a pending tasks of \a plan with GNU parallel (on \a hosts when given). */
+void
+runTasks (const BatchPlan& plan, const std::vector<std::size_t>& pending, unsigned jobs, const std::string& hosts, bool redo)
+{
+  if (findOnPath ("parallel").empty ())
+    throw Error ("parallel", "GNU parallel is not installed (Debian package parallel; scripts/setup installs it)");
+  std::vector<std::string> argv = {"parallel", "--will-cite", "--jobs", std::to_string (jobs), "--halt", "never",
+                                   "--joblog", "+" + (fs::path (plan.folder) / "joblog.txt").string ()};
+  if (!hosts.empty ())
+  {
+    boost::system::error_code ec;
+    if (!fs::is_regular_file (hosts, ec))
+      throw Error (hosts, "no such hosts file");
+    argv.insert (argv.end (), {"--sshloginfile", fs::absolute (hosts).string ()});
+  }
+  // -q: parallel quotes the words of the command for the shell (paths may hold spaces).
+  argv.insert (argv.end (), {"-q", plan.program, "batch-task", plan.folder, "{}"});
+  if (redo)
+    argv.push_back ("--redo");
+  argv.push_back (":::");
+  for (const std::size_t k : pending)
+    argv.push_back (std::to_string (k));
+  const ProcessResult r = runProcess (argv);
+  // parallel's exit status counts the failed tasks; the summary tells which.
+  if (!r.started || r.signal)
+    throw Error ("parallel", r.describe ());
+}
+}  // namespace
+
 int
 runBatch (const std::vector<std::string>& args)
 {
@@ -527,23 +582,7 @@ runBatch (const std::vector<std::string>& args)
       plan.eval_options.push_back ("--no-plots");
   }
 
-  const std::vector<std::string> listed = expandSequences (sequence_args);
-  if (listed.empty ())
-    throw UsageError ("no sequences given");
-  std::vector<fs::path> paths;
-  std::set<fs::path> seen;
-  for (const std::string& s : listed)
-  {
-    if (s == "openni2" || s.rfind ("openni2:", 0) == 0)
-      throw UsageError ("batch processes recorded sequences, not live cameras ('" + s + "')");
-    boost::system::error_code ec;
-    if (!fs::exists (s, ec))
-      throw Error (s, "no such sequence folder or file");
-    const fs::path p = fs::canonical (s, ec);
-    if (!seen.insert (p).second)
-      throw UsageError (s + " is listed twice");
-    paths.push_back (p);
-  }
+  const std::vector<fs::path> paths = sequencePaths (sequence_args);
   const std::vector<std::string> names = sequenceNames (paths);
   for (std::size_t i = 0; i < paths.size (); ++i)
     plan.sequences.emplace_back (names[i], paths[i].string ());
@@ -586,29 +625,7 @@ runBatch (const std::vector<std::string>& args)
     std::cout << " (" << plan.sequences.size () - pending.size () << " complete)";
   std::cout << "\n" << std::flush;
   if (!pending.empty ())
-  {
-    if (findOnPath ("parallel").empty ())
-      throw Error ("parallel", "GNU parallel is not installed (Debian package parallel; scripts/setup installs it)");
-    std::vector<std::string> argv = {"parallel", "--will-cite", "--jobs", std::to_string (jobs), "--halt", "never",
-                                     "--joblog", "+" + (fs::path (plan.folder) / "joblog.txt").string ()};
-    if (!hosts.empty ())
-    {
-      if (!fs::is_regular_file (hosts, ec))
-        throw Error (hosts, "no such hosts file");
-      argv.insert (argv.end (), {"--sshloginfile", fs::absolute (hosts).string ()});
-    }
-    // -q: parallel quotes the words of the command for the shell (paths may hold spaces).
-    argv.insert (argv.end (), {"-q", plan.program, "batch-task", plan.folder, "{}"});
-    if (redo)
-      argv.push_back ("--redo");
-    argv.push_back (":::");
-    for (const std::size_t k : pending)
-      argv.push_back (std::to_string (k));
-    const ProcessResult r = runProcess (argv);
-    // parallel's exit status counts the failed tasks; the summary below tells which.
-    if (!r.started || r.signal)
-      throw Error ("parallel", r.describe ());
-  }
+    runTasks (plan, pending, jobs, hosts, redo);
 
   const nlohmann::json summary = writeSummary (plan.folder, resultsOfBatch (plan.folder), no_plots);
   std::size_t failed = 0;
