@@ -96,29 +96,36 @@ colorByte (double value)
 {
   return value >= 0.0 ? static_cast<std::uint8_t> (std::min (255.0, std::round (value))) : 0;
 }
-}  // namespace
 
-TriangleMesh
-readMeshPLY (const std::string& path)
+/** An open PLY file and how many bytes are left in it. Every count is checked against
+  * the bytes left before anything is allocated: a small file declaring 10^9 vertices is an
+  * error, not a 17 GB allocation. */
+struct PlyInput
 {
-  const FileContext context (path);
-  std::ifstream in (path, std::ios::binary);
-  if (!in)
-    throw Error (path, "cannot open mesh");
-  in.seekg (0, std::ios::end);
-  const std::uint64_t file_size = static_cast<std::uint64_t> (in.tellg ());
-  in.seekg (0);
-  // Every count is checked against the bytes left before anything is allocated: a small
-  // file declaring 10^9 vertices is an error, not a 17 GB allocation.
-  const auto left = [&in, file_size] { return file_size - std::min<std::uint64_t> (file_size, static_cast<std::uint64_t> (in.tellg ())); };
+  const std::string& path;
+  std::ifstream in;
+  std::uint64_t file_size = 0;
+
+  std::uint64_t
+  left ()
+  {
+    return file_size - std::min<std::uint64_t> (file_size, static_cast<std::uint64_t> (in.tellg ()));
+  }
+};
+
+/** Reads the header up to end_header: the elements with their properties. */
+std::vector<Element>
+readPlyHeader (PlyInput& ply)
+{
+  const std::string& path = ply.path;
   std::string line;
-  if (!std::getline (in, line) || line.rfind ("ply", 0) != 0)
+  if (!std::getline (ply.in, line) || line.rfind ("ply", 0) != 0)
     throw Error (path, "not a PLY file");
   std::vector<Element> elements;
   bool binary_le = false;
   for (;;)
   {
-    if (!std::getline (in, line))
+    if (!std::getline (ply.in, line))
       throw Error (path, "PLY header has no end_header");
     if (!line.empty () && line.back () == '\r')
       line.pop_back ();
@@ -171,7 +178,139 @@ readMeshPLY (const std::string& path)
   }
   if (!binary_le)
     throw Error (path, "PLY header has no format line");
+  return elements;
+}
 
+/** The vertex element: positions, colours (red, green, blue) and labels when present. */
+void
+readPlyVertices (PlyInput& ply, const Element& e, TriangleMesh& mesh)
+{
+  const std::string& path = ply.path;
+  std::size_t stride = 0;
+  int ix = -1, iy = -1, iz = -1, ir = -1, ig = -1, ib = -1, il = -1;
+  std::vector<std::size_t> offsets;
+  for (std::size_t k = 0; k < e.properties.size (); ++k)
+  {
+    const Property& p = e.properties[k];
+    if (p.list)
+      throw Error (path, "list properties on vertices are not supported");
+    offsets.push_back (stride);
+    stride += sizeOf (p.type);
+    const int index = static_cast<int> (k);
+    if (p.name == "x") ix = index;
+    else if (p.name == "y") iy = index;
+    else if (p.name == "z") iz = index;
+    else if (p.name == "red") ir = index;
+    else if (p.name == "green") ig = index;
+    else if (p.name == "blue") ib = index;
+    else if (p.name == "label") il = index;
+  }
+  if (ix < 0 || iy < 0 || iz < 0)
+    throw Error (path, "PLY vertices have no x, y, z");
+  const bool color = ir >= 0 && ig >= 0 && ib >= 0;
+  if (e.count > ply.left () / stride)
+    throw Error (path, "PLY declares " + std::to_string (e.count) + " vertices but the file holds " +
+                         std::to_string (ply.left () / stride) + " (truncated?)");
+  std::vector<char> data (e.count * stride);
+  if (!ply.in.read (data.data (), static_cast<std::streamsize> (data.size ())))
+    throw Error (path, "PLY file ends inside its vertex data (truncated?)");
+  mesh.vertices.resize (e.count);
+  if (color)
+    mesh.colors.resize (e.count);
+  if (il >= 0)
+    mesh.labels.resize (e.count);
+  const auto value = [&] (std::size_t v, int k) {
+    return readScalar (data.data () + v * stride + offsets[static_cast<std::size_t> (k)], e.properties[static_cast<std::size_t> (k)].type);
+  };
+  for (std::size_t v = 0; v < e.count; ++v)
+  {
+    mesh.vertices[v] = Eigen::Vector3f (static_cast<float> (value (v, ix)), static_cast<float> (value (v, iy)),
+                                        static_cast<float> (value (v, iz)));
+    if (color)
+      mesh.colors[v] = {colorByte (value (v, ir)), colorByte (value (v, ig)), colorByte (value (v, ib))};
+    if (il >= 0)
+    {
+      const double label = value (v, il);
+      if (!(label >= 0.0 && label <= 4294967295.0) || label != std::floor (label))
+        throw Error (path, "vertex " + std::to_string (v) + " has label " + std::to_string (label) +
+                             ", not an integer in [0, 2^32)");
+      mesh.labels[v] = static_cast<std::uint32_t> (label);
+    }
+  }
+}
+
+/** The face element: every polygon of vertex_indices (or vertex_index) as a fan of
+  * triangles; every index must name a vertex read before. */
+void
+readPlyFaces (PlyInput& ply, const Element& e, TriangleMesh& mesh)
+{
+  const std::string& path = ply.path;
+  std::size_t smallest_face = 0;
+  for (const Property& p : e.properties)
+  {
+    smallest_face += sizeOf (p.list ? p.count_type : p.type);
+    if (p.list && (p.type == ScalarType::Float32 || p.type == ScalarType::Float64 ||
+                   p.count_type == ScalarType::Float32 || p.count_type == ScalarType::Float64))
+      throw Error (path, "PLY face list '" + p.name + "' must hold integers");
+  }
+  if (smallest_face == 0 || e.count > ply.left () / smallest_face)
+    throw Error (path, "PLY declares " + std::to_string (e.count) + " faces, more than the file can hold (truncated?)");
+  for (std::size_t f = 0; f < e.count; ++f)
+    for (const Property& p : e.properties)
+    {
+      char buffer[8];
+      if (!ply.in.read (buffer, static_cast<std::streamsize> (sizeOf (p.list ? p.count_type : p.type))))
+        throw Error (path, "PLY file ends inside its face data (truncated?)");
+      if (!p.list)
+        continue;
+      const double n = readScalar (buffer, p.count_type);
+      if (!(n >= 0 && n <= 1024))
+        throw Error (path, "PLY face " + std::to_string (f) + " has an absurd vertex count");
+      std::vector<int> indices (static_cast<std::size_t> (n));
+      for (int& index : indices)
+      {
+        if (!ply.in.read (buffer, static_cast<std::streamsize> (sizeOf (p.type))))
+          throw Error (path, "PLY file ends inside its face data (truncated?)");
+        const double v = readScalar (buffer, p.type);
+        if (!(v >= 0 && v < static_cast<double> (mesh.vertices.size ())))
+          throw Error (path, "PLY face " + std::to_string (f) + " indexes a vertex that does not exist");
+        index = static_cast<int> (v);
+      }
+      if (p.name != "vertex_indices" && p.name != "vertex_index")
+        continue;
+      for (std::size_t k = 2; k < indices.size (); ++k)
+        mesh.triangles.emplace_back (indices[0], indices[k - 1], indices[k]);
+    }
+}
+
+/** Skips an element of another name (only fixed-size ones can be skipped unparsed). */
+void
+skipPlyElement (PlyInput& ply, const Element& e)
+{
+  std::size_t stride = 0;
+  for (const Property& p : e.properties)
+  {
+    if (p.list)
+      throw Error (ply.path, "cannot skip PLY element '" + e.name + "' with list properties");
+    stride += sizeOf (p.type);
+  }
+  if (stride > 0 && e.count > ply.left () / stride)
+    throw Error (ply.path, "PLY element '" + e.name + "' is longer than the file (truncated?)");
+  ply.in.seekg (static_cast<std::streamoff> (stride * e.count), std::ios::cur);
+}
+}  // namespace
+
+TriangleMesh
+readMeshPLY (const std::string& path)
+{
+  const FileContext context (path);
+  PlyInput ply{path, std::ifstream (path, std::ios::binary)};
+  if (!ply.in)
+    throw Error (path, "cannot open mesh");
+  ply.in.seekg (0, std::ios::end);
+  ply.file_size = static_cast<std::uint64_t> (ply.in.tellg ());
+  ply.in.seekg (0);
+  const std::vector<Element> elements = readPlyHeader (ply);
   TriangleMesh mesh;
   bool have_vertices = false;
   for (const Element& e : elements)
@@ -181,113 +320,16 @@ readMeshPLY (const std::string& path)
       if (have_vertices)
         throw Error (path, "PLY file has two vertex elements");
       have_vertices = true;
-      std::size_t stride = 0;
-      int ix = -1, iy = -1, iz = -1, ir = -1, ig = -1, ib = -1, il = -1;
-      std::vector<std::size_t> offsets;
-      for (std::size_t k = 0; k < e.properties.size (); ++k)
-      {
-        const Property& p = e.properties[k];
-        if (p.list)
-          throw Error (path, "list properties on vertices are not supported");
-        offsets.push_back (stride);
-        stride += sizeOf (p.type);
-        const int index = static_cast<int> (k);
-        if (p.name == "x") ix = index;
-        else if (p.name == "y") iy = index;
-        else if (p.name == "z") iz = index;
-        else if (p.name == "red") ir = index;
-        else if (p.name == "green") ig = index;
-        else if (p.name == "blue") ib = index;
-        else if (p.name == "label") il = index;
-      }
-      if (ix < 0 || iy < 0 || iz < 0)
-        throw Error (path, "PLY vertices have no x, y, z");
-      const bool color = ir >= 0 && ig >= 0 && ib >= 0;
-      if (e.count > left () / stride)
-        throw Error (path, "PLY declares " + std::to_string (e.count) + " vertices but the file holds " +
-                             std::to_string (left () / stride) + " (truncated?)");
-      std::vector<char> data (e.count * stride);
-      if (!in.read (data.data (), static_cast<std::streamsize> (data.size ())))
-        throw Error (path, "PLY file ends inside its vertex data (truncated?)");
-      mesh.vertices.resize (e.count);
-      if (color)
-        mesh.colors.resize (e.count);
-      if (il >= 0)
-        mesh.labels.resize (e.count);
-      const auto value = [&] (std::size_t v, int k) {
-        return readScalar (data.data () + v * stride + offsets[static_cast<std::size_t> (k)], e.properties[static_cast<std::size_t> (k)].type);
-      };
-      for (std::size_t v = 0; v < e.count; ++v)
-      {
-        mesh.vertices[v] = Eigen::Vector3f (static_cast<float> (value (v, ix)), static_cast<float> (value (v, iy)),
-                                            static_cast<float> (value (v, iz)));
-        if (color)
-          mesh.colors[v] = {colorByte (value (v, ir)), colorByte (value (v, ig)), colorByte (value (v, ib))};
-        if (il >= 0)
-        {
-          const double label = value (v, il);
-          if (!(label >= 0.0 && label <= 4294967295.0) || label != std::floor (label))
-            throw Error (path, "vertex " + std::to_string (v) + " has label " + std::to_string (label) +
-                                 ", not an integer in [0, 2^32)");
-          mesh.labels[v] = static_cast<std::uint32_t> (label);
-        }
-      }
+      readPlyVertices (ply, e, mesh);
     }
     else if (e.name == "face")
     {
       if (!have_vertices)
         throw Error (path, "PLY faces come before vertices");
-      std::size_t smallest_face = 0;
-      for (const Property& p : e.properties)
-      {
-        smallest_face += sizeOf (p.list ? p.count_type : p.type);
-        if (p.list && (p.type == ScalarType::Float32 || p.type == ScalarType::Float64 ||
-                       p.count_type == ScalarType::Float32 || p.count_type == ScalarType::Float64))
-          throw Error (path, "PLY face list '" + p.name + "' must hold integers");
-      }
-      if (smallest_face == 0 || e.count > left () / smallest_face)
-        throw Error (path, "PLY declares " + std::to_string (e.count) + " faces, more than the file can hold (truncated?)");
-      for (std::size_t f = 0; f < e.count; ++f)
-        for (const Property& p : e.properties)
-        {
-          char buffer[8];
-          if (!in.read (buffer, static_cast<std::streamsize> (sizeOf (p.list ? p.count_type : p.type))))
-            throw Error (path, "PLY file ends inside its face data (truncated?)");
-          if (!p.list)
-            continue;
-          const double n = readScalar (buffer, p.count_type);
-          if (!(n >= 0 && n <= 1024))
-            throw Error (path, "PLY face " + std::to_string (f) + " has an absurd vertex count");
-          std::vector<int> indices (static_cast<std::size_t> (n));
-          for (int& index : indices)
-          {
-            if (!in.read (buffer, static_cast<std::streamsize> (sizeOf (p.type))))
-              throw Error (path, "PLY file ends inside its face data (truncated?)");
-            const double v = readScalar (buffer, p.type);
-            if (!(v >= 0 && v < static_cast<double> (mesh.vertices.size ())))
-              throw Error (path, "PLY face " + std::to_string (f) + " indexes a vertex that does not exist");
-            index = static_cast<int> (v);
-          }
-          if (p.name != "vertex_indices" && p.name != "vertex_index")
-            continue;
-          for (std::size_t k = 2; k < indices.size (); ++k)
-            mesh.triangles.emplace_back (indices[0], indices[k - 1], indices[k]);
-        }
+      readPlyFaces (ply, e, mesh);
     }
     else
-    {
-      // Skip other elements (only fixed-size ones can be skipped without parsing).
-      std::size_t stride = 0;
-      for (const Property& p : e.properties)
-      {
-        if (p.list)
-          throw Error (path, "cannot skip PLY element '" + e.name + "' with list properties");
-        stride += sizeOf (p.type);
-      }
-      if (stride > 0 && e.count > left () / stride)
-        throw Error (path, "PLY element '" + e.name + "' is longer than the file (truncated?)");
-      in.seekg (static_cast<std::streamoff> (stride * e.count), std::ios::cur);
-    }
+      skipPlyElement (ply, e);
   }
   if (!have_vertices)
     throw Error (path, "PLY file has no vertex element");
