@@ -129,7 +129,354 @@ finishLabels (const cv::Mat& frame_labels, const std::vector<std::uint32_t>& giv
       out[x] = lj[x] > 0 ? static_cast<std::int32_t> (given[static_cast<std::size_t> (lj[x])]) : 0;
   });
 }
+
+/** Per frame label l_j: #l_j (its pixels) and Π(l_i, l_j) for each model label l_i it
+  * meets, over the pixels where both maps agree (§4.2.2.3). */
+struct FrameOverlaps
+{
+  using Overlaps = std::vector<std::vector<std::pair<std::uint32_t, int>>>;
+  std::vector<int> frame_count;
+  Overlaps by_frame_label;
+};
+
+constexpr int kRowsPerChunk = 16;  ///< rows per work item of the row loops below
+
+/** Counts FrameOverlaps over the images (\a labels = largest frame label + 1). */
+FrameOverlaps
+countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, const cv::Mat& normals, const cv::Mat& frame_labels,
+               const cv::Mat& model_vertices, const cv::Mat& model_normals, const cv::Mat& model_labels, std::size_t labels)
+{
+  using Overlaps = FrameOverlaps::Overlaps;
+  const cv::Size size = frame_labels.size ();
+  // Rows in fixed chunks on the pool, each with its own counts, added up in chunk order
+  // (the lists keep first-seen order, so the result does not depend on the thread count).
+  const int chunks = chunkCount (size.height, kRowsPerChunk);
+  [[maybe_unused]] const bool use_avx2 = vectorKernelsEnabled ();
+  std::vector<std::vector<int>> chunk_counts (static_cast<std::size_t> (chunks));
+  std::vector<Overlaps> chunk_overlaps (static_cast<std::size_t> (chunks));
+  parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
+    std::vector<int>& counts = chunk_counts[static_cast<std::size_t> (k)];
+    Overlaps& overlaps = chunk_overlaps[static_cast<std::size_t> (k)];
+    counts.assign (labels, 0);
+    overlaps.resize (labels);
+    for (int y = begin; y < end; ++y)
+    {
+      const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
+      const std::int32_t* li = model_labels.ptr<std::int32_t> (y);
+      const cv::Vec3f* v_row = vertices.ptr<cv::Vec3f> (y);
+      const cv::Vec3f* n_row = normals.ptr<cv::Vec3f> (y);
+      const cv::Vec3f* vm_row = model_vertices.ptr<cv::Vec3f> (y);
+      const cv::Vec3f* nm_row = model_normals.ptr<cv::Vec3f> (y);
+      // Model labels as allocated, not resolved: objects are groups of them.
+      const auto overlap = [&] (int x) {
+        addOverlap (overlaps[static_cast<std::size_t> (lj[x])], static_cast<std::uint32_t> (li[x]), 1);
+      };
+      int x = 0;
+#ifdef CUEFUSION_HAVE_AVX2_KERNELS
+      if (use_avx2)
+        for (; x + 8 <= size.width; x += 8)
+        {
+          int accepted = 0, exact = 0;
+          const int labelled = agreeingPixels8 (&v_row[x][0], &n_row[x][0], &vm_row[x][0], &nm_row[x][0], lj + x, li + x,
+                                                config.normal_agreement, config.noise_factor, accepted, exact);
+          for (int m = labelled; m != 0; m &= m - 1)
+            ++counts[static_cast<std::size_t> (lj[x + __builtin_ctz (static_cast<unsigned> (m))])];
+          for (int m = exact; m != 0; m &= m - 1)
+          {
+            // Failed the bound at θ = 0: the exact σ_d(u) of the viewing angle decides.
+            const int i = x + __builtin_ctz (static_cast<unsigned> (m));
+            if (agreesOnSurface (v_row[i], n_row[i], vm_row[i], config.noise_factor, true))
+              accepted |= 1 << (i - x);
+          }
+          for (int m = accepted; m != 0; m &= m - 1)
+            overlap (x + __builtin_ctz (static_cast<unsigned> (m)));
+        }
+#endif
+      for (; x < size.width; ++x)
+      {
+        if (lj[x] <= 0)
+          continue;
+        ++counts[static_cast<std::size_t> (lj[x])];
+        if (li[x] <= 0)
+          continue;
+        const Eigen::Vector3f N (n_row[x][0], n_row[x][1], n_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
+        if (!isFiniteVector (N) || !isFiniteVector (Nm) || !(N.dot (Nm) > config.normal_agreement))
+          continue;
+        if (agreesOnSurface (v_row[x], n_row[x], vm_row[x], config.noise_factor, false))
+          overlap (x);
+      }
+    }
+  });
+  FrameOverlaps out;
+  out.frame_count.assign (labels, 0);
+  out.by_frame_label.resize (labels);
+  for (int k = 0; k < chunks; ++k)
+    for (std::size_t j = 0; j < labels; ++j)
+    {
+      out.frame_count[j] += chunk_counts[static_cast<std::size_t> (k)][j];
+      for (const auto& [global, count] : chunk_overlaps[static_cast<std::size_t> (k)][j])
+        addOverlap (out.by_frame_label[j], global, count);
+    }
+  return out;
+}
+
+/** What the masks say of each frame segment: claimed by instance k (k ≥ 0), left out
+  * (kLeftOut), or nothing (kUnsure: unsure, or no masks at all). */
+constexpr int kUnsure = -1, kLeftOut = -2;
+
+std::vector<int>
+maskIdentities (const SegmentPropagationConfig& config, const std::vector<SegmentInstance>* segments, std::size_t labels)
+{
+  std::vector<int> identity (labels, kUnsure);
+  if (segments)
+    for (std::size_t j = 1; j < labels && j < segments->size (); ++j)
+    {
+      const SegmentInstance& info = (*segments)[j];
+      identity[j] = info.instance >= 0 ? info.instance : (info.coverage < config.uncovered_overlap ? kLeftOut : kUnsure);
+    }
+  return identity;
+}
+
+/** §4.2.2.4: each segment's best model label (inherit) or 0 (fresh); segments below the
+  * minimum size are counted as dropped. Sorts each segment's overlap list. */
+std::vector<std::uint32_t>
+wantedLabels (const SegmentPropagationConfig& config, FrameOverlaps& overlaps, PropagationResult& result)
+{
+  const std::size_t labels = overlaps.frame_count.size ();
+  std::vector<std::uint32_t> wanted (labels, 0);
+  for (std::size_t j = 1; j < labels; ++j)
+  {
+    const int count = overlaps.frame_count[j];
+    if (count == 0)
+      continue;
+    if (count < config.min_segment_size)
+    {
+      ++result.dropped;
+      continue;
+    }
+    auto& list = overlaps.by_frame_label[j];
+    std::sort (list.begin (), list.end ());
+    int best_count = 0;
+    for (const auto& [li, c] : list)
+      if (c > best_count)
+      {
+        wanted[j] = li;
+        best_count = c;
+      }
+    if (!(static_cast<float> (best_count) > config.inherit_overlap * static_cast<float> (count)))
+      wanted[j] = 0;
+  }
+  return wanted;
+}
+
+/** Label claims of the segments the masks set apart: label → identity → Π. */
+using Claims = std::map<std::uint32_t, std::map<int, int>>;
+
+/** The label that identity \a identity gets when it lost \a label to another identity:
+  * the label's successors in the order they were made (the same objects keep the same
+  * labels while the voxels still carry the old one), a fresh successor when they run out;
+  * one per (lost label, identity), remembered in \a fresh_for. */
+std::uint32_t
+successorFor (std::uint32_t label, int identity, std::map<std::pair<std::uint32_t, int>, std::uint32_t>& fresh_for, GlobalSegmentMap& map,
+              std::size_t frame, PropagationResult& result)
+{
+  auto it = fresh_for.find ({label, identity});
+  if (it == fresh_for.end ())
+  {
+    std::uint32_t unused = 0;
+    for (const std::uint32_t s : map.successors (label))
+    {
+      bool taken = false;
+      for (const auto& [key, given_label] : fresh_for)
+        taken = taken || (key.first == label && given_label == s);
+      if (!taken)
+      {
+        unused = s;
+        break;
+      }
+    }
+    if (!unused)
+    {
+      unused = map.newSuccessor (label, frame);
+      ++result.fresh;
+    }
+    it = fresh_for.emplace (std::make_pair (label, identity), unused).first;
+  }
+  return it->second;
+}
+
+/** The global label of each frame segment (0: dropped): its wanted label unless the masks
+  * set it apart from the segments holding that label more (then the next label above τ_l
+  * no other identity claims, else a successor of the lost label), else a fresh one. */
+std::vector<std::uint32_t>
+giveLabels (const SegmentPropagationConfig& config, const FrameOverlaps& overlaps, const std::vector<std::uint32_t>& wanted,
+            const std::vector<int>& identity, const std::vector<SegmentInstance>* segments, GlobalSegmentMap& map, std::size_t frame,
+            PropagationResult& result)
+{
+  const std::size_t labels = wanted.size ();
+  // Segments the masks set apart do not share a label: per wanted label, the identity
+  // with the largest Π keeps it (unsure segments side with anyone).
+  Claims claims;
+  for (std::size_t j = 1; j < labels; ++j)
+    if (wanted[j] && identity[j] != kUnsure)
+      for (const auto& [li, c] : overlaps.by_frame_label[j])
+        if (li == wanted[j])
+          claims[wanted[j]][identity[j]] += c;
+  std::map<std::pair<std::uint32_t, int>, std::uint32_t> fresh_for;  // (lost label, identity) → its fresh label
+  std::vector<std::uint32_t> given (labels, 0);
+  for (std::size_t j = 1; j < labels; ++j)
+  {
+    if (overlaps.frame_count[j] < config.min_segment_size)
+      continue;
+    std::uint32_t label = wanted[j];
+    bool successor = false;  // a successor of a lost label: neither inherited nor (unless new) fresh
+    if (label && identity[j] != kUnsure)
+    {
+      int winner = kUnsure, winner_pi = -1;
+      for (const auto& [id, pi] : claims[label])
+        if (pi > winner_pi)
+        {
+          winner = id;
+          winner_pi = pi;
+        }
+      if (winner != identity[j])
+      {
+        std::uint32_t next = 0;
+        int next_count = 0;
+        for (const auto& [li, c] : overlaps.by_frame_label[j])
+          if (li != label && c > next_count &&
+              static_cast<float> (c) > config.inherit_overlap * static_cast<float> (overlaps.frame_count[j]))
+          {
+            const auto other = claims.find (li);
+            if (other == claims.end () || other->second.empty () || other->second.count (identity[j]))
+            {
+              next = li;
+              next_count = c;
+            }
+          }
+        successor = next == 0;
+        label = next ? next : successorFor (label, identity[j], fresh_for, map, frame, result);
+      }
+    }
+    if (!label)
+    {
+      label = map.newSegment (frame);
+      ++result.fresh;
+    }
+    else if (!successor)
+      ++result.inherited;
+    given[j] = label;
+    map.observe (label, frame, segments && j < segments->size () ? &(*segments)[j] : nullptr);
+  }
+  return given;
+}
+
+/** §4.2.3 as evidence: each map segment seen well enough, with the frame segment holding
+  * most of its agreeing pixels, by label. */
+std::vector<std::pair<std::uint32_t, std::size_t>>
+placeMapSegments (const SegmentPropagationConfig& config, const FrameOverlaps& overlaps)
+{
+  struct Sighting
+  {
+    int visible = 0, best = 0;  ///< agreeing pixels in all, and in the frame segment holding most
+    std::size_t segment = 0;
+  };
+  std::map<std::uint32_t, Sighting> seen;  // by model label
+  for (std::size_t j = 1; j < overlaps.by_frame_label.size (); ++j)
+    for (const auto& [li, c] : overlaps.by_frame_label[j])
+    {
+      Sighting& s = seen[li];
+      s.visible += c;
+      if (c > s.best)
+      {
+        s.best = c;
+        s.segment = j;
+      }
+    }
+  std::vector<std::pair<std::uint32_t, std::size_t>> placed;  // (model label, frame segment), by label
+  for (const auto& [li, s] : seen)
+    if (li != 0 && s.visible >= config.min_segment_size &&
+        static_cast<float> (s.best) > config.placement_share * static_cast<float> (s.visible))
+      placed.emplace_back (li, s.segment);
+  return placed;
+}
+
+/** Frame segments that touch (within 2 pixels along a row or a column: an edge, or a
+  * mask's cut, lies between them), as sorted unique (smaller, larger) pairs. Pairs are
+  * gathered per row chunk (a repeat of the last pair is skipped: boundaries run along rows
+  * and columns), then sorted and made unique. */
+std::vector<std::pair<std::size_t, std::size_t>>
+touchingSegments (const cv::Mat& frame_labels)
+{
+  const cv::Size size = frame_labels.size ();
+  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> chunk_touching (
+    static_cast<std::size_t> (chunkCount (size.height, kRowsPerChunk)));
+  parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
+    auto& found = chunk_touching[static_cast<std::size_t> (k)];
+    std::pair<std::size_t, std::size_t> last (0, 0);
+    for (int y = begin; y < end; ++y)
+    {
+      const std::int32_t* row = frame_labels.ptr<std::int32_t> (y);
+      const std::int32_t* below[2] = {y + 1 < size.height ? frame_labels.ptr<std::int32_t> (y + 1) : nullptr,
+                                      y + 2 < size.height ? frame_labels.ptr<std::int32_t> (y + 2) : nullptr};
+      for (int x = 0; x < size.width; ++x)
+      {
+        const std::int32_t a = row[x];
+        if (a <= 0)
+          continue;
+        const std::int32_t others[4] = {x + 1 < size.width ? row[x + 1] : 0, x + 2 < size.width ? row[x + 2] : 0,
+                                        below[0] ? below[0][x] : 0, below[1] ? below[1][x] : 0};
+        for (const std::int32_t b : others)
+          if (b > 0 && b != a)
+          {
+            const std::pair<std::size_t, std::size_t> pair (static_cast<std::size_t> (std::min (a, b)),
+                                                            static_cast<std::size_t> (std::max (a, b)));
+            if (pair != last)
+              found.push_back (last = pair);
+          }
+      }
+    }
+  });
+  std::vector<std::pair<std::size_t, std::size_t>> touching;
+  for (const auto& found : chunk_touching)
+    touching.insert (touching.end (), found.begin (), found.end ());
+  std::sort (touching.begin (), touching.end ());
+  touching.erase (std::unique (touching.begin (), touching.end ()), touching.end ());
+  return touching;
+}
+
+/** The votes on each pair of placed map segments: together when one frame segment or one
+  * instance holds both, apart when the masks set them apart (adjacent, or already a tracked
+  * pair) or when unsure segments touch. */
+void
+voteOnPairs (const std::vector<std::pair<std::uint32_t, std::size_t>>& placed, const std::vector<std::pair<std::size_t, std::size_t>>& touching,
+             const std::vector<int>& identity, const GlobalSegmentMap& map, PropagationResult& result)
+{
+  for (std::size_t p = 0; p < placed.size (); ++p)
+    for (std::size_t q = p + 1; q < placed.size (); ++q)
+    {
+      const auto [a, ja] = placed[p];
+      const auto [b, jb] = placed[q];
+      if (ja == jb)
+      {
+        result.votes.emplace_back (a, b, PairVote::Together);
+        continue;
+      }
+      const int ia = identity[ja], ib = identity[jb];
+      const bool adjacent = std::binary_search (touching.begin (), touching.end (), std::make_pair (std::min (ja, jb), std::max (ja, jb)));
+      if (ia >= 0 && ia == ib)
+        result.votes.emplace_back (a, b, PairVote::Together);
+      else if ((ia >= 0 && ib >= 0) || (ia >= 0 && ib == kLeftOut) || (ia == kLeftOut && ib >= 0))
+      {
+        if (adjacent || map.evidence ().tracked (a, b))
+          result.votes.emplace_back (a, b, PairVote::Apart);
+      }
+      else if (adjacent && ia < 0 && ib < 0)
+        result.votes.emplace_back (a, b, PairVote::Apart);
+    }
+}
 }  // namespace
+
 
 void
 SegmentPropagationConfig::validate () const
@@ -172,289 +519,19 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
   if (frame_labels.type () != CV_32S || model_labels.type () != CV_32S || model_labels.size () != size)
     throw Error ("SegmentPropagation", "label maps must be CV_32S of one size");
 
-  // #l_j and Π(l_i, l_j) over the pixels where both maps agree (§4.2.2.3). Frame labels
-  // are small (1..N), so per-label vectors; each holds the few (l_i, Π) it meets.
+  // Frame labels are small (1..N), so per-label vectors; each holds the few (l_i, Π) it meets.
   double max_frame_label = 0.0;
   cv::minMaxLoc (frame_labels, nullptr, &max_frame_label);
   const std::size_t labels = static_cast<std::size_t> (std::max (0.0, max_frame_label)) + 1;
-  // Rows in fixed chunks on the pool, each with its own counts, added up in chunk order
-  // (the lists keep first-seen order, so the result does not depend on the thread count).
-  using Overlaps = std::vector<std::vector<std::pair<std::uint32_t, int>>>;
-  constexpr int kRowsPerChunk = 16;
-  const int chunks = chunkCount (size.height, kRowsPerChunk);
-  [[maybe_unused]] const bool use_avx2 = vectorKernelsEnabled ();
-  std::vector<std::vector<int>> chunk_counts (static_cast<std::size_t> (chunks));
-  std::vector<Overlaps> chunk_overlaps (static_cast<std::size_t> (chunks));
-  parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
-    std::vector<int>& counts = chunk_counts[static_cast<std::size_t> (k)];
-    Overlaps& overlaps = chunk_overlaps[static_cast<std::size_t> (k)];
-    counts.assign (labels, 0);
-    overlaps.resize (labels);
-    for (int y = begin; y < end; ++y)
-    {
-      const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
-      const std::int32_t* li = model_labels.ptr<std::int32_t> (y);
-      const cv::Vec3f* v_row = vertices.ptr<cv::Vec3f> (y);
-      const cv::Vec3f* n_row = normals.ptr<cv::Vec3f> (y);
-      const cv::Vec3f* vm_row = model_vertices.ptr<cv::Vec3f> (y);
-      const cv::Vec3f* nm_row = model_normals.ptr<cv::Vec3f> (y);
-      // Model labels as allocated, not resolved: objects are groups of them.
-      const auto overlap = [&] (int x) {
-        addOverlap (overlaps[static_cast<std::size_t> (lj[x])], static_cast<std::uint32_t> (li[x]), 1);
-      };
-      int x = 0;
-#ifdef CUEFUSION_HAVE_AVX2_KERNELS
-      if (use_avx2)
-        for (; x + 8 <= size.width; x += 8)
-        {
-          int accepted = 0, exact = 0;
-          const int labelled = agreeingPixels8 (&v_row[x][0], &n_row[x][0], &vm_row[x][0], &nm_row[x][0], lj + x, li + x,
-                                                config_.normal_agreement, config_.noise_factor, accepted, exact);
-          for (int m = labelled; m != 0; m &= m - 1)
-            ++counts[static_cast<std::size_t> (lj[x + __builtin_ctz (static_cast<unsigned> (m))])];
-          for (int m = exact; m != 0; m &= m - 1)
-          {
-            // Failed the bound at θ = 0: the exact σ_d(u) of the viewing angle decides.
-            const int i = x + __builtin_ctz (static_cast<unsigned> (m));
-            if (agreesOnSurface (v_row[i], n_row[i], vm_row[i], config_.noise_factor, true))
-              accepted |= 1 << (i - x);
-          }
-          for (int m = accepted; m != 0; m &= m - 1)
-            overlap (x + __builtin_ctz (static_cast<unsigned> (m)));
-        }
-#endif
-      for (; x < size.width; ++x)
-      {
-        if (lj[x] <= 0)
-          continue;
-        ++counts[static_cast<std::size_t> (lj[x])];
-        if (li[x] <= 0)
-          continue;
-        const Eigen::Vector3f N (n_row[x][0], n_row[x][1], n_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
-        if (!isFiniteVector (N) || !isFiniteVector (Nm) || !(N.dot (Nm) > config_.normal_agreement))
-          continue;
-        if (agreesOnSurface (v_row[x], n_row[x], vm_row[x], config_.noise_factor, false))
-          overlap (x);
-      }
-    }
-  });
-  std::vector<int> frame_count (labels, 0);
-  Overlaps by_frame_label (labels);
-  for (int k = 0; k < chunks; ++k)
-    for (std::size_t j = 0; j < labels; ++j)
-    {
-      frame_count[j] += chunk_counts[static_cast<std::size_t> (k)][j];
-      for (const auto& [global, count] : chunk_overlaps[static_cast<std::size_t> (k)][j])
-        addOverlap (by_frame_label[j], global, count);
-    }
-
-  // What the masks say of each frame segment: claimed by instance k (k ≥ 0), left out
-  // (kLeftOut), or nothing (kUnsure: unsure, or no masks at all).
-  constexpr int kUnsure = -1, kLeftOut = -2;
-  std::vector<int> identity (labels, kUnsure);
-  if (segments)
-    for (std::size_t j = 1; j < labels && j < segments->size (); ++j)
-    {
-      const SegmentInstance& info = (*segments)[j];
-      identity[j] = info.instance >= 0 ? info.instance : (info.coverage < config_.uncovered_overlap ? kLeftOut : kUnsure);
-    }
-
-  // §4.2.2.4: each segment's best model label (inherit), none (fresh), or drop.
+  FrameOverlaps overlaps =
+    countOverlaps (config_, vertices, normals, frame_labels, model_vertices, model_normals, model_labels, labels);
+  const std::vector<int> identity = maskIdentities (config_, segments, labels);
   result = PropagationResult ();
-  std::vector<std::uint32_t> given (labels, 0);
-  std::vector<std::uint32_t> wanted (labels, 0);
-  for (std::size_t j = 1; j < labels; ++j)
-  {
-    const int count = frame_count[j];
-    if (count == 0)
-      continue;
-    if (count < config_.min_segment_size)
-    {
-      ++result.dropped;
-      continue;
-    }
-    auto& list = by_frame_label[j];
-    std::sort (list.begin (), list.end ());
-    int best_count = 0;
-    for (const auto& [li, c] : list)
-      if (c > best_count)
-      {
-        wanted[j] = li;
-        best_count = c;
-      }
-    if (!(static_cast<float> (best_count) > config_.inherit_overlap * static_cast<float> (count)))
-      wanted[j] = 0;
-  }
-  // Segments the masks set apart do not share a label: per wanted label, the identity
-  // with the largest Π keeps it (unsure segments side with anyone).
-  std::map<std::uint32_t, std::map<int, int>> claims;  // label → identity → Π
-  for (std::size_t j = 1; j < labels; ++j)
-    if (wanted[j] && identity[j] != kUnsure)
-      for (const auto& [li, c] : by_frame_label[j])
-        if (li == wanted[j])
-          claims[wanted[j]][identity[j]] += c;
-  std::map<std::pair<std::uint32_t, int>, std::uint32_t> fresh_for;  // (lost label, identity) → its fresh label
-  for (std::size_t j = 1; j < labels; ++j)
-  {
-    if (frame_count[j] < config_.min_segment_size)
-      continue;
-    std::uint32_t label = wanted[j];
-    bool successor = false;  // a successor of a lost label: neither inherited nor (unless new) fresh
-    if (label && identity[j] != kUnsure)
-    {
-      const auto& by_identity = claims[label];
-      int winner = kUnsure, winner_pi = -1;
-      for (const auto& [id, pi] : by_identity)
-        if (pi > winner_pi)
-        {
-          winner = id;
-          winner_pi = pi;
-        }
-      if (winner != identity[j])
-      {
-        // The next model label above τ_l that no other identity claims, else one of the
-        // lost label's successors (below), shared by this identity's segments.
-        std::uint32_t next = 0;
-        int next_count = 0;
-        for (const auto& [li, c] : by_frame_label[j])
-          if (li != label && c > next_count && static_cast<float> (c) > config_.inherit_overlap * static_cast<float> (frame_count[j]))
-          {
-            const auto other = claims.find (li);
-            if (other == claims.end () || other->second.empty () || other->second.count (identity[j]))
-            {
-              next = li;
-              next_count = c;
-            }
-          }
-        if (next)
-          label = next;
-        else
-        {
-          // One label per identity that lost \a label: the label's successors in the
-          // order they were made (the same objects keep the same labels while the
-          // voxels still carry the old one), a fresh successor when they run out.
-          auto it = fresh_for.find ({label, identity[j]});
-          if (it == fresh_for.end ())
-          {
-            std::uint32_t unused = 0;
-            for (const std::uint32_t s : map.successors (label))
-            {
-              bool taken = false;
-              for (const auto& [key, given_label] : fresh_for)
-                taken = taken || (key.first == label && given_label == s);
-              if (!taken)
-              {
-                unused = s;
-                break;
-              }
-            }
-            if (!unused)
-            {
-              unused = map.newSuccessor (label, frame);
-              ++result.fresh;
-            }
-            it = fresh_for.emplace (std::make_pair (label, identity[j]), unused).first;
-          }
-          label = it->second;
-          successor = true;
-        }
-      }
-    }
-    if (!label)
-    {
-      label = map.newSegment (frame);
-      ++result.fresh;
-    }
-    else if (!successor)
-      ++result.inherited;
-    given[j] = label;
-    map.observe (label, frame, segments && j < segments->size () ? &(*segments)[j] : nullptr);
-  }
-
-  // §4.2.3 as evidence. Each map segment seen well enough is placed in the frame segment
-  // holding most of its agreeing pixels.
-  struct Sighting
-  {
-    int visible = 0, best = 0;  ///< agreeing pixels in all, and in the frame segment holding most
-    std::size_t segment = 0;
-  };
-  std::map<std::uint32_t, Sighting> seen;  // by model label
-  for (std::size_t j = 1; j < labels; ++j)
-    for (const auto& [li, c] : by_frame_label[j])
-    {
-      Sighting& s = seen[li];
-      s.visible += c;
-      if (c > s.best)
-      {
-        s.best = c;
-        s.segment = j;
-      }
-    }
-  std::vector<std::pair<std::uint32_t, std::size_t>> placed;  // (model label, frame segment), by label
-  for (const auto& [li, s] : seen)
-    if (li != 0 && s.visible >= config_.min_segment_size &&
-        static_cast<float> (s.best) > config_.placement_share * static_cast<float> (s.visible))
-      placed.emplace_back (li, s.segment);
-  if (placed.size () < 2)
-    return finishLabels (frame_labels, given, result);
-  // Frame segments that touch (within 2 pixels along a row or a column): an edge, or a
-  // mask's cut, lies between them.
-  // Pairs are gathered per row chunk (a repeat of the last pair is skipped: boundaries
-  // run along rows and columns), then sorted and made unique.
-  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> chunk_touching (static_cast<std::size_t> (chunks));
-  parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
-    auto& found = chunk_touching[static_cast<std::size_t> (k)];
-    std::pair<std::size_t, std::size_t> last (0, 0);
-    for (int y = begin; y < end; ++y)
-    {
-      const std::int32_t* row = frame_labels.ptr<std::int32_t> (y);
-      const std::int32_t* below[2] = {y + 1 < size.height ? frame_labels.ptr<std::int32_t> (y + 1) : nullptr,
-                                      y + 2 < size.height ? frame_labels.ptr<std::int32_t> (y + 2) : nullptr};
-      for (int x = 0; x < size.width; ++x)
-      {
-        const std::int32_t a = row[x];
-        if (a <= 0)
-          continue;
-        const std::int32_t others[4] = {x + 1 < size.width ? row[x + 1] : 0, x + 2 < size.width ? row[x + 2] : 0,
-                                        below[0] ? below[0][x] : 0, below[1] ? below[1][x] : 0};
-        for (const std::int32_t b : others)
-          if (b > 0 && b != a)
-          {
-            const std::pair<std::size_t, std::size_t> pair (static_cast<std::size_t> (std::min (a, b)),
-                                                            static_cast<std::size_t> (std::max (a, b)));
-            if (pair != last)
-              found.push_back (last = pair);
-          }
-      }
-    }
-  });
-  std::vector<std::pair<std::size_t, std::size_t>> touching;
-  for (const auto& found : chunk_touching)
-    touching.insert (touching.end (), found.begin (), found.end ());
-  std::sort (touching.begin (), touching.end ());
-  touching.erase (std::unique (touching.begin (), touching.end ()), touching.end ());
-  for (std::size_t p = 0; p < placed.size (); ++p)
-    for (std::size_t q = p + 1; q < placed.size (); ++q)
-    {
-      const auto [a, ja] = placed[p];
-      const auto [b, jb] = placed[q];
-      if (ja == jb)
-      {
-        result.votes.emplace_back (a, b, PairVote::Together);
-        continue;
-      }
-      const int ia = identity[ja], ib = identity[jb];
-      const bool adjacent = std::binary_search (touching.begin (), touching.end (), std::make_pair (std::min (ja, jb), std::max (ja, jb)));
-      if (ia >= 0 && ia == ib)
-        result.votes.emplace_back (a, b, PairVote::Together);
-      else if ((ia >= 0 && ib >= 0) || (ia >= 0 && ib == kLeftOut) || (ia == kLeftOut && ib >= 0))
-      {
-        if (adjacent || map.evidence ().tracked (a, b))
-          result.votes.emplace_back (a, b, PairVote::Apart);
-      }
-      else if (adjacent && ia < 0 && ib < 0)
-        result.votes.emplace_back (a, b, PairVote::Apart);
-    }
+  const std::vector<std::uint32_t> wanted = wantedLabels (config_, overlaps, result);
+  const std::vector<std::uint32_t> given = giveLabels (config_, overlaps, wanted, identity, segments, map, frame, result);
+  const std::vector<std::pair<std::uint32_t, std::size_t>> placed = placeMapSegments (config_, overlaps);
+  if (placed.size () >= 2)
+    voteOnPairs (placed, touchingSegments (frame_labels), identity, map, result);
   finishLabels (frame_labels, given, result);
 }
 
