@@ -149,6 +149,100 @@ averageChannel (__m256i old_channel, __m256i observed, __m256 w, __m256 w_new)
 }
 }  // namespace
 
+/** The depth each of eight voxels' projections (uf, vf; nearest pixel u, v; \a seen: in
+  * front of the camera and inside the image) sees: bilinear where the four pixels around it
+  * are usable and close, else the nearest pixel. \a nearest_ok: lanes whose nearest pixel
+  * is usable (others are not updated); when none is, returns at once. */
+CUEFUSION_AVX2 inline __m256
+sampleDepth8 (const IntegrationFrame& f, __m256 seen, __m256 uf, __m256 vf, __m256i u, __m256i v, __m256& nearest, __m256& nearest_ok)
+{
+  const __m256 zero = _mm256_setzero_ps (), one = _mm256_set1_ps (1.f);
+  const __m256 min_depth = _mm256_set1_ps (f.min_depth), max_depth = _mm256_set1_ps (f.max_depth);
+  const __m256 same_surface = _mm256_set1_ps (0.02f);
+  const __m256i depth_step = _mm256_set1_epi32 (static_cast<int> (f.depth_step));
+  // The 2×2 pixels around each projection, read once: the nearest pixel (u, v) is one of
+  // them, ⌊uf + ½⌋ being ⌊uf⌋ or ⌊uf⌋ + 1. Only lanes whose quad leaves the image (a
+  // half-pixel border) gather the nearest pixel alone. A gather of the nearest pixels
+  // ahead of the quads was a tenth of this kernel's time, waiting for its loads.
+  const __m256 uf0 = _mm256_floor_ps (uf), vf0 = _mm256_floor_ps (vf);
+  const __m256i u0 = _mm256_cvttps_epi32 (uf0), v0 = _mm256_cvttps_epi32 (vf0);
+  const __m256 corners_inside = _mm256_castsi256_ps (avx2::insideImage (u0, v0, f.camera.width - 1, f.camera.height - 1));
+  const __m256 quad_lanes = _mm256_and_ps (seen, corners_inside);
+  __m256 d00 = zero, d01 = zero, d10 = zero, d11 = zero;
+  nearest = zero;
+  if (_mm256_movemask_ps (quad_lanes) != 0)
+  {
+    // Lanes without a quad in the image read the image's first one (offset 0); their
+    // values are replaced or masked out below.
+    alignas (32) std::int32_t quad_offset[8];
+    _mm256_store_si256 (reinterpret_cast<__m256i*> (quad_offset),
+                        _mm256_and_si256 (_mm256_add_epi32 (_mm256_mullo_epi32 (v0, depth_step), u0),
+                                          _mm256_castps_si256 (quad_lanes)));
+    avx2::gatherQuads8 (f.depth, quad_offset, static_cast<std::ptrdiff_t> (f.depth_step), d00, d01, d10, d11);
+    const __m256 right = _mm256_castsi256_ps (_mm256_cmpeq_epi32 (u, _mm256_add_epi32 (u0, _mm256_set1_epi32 (1))));
+    const __m256 below = _mm256_castsi256_ps (_mm256_cmpeq_epi32 (v, _mm256_add_epi32 (v0, _mm256_set1_epi32 (1))));
+    nearest = _mm256_and_ps (quad_lanes, _mm256_blendv_ps (_mm256_blendv_ps (d00, d01, right), _mm256_blendv_ps (d10, d11, right), below));
+  }
+  const __m256 border_lanes = _mm256_andnot_ps (corners_inside, seen);
+  if (_mm256_movemask_ps (border_lanes) != 0)
+    nearest = _mm256_mask_i32gather_ps (nearest, f.depth, _mm256_add_epi32 (_mm256_mullo_epi32 (v, depth_step), u), border_lanes, 4);
+  nearest_ok = _mm256_and_ps (
+      seen, _mm256_and_ps (_mm256_cmp_ps (nearest, min_depth, _CMP_GE_OQ), _mm256_cmp_ps (nearest, max_depth, _CMP_LE_OQ)));
+  if (_mm256_movemask_ps (nearest_ok) == 0)
+    return zero;
+
+  // Bilinear depth where the four pixels around the projection are usable and close.
+  __m256 bilinear_ok = _mm256_and_ps (nearest_ok, corners_inside);
+  __m256 depth = nearest;
+  if (_mm256_movemask_ps (bilinear_ok) != 0)
+  {
+    const __m256 lo = _mm256_min_ps (_mm256_min_ps (d00, d01), _mm256_min_ps (d10, d11));
+    const __m256 hi = _mm256_max_ps (_mm256_max_ps (d00, d01), _mm256_max_ps (d10, d11));
+    bilinear_ok = _mm256_and_ps (
+        _mm256_and_ps (bilinear_ok, _mm256_and_ps (_mm256_and_ps (usableDepth8 (d00, min_depth, max_depth), usableDepth8 (d01, min_depth, max_depth)),
+                                                   _mm256_and_ps (usableDepth8 (d10, min_depth, max_depth), usableDepth8 (d11, min_depth, max_depth)))),
+        _mm256_cmp_ps (_mm256_sub_ps (hi, lo), _mm256_mul_ps (same_surface, lo), _CMP_LE_OQ));
+    const __m256 a = _mm256_sub_ps (uf, uf0), b = _mm256_sub_ps (vf, vf0);
+    const __m256 na = _mm256_sub_ps (one, a), nb = _mm256_sub_ps (one, b);
+    const __m256 top = _mm256_add_ps (_mm256_mul_ps (d00, na), _mm256_mul_ps (d01, a));
+    const __m256 bottom = _mm256_add_ps (_mm256_mul_ps (d10, na), _mm256_mul_ps (d11, a));
+    const __m256 blended = _mm256_add_ps (_mm256_mul_ps (top, nb), _mm256_mul_ps (bottom, b));
+    depth = _mm256_blendv_ps (nearest, blended, bilinear_ok);
+  }
+  return depth;
+}
+
+/** The colour words of eight voxels after fusing the frame's colour at their pixels
+  * (u, v) into their running average (weights \a w before, \a w_new after); the top byte,
+  * label_confidence, is kept. Lanes not in \a update read pixel 0 (their result is unused). */
+CUEFUSION_AVX2 inline __m256i
+fuseColor8 (const IntegrationFrame& f, __m256 update, __m256i u, __m256i v, __m256i word, __m256 w, __m256 w_new)
+{
+  alignas (32) std::int32_t color_offset[8];
+  // Each lane's pixel as one BGR word, read through byte offsets (0 for lanes not
+  // updated, whose pixel may lie outside the image) and set as a vector: filling
+  // per-channel arrays with scalar stores and loading them as vectors stalled on
+  // store forwarding (a tenth of this kernel).
+  const __m256i offset = _mm256_add_epi32 (_mm256_mullo_epi32 (v, _mm256_set1_epi32 (static_cast<int> (f.color_step))),
+                                           _mm256_mullo_epi32 (u, _mm256_set1_epi32 (3)));
+  _mm256_store_si256 (reinterpret_cast<__m256i*> (color_offset), _mm256_and_si256 (offset, _mm256_castps_si256 (update)));
+  const auto bgr_word = [&] (int i) {
+    const std::uint8_t* bgr = f.color + color_offset[i];
+    return static_cast<int> (bgr[0] | bgr[1] << 8 | bgr[2] << 16);
+  };
+  const __m256i observed_bgr = _mm256_setr_epi32 (bgr_word (0), bgr_word (1), bgr_word (2), bgr_word (3), bgr_word (4),
+                                                  bgr_word (5), bgr_word (6), bgr_word (7));
+  const __m256i byte = _mm256_set1_epi32 (0xff);
+  const __m256i r = averageChannel (_mm256_and_si256 (word, byte), _mm256_srli_epi32 (observed_bgr, 16), w, w_new);
+  const __m256i g = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 8), byte),
+                                    _mm256_and_si256 (_mm256_srli_epi32 (observed_bgr, 8), byte), w, w_new);
+  const __m256i b = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 16), byte),
+                                    _mm256_and_si256 (observed_bgr, byte), w, w_new);
+  // The top byte is label_confidence: kept.
+  return _mm256_or_si256 (_mm256_and_si256 (word, _mm256_set1_epi32 (static_cast<int> (0xff000000u))),
+                          _mm256_or_si256 (_mm256_or_si256 (r, _mm256_slli_epi32 (g, 8)), _mm256_slli_epi32 (b, 16)));
+}
+
 // The arithmetic below is the scalar version's, lane by lane: the same divisions (not
 // reciprocals) and the same order of operations, so both paths agree to the last bit for
 // a voxel that lands on the same pixel. Only the voxel positions differ in rounding (row
@@ -164,16 +258,12 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
 
   const __m256 lane = _mm256_setr_ps (0.f, 1.f, 2.f, 3.f, 4.f, 5.f, 6.f, 7.f);
   const __m256 zero = _mm256_setzero_ps (), one = _mm256_set1_ps (1.f), half = _mm256_set1_ps (0.5f);
-  const __m256 min_depth = _mm256_set1_ps (f.min_depth), max_depth = _mm256_set1_ps (f.max_depth);
   const __m256 truncation = _mm256_set1_ps (f.truncation), neg_truncation = _mm256_set1_ps (-f.truncation);
   const __m256 max_weight = _mm256_set1_ps (f.max_weight);
-  const __m256 same_surface = _mm256_set1_ps (0.02f);
-  const __m256i depth_step = _mm256_set1_epi32 (static_cast<int> (f.depth_step));
   const __m256 lx = _mm256_mul_ps (lane, _mm256_set1_ps (dx.x ()));
   const __m256 ly = _mm256_mul_ps (lane, _mm256_set1_ps (dx.y ()));
   const __m256 lz = _mm256_mul_ps (lane, _mm256_set1_ps (dx.z ()));
 
-  alignas (32) std::int32_t color_offset[8];
   alignas (32) std::uint32_t seen_pixel[8];
   alignas (32) float seen_gap[8];
 
@@ -191,54 +281,10 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
       const __m256 seen = avx2::projectToPixel8 (px, py, pz, f.camera, uf, vf, u, v);
       if (_mm256_movemask_ps (seen) == 0)
         continue;
-      // The 2×2 pixels around each projection, read once: the nearest pixel (u, v) is one of
-      // them, ⌊uf + ½⌋ being ⌊uf⌋ or ⌊uf⌋ + 1. Only lanes whose quad leaves the image (a
-      // half-pixel border) gather the nearest pixel alone. A gather of the nearest pixels
-      // ahead of the quads was a tenth of this kernel's time, waiting for its loads.
-      const __m256 uf0 = _mm256_floor_ps (uf), vf0 = _mm256_floor_ps (vf);
-      const __m256i u0 = _mm256_cvttps_epi32 (uf0), v0 = _mm256_cvttps_epi32 (vf0);
-      const __m256 corners_inside = _mm256_castsi256_ps (avx2::insideImage (u0, v0, f.camera.width - 1, f.camera.height - 1));
-      const __m256 quad_lanes = _mm256_and_ps (seen, corners_inside);
-      __m256 d00 = zero, d01 = zero, d10 = zero, d11 = zero, nearest = zero;
-      if (_mm256_movemask_ps (quad_lanes) != 0)
-      {
-        // Lanes without a quad in the image read the image's first one (offset 0); their
-        // values are replaced or masked out below.
-        alignas (32) std::int32_t quad_offset[8];
-        _mm256_store_si256 (reinterpret_cast<__m256i*> (quad_offset),
-                            _mm256_and_si256 (_mm256_add_epi32 (_mm256_mullo_epi32 (v0, depth_step), u0),
-                                              _mm256_castps_si256 (quad_lanes)));
-        avx2::gatherQuads8 (f.depth, quad_offset, static_cast<std::ptrdiff_t> (f.depth_step), d00, d01, d10, d11);
-        const __m256 right = _mm256_castsi256_ps (_mm256_cmpeq_epi32 (u, _mm256_add_epi32 (u0, _mm256_set1_epi32 (1))));
-        const __m256 below = _mm256_castsi256_ps (_mm256_cmpeq_epi32 (v, _mm256_add_epi32 (v0, _mm256_set1_epi32 (1))));
-        nearest = _mm256_and_ps (quad_lanes, _mm256_blendv_ps (_mm256_blendv_ps (d00, d01, right), _mm256_blendv_ps (d10, d11, right), below));
-      }
-      const __m256 border_lanes = _mm256_andnot_ps (corners_inside, seen);
-      if (_mm256_movemask_ps (border_lanes) != 0)
-        nearest = _mm256_mask_i32gather_ps (nearest, f.depth, _mm256_add_epi32 (_mm256_mullo_epi32 (v, depth_step), u), border_lanes, 4);
-      const __m256 nearest_ok = _mm256_and_ps (
-          seen, _mm256_and_ps (_mm256_cmp_ps (nearest, min_depth, _CMP_GE_OQ), _mm256_cmp_ps (nearest, max_depth, _CMP_LE_OQ)));
+      __m256 nearest, nearest_ok;
+      const __m256 depth = sampleDepth8 (f, seen, uf, vf, u, v, nearest, nearest_ok);
       if (_mm256_movemask_ps (nearest_ok) == 0)
         continue;
-
-      // Bilinear depth where the four pixels around the projection are usable and close.
-      __m256 bilinear_ok = _mm256_and_ps (nearest_ok, corners_inside);
-      __m256 depth = nearest;
-      if (_mm256_movemask_ps (bilinear_ok) != 0)
-      {
-        const __m256 lo = _mm256_min_ps (_mm256_min_ps (d00, d01), _mm256_min_ps (d10, d11));
-        const __m256 hi = _mm256_max_ps (_mm256_max_ps (d00, d01), _mm256_max_ps (d10, d11));
-        bilinear_ok = _mm256_and_ps (
-            _mm256_and_ps (bilinear_ok, _mm256_and_ps (_mm256_and_ps (usableDepth8 (d00, min_depth, max_depth), usableDepth8 (d01, min_depth, max_depth)),
-                                                       _mm256_and_ps (usableDepth8 (d10, min_depth, max_depth), usableDepth8 (d11, min_depth, max_depth)))),
-            _mm256_cmp_ps (_mm256_sub_ps (hi, lo), _mm256_mul_ps (same_surface, lo), _CMP_LE_OQ));
-        const __m256 a = _mm256_sub_ps (uf, uf0), b = _mm256_sub_ps (vf, vf0);
-        const __m256 na = _mm256_sub_ps (one, a), nb = _mm256_sub_ps (one, b);
-        const __m256 top = _mm256_add_ps (_mm256_mul_ps (d00, na), _mm256_mul_ps (d01, a));
-        const __m256 bottom = _mm256_add_ps (_mm256_mul_ps (d10, na), _mm256_mul_ps (d11, a));
-        const __m256 blended = _mm256_add_ps (_mm256_mul_ps (top, nb), _mm256_mul_ps (bottom, b));
-        depth = _mm256_blendv_ps (nearest, blended, bilinear_ok);
-      }
 
       const __m256 sdf = _mm256_sub_ps (depth, pz);
       const __m256 update = _mm256_and_ps (nearest_ok, _mm256_cmp_ps (sdf, neg_truncation, _CMP_GE_OQ));
@@ -270,28 +316,7 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
       __m256i word_out = word;
       if (f.color != nullptr)
       {
-        // Each lane's pixel as one BGR word, read through byte offsets (0 for lanes not
-        // updated, whose pixel may lie outside the image) and set as a vector: filling
-        // per-channel arrays with scalar stores and loading them as vectors stalled on
-        // store forwarding (a tenth of this kernel).
-        const __m256i offset = _mm256_add_epi32 (_mm256_mullo_epi32 (v, _mm256_set1_epi32 (static_cast<int> (f.color_step))),
-                                                 _mm256_mullo_epi32 (u, _mm256_set1_epi32 (3)));
-        _mm256_store_si256 (reinterpret_cast<__m256i*> (color_offset), _mm256_and_si256 (offset, _mm256_castps_si256 (update)));
-        const auto bgr_word = [&] (int i) {
-          const std::uint8_t* bgr = f.color + color_offset[i];
-          return static_cast<int> (bgr[0] | bgr[1] << 8 | bgr[2] << 16);
-        };
-        const __m256i observed_bgr = _mm256_setr_epi32 (bgr_word (0), bgr_word (1), bgr_word (2), bgr_word (3), bgr_word (4),
-                                                        bgr_word (5), bgr_word (6), bgr_word (7));
-        const __m256i byte = _mm256_set1_epi32 (0xff);
-        const __m256i r = averageChannel (_mm256_and_si256 (word, byte), _mm256_srli_epi32 (observed_bgr, 16), w, w_new);
-        const __m256i g = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 8), byte),
-                                          _mm256_and_si256 (_mm256_srli_epi32 (observed_bgr, 8), byte), w, w_new);
-        const __m256i b = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 16), byte),
-                                          _mm256_and_si256 (observed_bgr, byte), w, w_new);
-        // The top byte is label_confidence: kept.
-        word_out = _mm256_or_si256 (_mm256_and_si256 (word, _mm256_set1_epi32 (static_cast<int> (0xff000000u))),
-                                    _mm256_or_si256 (_mm256_or_si256 (r, _mm256_slli_epi32 (g, 8)), _mm256_slli_epi32 (b, 16)));
+        word_out = fuseColor8 (f, update, u, v, word, w, w_new);
       }
       // Lanes not updated keep what was loaded; all eight voxels are stored back.
       storeVoxels8 (voxel_floats_base, _mm256_blendv_ps (old_sdf, sdf_out, update), _mm256_blendv_ps (w, weight_out, update),
