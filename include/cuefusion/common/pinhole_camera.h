@@ -110,19 +110,15 @@ struct KinectNoiseModel
   static constexpr double quadratic = 0.0019;
   static constexpr double offset = 0.4;
 
-  /** \brief σ_z(z, 0) in metres, in float: base + (quadratic · dz) · dz, dz = z − offset,
-    * the product rounded before the sum also where this is inlined into code compiled for
-    * FMA (the empty asm keeps GCC from fusing them).
+  /** \brief σ_z(z, 0) in metres, in float: base + (quadratic · dz) · dz, dz = z − offset.
+    * Called from code built for baseline x86-64 (no FMA), so the product is rounded before
+    * the sum, as in the eight-lane version.
     */
   static float
   atNormalIncidence (float z)
   {
     const float dz = z - static_cast<float> (offset);
-    float quadratic_term = static_cast<float> (quadratic) * dz * dz;
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-    __asm__ ("" : "+x"(quadratic_term));
-#endif
-    return static_cast<float> (base) + quadratic_term;
+    return static_cast<float> (base) + static_cast<float> (quadratic) * dz * dz;
   }
 };
 
