@@ -2,6 +2,7 @@
 // keyframe's pose and code (beside volume.tsdf; `run --save-volume`, `--load-volume`).
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
+#include <cuefusion/io/pose_io.h>
 #include <cuefusion/reconstruction/keyframe_database.h>
 
 #include <boost/filesystem.hpp>
@@ -40,15 +41,6 @@ struct TestRecord
 constexpr std::size_t kPoseBytes = 12 * sizeof (double);  ///< the 3×4 [R | t], row by row
 
 static_assert (sizeof (float) == 4 && sizeof (double) == 8, "keyframe files assume IEEE-754 floats");
-
-/** A rigid camera-to-world pose: finite, R orthonormal with determinant 1 (to 1e-6). */
-bool
-isRigid (const Eigen::Isometry3d& pose)
-{
-  const Eigen::Matrix3d r = pose.linear ();
-  return pose.matrix ().allFinite () && (r.transpose () * r - Eigen::Matrix3d::Identity ()).cwiseAbs ().maxCoeff () < 1e-6 &&
-         std::abs (r.determinant () - 1.0) < 1e-6;
-}
 }  // namespace
 
 void
@@ -149,12 +141,11 @@ KeyframeDatabase::load (const std::string& path)
     in.read (reinterpret_cast<char*> (code.data ()), static_cast<std::streamsize> (code.size ()));
     if (!in)
       throw Error (path, "keyframe file is truncated in keyframe " + std::to_string (k));
-    Eigen::Isometry3d p = Eigen::Isometry3d::Identity ();
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity ();
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c)
-        p.matrix () (r, c) = pose[r * 4 + c];
-    if (!isRigid (p))
-      throw Error (path, "keyframe " + std::to_string (k) + " has no rigid pose");
+        m (r, c) = pose[r * 4 + c];
+    const Eigen::Isometry3d p = io::rigidFromMatrix (m, path + ", keyframe " + std::to_string (k));
     for (const std::uint8_t bits : code)
       if (bits > code_end)
         throw Error (path, "keyframe " + std::to_string (k) + " has a code of more than " + std::to_string (config.decisions) + " bits");
