@@ -78,6 +78,7 @@ struct RunSettings
   bool use_gt_poses = false, save_volume = false, no_motion_model = false, no_noise_weighting = false;
   std::string masks, mode;
   unsigned hole_refresh = 8;
+  float color_split = segmentation::InstanceGuidedRegionMergeConfig ().color_split_distance;
   std::string render_dir, video_path, screenshot;
   std::string load_volume;  ///< a volume.tsdf to continue (its .keyframes beside it)
   bool view = false, async_masks = false;

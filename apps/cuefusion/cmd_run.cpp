@@ -310,6 +310,8 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf, labels as map.pcd's) and the relocalisation keyframes (volume.keyframes)")
     ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (and the volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
     ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
+    ("color-split", po::value (&s.color_split)->default_value (s.color_split),
+     "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
     ("masks", po::value (&s.masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
     ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
      "data/models/xyz_instances.onnx, or a YOLO-seg export run on the colour image")
@@ -356,6 +358,7 @@ runPipelineConfig (const RunSettings& s)
   config.motion_model = !s.no_motion_model;
   config.tracking.icp.noise_weighting = !s.no_noise_weighting;
   pipeline_config.mode = chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path);
+  pipeline_config.instance_merge.color_split_distance = s.color_split;
   return pipeline_config;
 }
 

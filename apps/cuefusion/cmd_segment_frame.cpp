@@ -147,14 +147,15 @@ edgePicture (const cv::Mat& concavity, const cv::Mat& discontinuity, const Cloud
   return picture;
 }
 
-/** L_t = InstanceGuidedRegionMerge (L^G, masks), the masks completing rims on \a planes' points. */
+/** L_t = InstanceGuidedRegionMerge (L^G, masks), the masks completing rims on \a planes' points
+  * and divided by \a color. */
 cv::Mat
 fuseWithMasks (const segmentation::InstanceGuidedRegionMerge& merger, const cv::Mat& geometric,
-               const std::vector<Instance>& instances, const segmentation::SurfacePlanes& planes,
+               const std::vector<Instance>& instances, const segmentation::SurfacePlanes& planes, const cv::Mat& color,
                std::vector<segmentation::SegmentInstance>& segments)
 {
   cv::Mat fused;
-  merger.merge (geometric, instances, fused, &segments, &planes);
+  merger.merge (geometric, instances, fused, &segments, &planes, color);
   return fused;
 }
 
@@ -263,6 +264,8 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
      "--model of the xyz layout: instances are cut where the boundary probability reaches this")
     ("mode", po::value (&s.mode), "geometry (L^G), masks (instance masks only) or fused (InstanceGuidedRegionMerge, the default with --masks/--model)")
     ("min-overlap", po::value (&s.merge.min_overlap)->default_value (s.merge.min_overlap), "fused: share of a geometric segment inside one instance to join it")
+    ("color-split", po::value (&s.merge.color_split_distance)->default_value (s.merge.color_split_distance),
+     "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
     ("drop-support-plane", po::bool_switch (&s.drop_plane), "label the dominant plane (table, floor) 0")
     ("verbose,v", po::bool_switch (&s.verbose), "print per-stage timings per frame")
     ("timings", po::value (&s.timings_path), "write per-frame stage timings (ms) to this JSON file")
@@ -398,11 +401,11 @@ FrameSegmenter::applyMasks (const std::string& path, std::size_t index, const Cl
 {
   std::vector<Instance> instances;
   bool have_masks = true;
+  RGBDFrame frame = fromOrganizedCloud (cloud);  // the xyz network needs depth and a camera; the merge, colour
   if (!source_)
     instances = recognition::MaskFolderSegmenter::readInstanceMasks (s_.masks, label_image.size ());
   else
   {
-    RGBDFrame frame = fromOrganizedCloud (cloud);  // the xyz network needs depth and a camera
     frame.index = index;
     frame.name = fs::path (path).stem ().string ();
     have_masks = source_->segment (frame, instances);
@@ -414,7 +417,7 @@ FrameSegmenter::applyMasks (const std::string& path, std::size_t index, const Cl
   }
   if (!have_masks)
     return label_image;
-  return s_.mode == "fused" ? fuseWithMasks (merger_, label_image, instances, planes_, segments)
+  return s_.mode == "fused" ? fuseWithMasks (merger_, label_image, instances, planes_, frame.color, segments)
                             : masksOnlyLabels (instances, planes_, segments);
 }
 

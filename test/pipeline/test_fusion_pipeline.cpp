@@ -214,13 +214,19 @@ const std::string kGroupingScene = "scene grouping\n"
                                    "  box center=0.08,-0.13,0.815 size=0.06,0.10,0.15\n";
 constexpr std::uint16_t kBoxA = 3, kBoxB = 4, kLBlock = 5;
 /** The same with box_b 3 cm further back: a concave seam shows, geometry keeps the boxes
-  * apart, and only the masks' word can unite them (in the map's evidence). */
+  * apart, and only the masks' word can unite them (in the map's evidence). With
+  * \a same_color box_b is orange like box_a: the colour cannot tell them apart either
+  * (InstanceGuidedRegionMergeConfig::color_split_distance). */
 std::string
-steppedBoxes ()
+steppedBoxes (bool same_color)
 {
   std::string text = kGroupingScene;
   const std::string flush = "box center=-0.08,0.10,0.82", stepped = "box center=-0.08,0.13,0.82";
-  return text.replace (text.find (flush), flush.size (), stepped);
+  text.replace (text.find (flush), flush.size (), stepped);
+  const std::string teal = "box_b class=box color=30,170,190", orange = "box_b class=box color=220,120,30";
+  if (same_color)
+    text.replace (text.find (teal), teal.size (), orange);
+  return text;
 }
 
 /** Fused run over \a sequence with reference poses; \a masks gives each frame's instances. */
@@ -355,7 +361,7 @@ TEST (FusionPipeline, AWrongEarlyMergeIsUndoneByLaterFrames)
 {
   io::SyntheticSequenceConfig config;
   config.frames = 30;
-  const io::SyntheticScene scene = io::SyntheticScene::parse (steppedBoxes (), "stepped boxes");
+  const io::SyntheticScene scene = io::SyntheticScene::parse (steppedBoxes (true), "stepped boxes");
   const io::SyntheticSequence sequence (scene, config);
   io::DetectorErrorConfig always_merges;
   always_merges.merge_probability = 1.0;
@@ -380,6 +386,32 @@ TEST (FusionPipeline, AWrongEarlyMergeIsUndoneByLaterFrames)
     });
   EXPECT_TRUE (merged_at_eight);  // the merge was made (five frames agreed, none disagreed) ...
   expectBoxesApart (*fused.labelledCloud (), truth);  // ... and undone
+}
+
+TEST (FusionPipeline, MasksMergingTwoBoxesOfDifferentColoursInEveryFrameLeaveThemApart)
+{
+  // A depth network's typical mistake: the two touching boxes reported as one object in
+  // every frame. Their colours (orange, teal) keep them apart; painted alike, the masks'
+  // word unites them; the L (one colour) is whole either way.
+  io::SyntheticSequenceConfig config;
+  config.frames = 20;
+  io::DetectorErrorConfig always_merges;
+  always_merges.merge_probability = 1.0;
+  for (const bool same_color : {false, true})
+  {
+    const io::SyntheticScene scene = io::SyntheticScene::parse (steppedBoxes (same_color), "stepped boxes");
+    const io::SyntheticSequence sequence (scene, config);
+    const io::SimulatedDetector merging (scene, always_merges, 1);
+    const auto truth = sequence.groundTruthCloud ();
+    pipeline::FusionPipeline fused =
+      runFused (sequence, [&] (const RGBDFrame& f) { return io::toInstances (merging.detect (f.instance_mask, f.index)); });
+    const auto map = fused.labelledCloud ();
+    if (same_color)
+      EXPECT_EQ (majorityLabel (*map, truth, kBoxA), majorityLabel (*map, truth, kBoxB));
+    else
+      expectBoxesApart (*map, truth);
+    EXPECT_GE (objectIoU (*map, truth).at (kLBlock), 0.8) << same_color;
+  }
 }
 
 TEST (FusionPipeline, AWallSeenInTwoPiecesBecomesOneSegment)

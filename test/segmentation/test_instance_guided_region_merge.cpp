@@ -206,3 +206,84 @@ TEST (InstanceGuidedRegionMerge, WithThePointsTheSteppedLStaysWholeAndItsRimIsCo
   EXPECT_EQ (scoreObject (l_fused, 2).segments, 1);
   EXPECT_GE (scoreObject (l_fused, 2).best_iou, scoreObject (fuse (l_view, l_instances), 2).best_iou);
 }
+
+TEST (InstanceGuidedRegionMerge, AMaskIsCutBetweenTheColoursOfTheSegmentsItClaims)
+{
+  // L^G: four segments in a row, 40, 30, 10 and 20 columns wide, one mask over them all.
+  // Segment 1 orange, 2 blue, 3 red (another hue, but 10 % of the mask: a cap, a label),
+  // 4 orange in shadow (a third of the brightness: the same chromaticity).
+  cv::Mat geometric (20, 100, CV_32S), color (20, 100, CV_8UC3);
+  const int right[] = {40, 70, 80, 100};
+  const cv::Vec3b bgr[] = {{40, 110, 210}, {200, 150, 40}, {30, 30, 200}, {13, 37, 70}};
+  for (int x = 0, s = 0; x < 100; ++x)
+  {
+    s += x == right[s] ? 1 : 0;
+    geometric.col (x).setTo (s + 1);
+    color.col (x).setTo (cv::Scalar (bgr[s][0], bgr[s][1], bgr[s][2]));
+  }
+  Instance all;
+  all.mask = cv::Mat (20, 100, CV_8U, cv::Scalar (255));
+  all.class_name = "box";
+  all.score = 0.8f;
+  InstanceGuidedRegionMerge merge;
+  const std::vector<Instance> divided = merge.divideByColor (geometric, {all}, color);
+  ASSERT_EQ (divided.size (), 2u);
+  // The blue segment leaves; orange, its shadow and the small red part stay together.
+  EXPECT_EQ (cv::countNonZero (divided[0].mask), 20 * 70);
+  EXPECT_EQ (cv::countNonZero (divided[1].mask), 20 * 30);
+  EXPECT_EQ (cv::countNonZero (divided[1].mask.colRange (40, 70)), 20 * 30);
+  EXPECT_EQ (divided[1].box, cv::Rect (40, 0, 30, 20));
+  EXPECT_EQ (divided[1].class_name, "box");
+  EXPECT_FLOAT_EQ (divided[1].score, 0.8f);
+  EXPECT_EQ (cv::countNonZero (all.mask), 20 * 100);  // the given mask is not touched
+
+  // merge() with the colour: the blue part is a segment of its own, the rest one.
+  cv::Mat fused;
+  std::vector<SegmentInstance> info;
+  merge.merge (geometric, {all}, fused, &info, nullptr, color);
+  EXPECT_EQ (fused.at<std::int32_t> (0, 0), fused.at<std::int32_t> (0, 99));
+  EXPECT_EQ (fused.at<std::int32_t> (0, 0), fused.at<std::int32_t> (0, 75));
+  EXPECT_NE (fused.at<std::int32_t> (0, 0), fused.at<std::int32_t> (0, 50));
+  EXPECT_EQ (info[static_cast<std::size_t> (fused.at<std::int32_t> (0, 50))].instance, 1);  // after the given one
+
+  // Blue under a fifth of the mask stays; no cut without colour, with the cue off, or in the dark.
+  cv::Mat narrow = geometric.clone ();
+  narrow.colRange (55, 70).setTo (0);  // blue's segment 15 of the 85 claimed columns (18 %)
+  EXPECT_EQ (merge.divideByColor (narrow, {all}, color).size (), 1u);
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, cv::Mat ()).size (), 1u);
+  segmentation::InstanceGuidedRegionMergeConfig off;
+  off.color_split_distance = 0.f;
+  EXPECT_EQ (InstanceGuidedRegionMerge (off).divideByColor (geometric, {all}, color).size (), 1u);
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, color / 20).size (), 1u);  // means below 20 of 255: no hue
+
+  test::expectError ([&] { merge.divideByColor (geometric, {all}, cv::Mat (20, 100, CV_8UC1)); }, "InstanceGuidedRegionMerge",
+                     "100x20");
+  off.color_split_share = 0.7f;
+  EXPECT_THROW (InstanceGuidedRegionMerge bad (off), ParameterError);
+}
+
+TEST (InstanceGuidedRegionMerge, ARenderedMaskOverTwoBoxesOfDifferentColoursIsCut)
+{
+  // The merged mask of AMaskOverTwoObjectsMergesThem, now with the view's colour: the boxes
+  // (orange, teal) stay apart; the L (one colour, split by geometry) stays whole.
+  io::DetectorErrorConfig merging;
+  merging.merge_probability = 1.0;
+  const auto view = segmentScene (kTwoBoxes, kEye, kTarget, false);
+  const auto instances = test::simulatedInstances (kTwoBoxes, view, merging);
+  ASSERT_EQ (instances.size (), 1u);
+  cv::Mat fused;
+  InstanceGuidedRegionMerge ().merge (view.labels, instances, fused, nullptr, nullptr, view.view.color);
+  test::SegmentedView result = view;
+  result.labels = fused;
+  EXPECT_NE (scoreObject (result, 2).best_label, scoreObject (result, 3).best_label);
+  EXPECT_GE (scoreObject (result, 2).best_iou, 0.8);
+  EXPECT_GE (scoreObject (result, 3).best_iou, 0.8);
+
+  const auto l_view = segmentScene (kSteppedL, kEye, kTarget, false);
+  InstanceGuidedRegionMerge ().merge (l_view.labels, test::simulatedInstances (kSteppedL, l_view, io::DetectorErrorConfig ()), fused,
+                                      nullptr, nullptr, l_view.view.color);
+  result = l_view;
+  result.labels = fused;
+  EXPECT_EQ (scoreObject (result, 2).segments, 1);
+  EXPECT_GE (scoreObject (result, 2).best_iou, 0.85);
+}

@@ -34,6 +34,22 @@ struct InstanceGuidedRegionMergeConfig
     * still united. Above 0.5 it never applies.
     */
   float occlusion_split_share = 0.25f;
+  /** With the frame's colour: a mask is cut where the geometric segments it claims (more
+    * than half of each inside it) fall into groups whose mean colours lie more than this
+    * apart in rg chromaticity (r = R/(R+G+B), g = G/(R+G+B): shading scales all three
+    * channels and leaves it unchanged). A depth network merges touching objects it cannot
+    * tell from one object with a crease (two boxes flush, a box on a box, an L-block);
+    * distinctly coloured ones are cut apart again, while an object's parts of one colour
+    * stay together. 0 = off. At 0.2 only clearly different hues cut (orange and teal lie
+    * 0.5 apart, green and violet 0.25); a real white-and-red object of osd-learn measured
+    * 0.14–0.16 between its parts and was cut in two at 0.1 and 0.15 (docs/benchmarks.md).
+    */
+  float color_split_distance = 0.2f;
+  /** ... and only when at least two such colour groups each hold this share of the
+    * pixels the mask claims: a differently coloured cap, handle or label stays with its
+    * object.
+    */
+  float color_split_share = 0.2f;
   void validate () const;
 };
 /// The name before 0.2 (one config per class, named after it).
@@ -94,10 +110,15 @@ public:
     * \param[in] planes the frame's points, when at hand: the masks complete rims (see
     *            split()) and pieces meeting along depth jumps may stay apart
     *            (occlusion_split_share)
+    * \param[in] color the frame's colour (CV_8UC3, BGR, L^G's size), when at hand: masks
+    *            are first divided by colour (divideByColor); SegmentInstance::instance
+    *            then indexes the divided list (the given instances keep their indices,
+    *            the parts cut off follow them)
     * Throws cuefusion::Error on a label map that is not CV_32S or masks of another size.
     */
   void merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
-              std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr) const;
+              std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr,
+              const cv::Mat& color = cv::Mat ()) const;
 
   /** \brief merge() on organized PCL label clouds (e.g. from GeometricSegmentation::segment):
     * \a fused gets \a geometric's points with the labels of L_t (it may be \a geometric).
@@ -137,7 +158,26 @@ public:
     * they still draw no boundary through a segment of L^G.
     */
   void split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
-              std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr) const;
+              std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr,
+              const cv::Mat& color = cv::Mat ()) const;
+
+  /** \brief The instances with every mask that claims geometric segments of clearly
+    * different colours cut into one mask per colour (color_split_distance,
+    * color_split_share); merge() and split() do this first when given the colour.
+    *
+    * A mask claims a segment of L^G when more than half of the segment lies in the pixels
+    * it owns (the higher score where masks overlap). Each claimed segment's colour is the
+    * mean of its claimed pixels, in rg chromaticity; segments darker than a mean of 20 of
+    * 255 have no colour to speak of and stay with the largest group. Segments closer than
+    * color_split_distance (through a chain of such steps) form one group. With two or
+    * more groups each holding color_split_share of the claimed pixels, the largest keeps
+    * the mask, the others each take their segments' pixels of it as a new Instance (same
+    * class and score) appended after the given ones, in order of instance and group.
+    * Returns \a instances unchanged when the colour is empty or color_split_distance 0.
+    * Throws cuefusion::Error on a colour image that is not CV_8UC3 of L^G's size.
+    */
+  std::vector<Instance>
+  divideByColor (const cv::Mat& geometric, const std::vector<Instance>& instances, const cv::Mat& color) const;
 
 private:
   InstanceGuidedRegionMergeConfig config_;

@@ -151,7 +151,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   else if (config_.mode == SegmentationMode::Fused)
     // Pieces: geometry cut where the masks see two objects; which pieces form one object
     // is the map's decision over frames (the masks' grouping goes in as evidence).
-    instance_merge_.split (geometry_.getLabelImage (), *instances, frame_segments, &info, &planes_);
+    instance_merge_.split (geometry_.getLabelImage (), *instances, frame_segments, &info, &planes_, frame.color);
   else
     segmentation::masksAsSegments (instances ? *instances : std::vector<Instance> (), planes_, frame_segments, &info);
   report.segmentation.instances_ms = watch.getTime ();

@@ -1,8 +1,11 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/instance_guided_region_merge.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <set>
 #include <utility>
@@ -22,6 +25,10 @@ InstanceGuidedRegionMergeConfig::validate () const
     throw ParameterError ("InstanceGuidedRegionMergeConfig::split_min_pixels", "must be at least 1");
   if (!(std::isfinite (occlusion_split_share) && occlusion_split_share >= 0.f))
     throw ParameterError ("InstanceGuidedRegionMergeConfig::occlusion_split_share", "must be a share >= 0 (above 0.5: never)");
+  if (!(std::isfinite (color_split_distance) && color_split_distance >= 0.f))
+    throw ParameterError ("InstanceGuidedRegionMergeConfig::color_split_distance", "must be >= 0 (0: off)");
+  if (!(std::isfinite (color_split_share) && color_split_share > 0.f && color_split_share <= 0.5f))
+    throw ParameterError ("InstanceGuidedRegionMergeConfig::color_split_share", "must lie in (0, 0.5]");
 }
 
 InstanceGuidedRegionMerge::InstanceGuidedRegionMerge (const InstanceGuidedRegionMergeConfig& config) { setConfig (config); }
@@ -117,10 +124,12 @@ describe (const std::vector<Instance>& instances, int id)
 }  // namespace
 
 void
-InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
-                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes) const
+InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& pieces,
+                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes, const cv::Mat& color) const
 {
-  checkInputs (geometric, instances);
+  checkInputs (geometric, given);
+  const std::vector<Instance> divided = color.empty () ? std::vector<Instance> () : divideByColor (geometric, given, color);
+  const std::vector<Instance>& instances = color.empty () ? given : divided;
   if (planes && (planes->width != geometric.cols || planes->height != geometric.rows))
     throw Error ("InstanceGuidedRegionMerge", "the surface planes must be of L^G's size");
   const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
@@ -326,9 +335,12 @@ groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& i
 }  // namespace
 
 void
-InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& fused,
-                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes) const
+InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& fused,
+                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes, const cv::Mat& color) const
 {
+  checkInputs (geometric, given);
+  const std::vector<Instance> divided = color.empty () ? std::vector<Instance> () : divideByColor (geometric, given, color);
+  const std::vector<Instance>& instances = color.empty () ? given : divided;
   // Cut where the masks see two objects, then unite the pieces each instance covers.
   cv::Mat pieces;
   std::vector<SegmentInstance> piece_info;
@@ -394,6 +406,216 @@ InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<In
   }
   for (std::size_t l = 1; l < segments->size (); ++l)
     (*segments)[l].coverage = pixels[l] > 0.f ? under[l] / pixels[l] : 0.f;
+}
+
+namespace
+{
+/** Mean colours below this (of 255, over the three channels) give no chromaticity worth
+  * comparing: sensor noise dominates a dark surface's hue. */
+constexpr double kMinMeanBrightness = 20.0;
+
+/** The pixels one instance owns in one segment of L^G and their summed colour (BGR). */
+struct OwnedColor
+{
+  int id = 0, pixels = 0;
+  double sum[3] = {0.0, 0.0, 0.0};
+};
+
+/** Per segment of L^G: its size and, per instance id of \a ids owning pixels of it, their
+  * count and summed colour (a segment meets a handful of masks). */
+void
+countOwnedColors (const cv::Mat& geometric, const cv::Mat& ids, const cv::Mat& color, std::vector<int>& size,
+                  std::vector<std::vector<OwnedColor>>& owned)
+{
+  double max_label = 0.0;
+  cv::minMaxLoc (geometric, nullptr, &max_label);
+  const auto n = static_cast<std::size_t> (std::max (0.0, max_label)) + 1;
+  size.assign (n, 0);
+  owned.assign (n, {});
+  for (int y = 0; y < geometric.rows; ++y)
+  {
+    const std::int32_t* g = geometric.ptr<std::int32_t> (y);
+    const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
+    const cv::Vec3b* bgr = color.ptr<cv::Vec3b> (y);
+    for (int x = 0; x < geometric.cols; ++x)
+    {
+      if (g[x] <= 0)
+        continue;
+      const auto l = static_cast<std::size_t> (g[x]);
+      ++size[l];
+      if (s[x] == 0)
+        continue;
+      auto& list = owned[l];
+      auto it = std::find_if (list.begin (), list.end (), [&] (const OwnedColor& e) { return e.id == s[x]; });
+      if (it == list.end ())
+      {
+        list.emplace_back ();
+        it = std::prev (list.end ());
+        it->id = s[x];
+      }
+      ++it->pixels;
+      for (int c = 0; c < 3; ++c)
+        it->sum[c] += bgr[x][c];
+    }
+  }
+}
+
+/** One segment an instance claims, with the rg chromaticity of its claimed pixels' mean
+  * colour (known = bright enough to have one). */
+struct ColorClaim
+{
+  std::size_t segment = 0;
+  int pixels = 0;
+  bool known = false;
+  float r = 0.f, g = 0.f;
+};
+
+ColorClaim
+colorClaim (std::size_t segment, const OwnedColor& owned)
+{
+  ColorClaim claim;
+  claim.segment = segment;
+  claim.pixels = owned.pixels;
+  const double total = owned.sum[0] + owned.sum[1] + owned.sum[2];
+  claim.known = total >= 3.0 * kMinMeanBrightness * owned.pixels;
+  if (claim.known)
+  {
+    claim.r = static_cast<float> (owned.sum[2] / total);
+    claim.g = static_cast<float> (owned.sum[1] / total);
+  }
+  return claim;
+}
+
+/** The colour groups of one instance's claims: per claim, the index of the claim standing
+  * for its group (single linkage under \a distance; unknown colours stay alone). */
+std::vector<std::size_t>
+colorGroups (const std::vector<ColorClaim>& claims, float distance)
+{
+  std::vector<std::size_t> group (claims.size ());
+  for (std::size_t i = 0; i < claims.size (); ++i)
+    group[i] = i;
+  const auto find = [&] (std::size_t i) {
+    while (group[i] != i)
+      i = group[i] = group[group[i]];
+    return i;
+  };
+  for (std::size_t i = 0; i < claims.size (); ++i)
+    for (std::size_t j = i + 1; j < claims.size (); ++j)
+      if (claims[i].known && claims[j].known &&
+          std::hypot (claims[i].r - claims[j].r, claims[i].g - claims[j].g) < distance)
+        group[find (j)] = find (i);
+  for (std::size_t i = 0; i < claims.size (); ++i)
+    group[i] = find (i);
+  return group;
+}
+
+/** The pixels instance \a k owns (id k + 1 in \a ids) go to the instance of the nearest
+  * pixel of a segment it claims (destination by segment, −1 = not claimed): its claimed
+  * segments, and the rim and edge band around each, follow their colour group. */
+void
+moveToNearestGroup (const cv::Mat& geometric, const cv::Mat& ids, int k, const std::vector<int>& destination, std::vector<Instance>& out)
+{
+  const auto id = static_cast<std::uint16_t> (k + 1);
+  const cv::Rect box = cv::boundingRect (out[static_cast<std::size_t> (k)].mask);
+  cv::Mat seeds (box.size (), CV_8U, cv::Scalar (255)), distance, nearest;
+  for (int y = 0; y < box.height; ++y)
+    for (int x = 0; x < box.width; ++x)
+    {
+      const std::int32_t g = geometric.at<std::int32_t> (box.y + y, box.x + x);
+      if (g > 0 && destination[static_cast<std::size_t> (g)] >= 0 && ids.at<std::uint16_t> (box.y + y, box.x + x) == id)
+        seeds.at<std::uint8_t> (y, x) = 0;
+    }
+  cv::distanceTransform (seeds, distance, nearest, cv::DIST_L2, cv::DIST_MASK_3, cv::DIST_LABEL_PIXEL);
+  std::vector<int> taker (static_cast<std::size_t> (box.area ()) + 1, k);  // by label of a seed pixel
+  for (int y = 0; y < box.height; ++y)
+    for (int x = 0; x < box.width; ++x)
+      if (seeds.at<std::uint8_t> (y, x) == 0)
+        taker[static_cast<std::size_t> (nearest.at<std::int32_t> (y, x))] =
+          destination[static_cast<std::size_t> (geometric.at<std::int32_t> (box.y + y, box.x + x))];
+  std::set<int> changed;
+  for (int y = 0; y < box.height; ++y)
+    for (int x = 0; x < box.width; ++x)
+    {
+      const int t = taker[static_cast<std::size_t> (nearest.at<std::int32_t> (y, x))];
+      if (t == k || ids.at<std::uint16_t> (box.y + y, box.x + x) != id)
+        continue;
+      out[static_cast<std::size_t> (t)].mask.at<std::uint8_t> (box.y + y, box.x + x) = 255;
+      out[static_cast<std::size_t> (k)].mask.at<std::uint8_t> (box.y + y, box.x + x) = 0;
+      changed.insert (t);
+    }
+  changed.insert (k);
+  for (const int c : changed)
+    out[static_cast<std::size_t> (c)].box = cv::boundingRect (out[static_cast<std::size_t> (c)].mask);
+}
+}  // namespace
+
+std::vector<Instance>
+InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::vector<Instance>& instances, const cv::Mat& color) const
+{
+  checkInputs (geometric, instances);
+  if (color.empty () || config_.color_split_distance <= 0.f || instances.empty ())
+    return instances;
+  if (color.type () != CV_8UC3 || color.size () != geometric.size ())
+    throw Error ("InstanceGuidedRegionMerge", "the colour image must be CV_8UC3 of L^G's size " + std::to_string (geometric.cols) +
+                                                "x" + std::to_string (geometric.rows));
+  const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
+  std::vector<int> size;
+  std::vector<std::vector<OwnedColor>> owned;
+  countOwnedColors (geometric, ids, color, size, owned);
+
+  // The segments each instance claims (more than half of the segment is its own).
+  std::vector<std::vector<ColorClaim>> claims (instances.size ());
+  for (std::size_t l = 1; l < owned.size (); ++l)
+    for (const OwnedColor& o : owned[l])
+      if (2 * o.pixels > size[l])
+        claims[static_cast<std::size_t> (o.id - 1)].push_back (colorClaim (l, o));
+
+  // Per divided instance, the groups other than its largest become new instances;
+  // destination[l] is the instance that takes claimed segment l (−1: not claimed).
+  std::vector<Instance> out = instances;
+  std::vector<int> destination (owned.size (), -1);
+  std::vector<std::size_t> divided;
+  for (std::size_t k = 0; k < instances.size (); ++k)
+  {
+    const std::vector<ColorClaim>& list = claims[k];
+    const std::vector<std::size_t> group = colorGroups (list, config_.color_split_distance);
+    std::map<std::size_t, int> weight;  // group (its first claim) → pixels
+    int total = 0;
+    for (std::size_t i = 0; i < list.size (); ++i)
+    {
+      weight[group[i]] += list[i].pixels;
+      total += list[i].pixels;
+    }
+    std::vector<std::size_t> large;  // colour groups holding color_split_share, first claim order
+    for (const auto& [first, pixels] : weight)
+      if (list[first].known && static_cast<float> (pixels) >= config_.color_split_share * static_cast<float> (total))
+        large.push_back (first);
+    if (large.size () < 2)
+      continue;
+    const std::size_t keeper = *std::max_element (large.begin (), large.end (), [&] (std::size_t a, std::size_t b) {
+      return weight[a] < weight[b];
+    });
+    std::map<std::size_t, int> index;  // group → instance taking it
+    for (const std::size_t first : large)
+      if (first != keeper)
+      {
+        index[first] = static_cast<int> (out.size ());
+        Instance part = instances[k];
+        // A new buffer: assigning cv::Mat::zeros would write into the caller's mask it shares.
+        part.mask = cv::Mat (instances[k].mask.size (), CV_8U, cv::Scalar (0));
+        out.push_back (part);
+      }
+    for (std::size_t i = 0; i < list.size (); ++i)
+    {
+      const auto it = index.find (group[i]);
+      destination[list[i].segment] = it == index.end () ? static_cast<int> (k) : it->second;
+    }
+    out[k].mask = instances[k].mask.clone ();
+    divided.push_back (k);
+  }
+  for (const std::size_t k : divided)
+    moveToNearestGroup (geometric, ids, static_cast<int> (k), destination, out);
+  return out;
 }
 
 void
