@@ -105,6 +105,8 @@ runSynthViews (const std::vector<std::string>& args)
      "probability that a box, can or ball is put on a box")
     ("multipart", po::value (&config.multipart_probability)->default_value (config.multipart_probability),
      "probability of a multi-part object (bottle, L-block, snowman, mug)")
+    ("figures", po::value (&config.figure_probability)->default_value (config.figure_probability),
+     "share of the multi-part objects drawn as figures (a soft toy: body, head, arms, ears, legs)")
     ("table", po::value (&config.table_probability)->default_value (config.table_probability),
      "probability that the objects stand on a table (else on the floor)")
     ("overwrite", "replace OUT if it exists");

@@ -73,6 +73,7 @@ main (int argc, char** argv)
     // The library names config fields; the user typed options.
     static const std::map<std::string, std::string> options = {
       {"InstanceGuidedRegionMergeConfig::min_overlap", "--min-overlap"},
+      {"InstanceGuidedRegionMergeConfig::color_split_distance", "--color-split"},
       {"ConcavityEdgeEstimationConfig::noise_slope", "--concavity-noise-slope"},
       {"OnnxInstanceSegmenterConfig::input_size", "--input-size"},
       {"OnnxInstanceSegmenterConfig::score_threshold", "--score-threshold"},
@@ -81,6 +82,7 @@ main (int argc, char** argv)
       {"RandomSceneConfig::touching_probability", "--touching"},
       {"RandomSceneConfig::stacking_probability", "--stacking"},
       {"RandomSceneConfig::multipart_probability", "--multipart"},
+      {"RandomSceneConfig::figure_probability", "--figures"},
       {"RandomSceneConfig::table_probability", "--table"},
       {"RandomSceneConfig::views_per_scene", "--views-per-scene"},
       {"DetectorErrorConfig::merge_probability", "--mask-merge"},

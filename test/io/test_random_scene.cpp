@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+
 
 using namespace cuefusion;
 
@@ -153,4 +155,36 @@ TEST (WriteFolderAtomic, AFailedFillLeavesTheOldFolderAndNoTemporary)
   io::writeFolderAtomic (target, true, [] (const std::string& staging) { test::writeFile (staging + "/c.txt", "two"); });
   EXPECT_FALSE (boost::filesystem::exists (target + "/a.txt"));
   EXPECT_EQ (test::readFile (target + "/c.txt"), "two");
+}
+
+TEST (RandomSceneGenerator, FiguresAreOneObjectOfSpheresAndOnlyWhenAskedFor)
+{
+  const auto spheres = [] (const io::SceneObject& o) {
+    return std::all_of (o.parts.begin (), o.parts.end (), [] (const io::Primitive& p) { return p.type == io::Primitive::Type::Sphere; });
+  };
+  io::RandomSceneConfig config;
+  config.multipart_probability = 1.0;
+  config.figure_probability = 1.0;
+  int with_limbs = 0, objects = 0;
+  for (std::size_t i = 0; i < 4; ++i)
+    for (const io::SceneObject& o : io::RandomSceneGenerator (config, 3).scene (i).objects)
+      if (o.detectable)
+      {
+        ++objects;
+        EXPECT_TRUE (spheres (o)) << o.name;
+        ASSERT_GE (o.parts.size (), 2u) << o.name;
+        // The head rests on the body, sunk into it: one connected object.
+        const io::Primitive &body = o.parts[0], &head = o.parts[1];
+        EXPECT_LT ((head.center - body.center).norm (), body.half_size.x () + head.half_size.x ());
+        EXPECT_LT (head.half_size.x (), body.half_size.x ());
+        with_limbs += o.parts.size () >= 4 ? 1 : 0;
+      }
+  EXPECT_GE (objects, 4);
+  EXPECT_GE (with_limbs, objects / 2);
+  // By default no figures: no object of more than two spheres (a snowman has two).
+  for (std::size_t i = 0; i < 8; ++i)
+    for (const io::SceneObject& o : io::RandomSceneGenerator (io::RandomSceneConfig (), 3).scene (i).objects)
+      EXPECT_FALSE (spheres (o) && o.parts.size () > 2) << o.name;
+  config.figure_probability = -0.1;
+  test::expectError ([&] { io::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::figure_probability", "[0, 1]");
 }

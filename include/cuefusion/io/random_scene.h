@@ -20,6 +20,10 @@ struct RandomSceneConfig
   double touching_probability = 0.4;     ///< an object is placed against one already there
   double stacking_probability = 0.3;     ///< a box, can or ball is put on a box already there
   double multipart_probability = 0.25;   ///< bottle, L-block, snowman or mug
+  /** Share of the multi-part objects drawn as a figure (a soft toy: a body sphere, a head,
+    * arms, ears, legs). 0 (the default) draws no random number for it, so scenes of
+    * earlier versions render unchanged. */
+  double figure_probability = 0.0;
   double min_size = 0.03;                ///< smallest object extent (m)
   double max_size = 0.28;                ///< largest object extent (m)
   double min_distance = 0.45;            ///< camera distance to the point it looks at (m)

@@ -84,6 +84,40 @@ struct Shape
   Eigen::Vector3d box_size = Eigen::Vector3d::Zero ();
 };
 
+/** A figure (a soft toy): a body sphere with a smaller head sunk into its top, usually arms
+  * at its sides, sometimes ears on the head and legs at the front; one object whose parts
+  * meet at concave creases, like a snowman with limbs. */
+std::vector<Primitive>
+figureParts (Rng& rng, double lo, double hi)
+{
+  std::vector<Primitive> parts;
+  const double body = uniform (rng, lo / 2, hi / 4), head = body * uniform (rng, 0.55, 0.8);
+  const double head_z = 2 * body + 0.7 * head;
+  parts.push_back (sphere (Eigen::Vector3d (0, 0, body), body));
+  parts.push_back (sphere (Eigen::Vector3d (0, 0, head_z), head));
+  if (chance (rng, 0.8))  // arms
+  {
+    const double arm = body * uniform (rng, 0.25, 0.4), x = body * uniform (rng, 0.8, 1.0);
+    const double y = body * uniform (rng, 0.0, 0.4), z = body * uniform (rng, 0.9, 1.5);
+    for (const double side : {-1.0, 1.0})
+      parts.push_back (sphere (Eigen::Vector3d (side * x, y, z), arm));
+  }
+  if (chance (rng, 0.6))  // ears
+  {
+    const double ear = head * uniform (rng, 0.3, 0.45), x = head * uniform (rng, 0.5, 0.8);
+    const double z = head_z + head * uniform (rng, 0.6, 0.85);
+    for (const double side : {-1.0, 1.0})
+      parts.push_back (sphere (Eigen::Vector3d (side * x, 0, z), ear));
+  }
+  if (chance (rng, 0.5))  // legs
+  {
+    const double leg = body * uniform (rng, 0.3, 0.45);
+    for (const double side : {-1.0, 1.0})
+      parts.push_back (sphere (Eigen::Vector3d (side * body * 0.5, body * 0.75, leg), leg));
+  }
+  return parts;
+}
+
 Shape
 randomShape (Rng& rng, const RandomSceneConfig& c)
 {
@@ -112,6 +146,8 @@ randomShape (Rng& rng, const RandomSceneConfig& c)
       s.parts.push_back (sphere (Eigen::Vector3d (0, 0, r), r));
     }
   }
+  else if (c.figure_probability > 0.0 && chance (rng, c.figure_probability))
+    s.parts = figureParts (rng, lo, hi);
   else
   {
     // No lidded or stacked-looking compounds: a box on a box is two objects (stacking).
@@ -201,7 +237,8 @@ RandomSceneConfig::validate () const
   for (const auto& [value, name] :
        {std::make_pair (table_probability, "table_probability"), std::make_pair (touching_probability, "touching_probability"),
         std::make_pair (stacking_probability, "stacking_probability"),
-        std::make_pair (multipart_probability, "multipart_probability"), std::make_pair (focal_jitter, "focal_jitter")})
+        std::make_pair (multipart_probability, "multipart_probability"), std::make_pair (figure_probability, "figure_probability"),
+        std::make_pair (focal_jitter, "focal_jitter")})
     if (!(value >= 0.0 && value <= 1.0))
       throw ParameterError (std::string ("RandomSceneConfig::") + name, "must lie in [0, 1]");
   if (!(min_size >= 0.005 && max_size >= min_size && max_size <= 1.0))
@@ -434,6 +471,7 @@ generatorJson (const RandomSceneGenerator& generator)
           {"touching_probability", c.touching_probability},
           {"stacking_probability", c.stacking_probability},
           {"multipart_probability", c.multipart_probability},
+          {"figure_probability", c.figure_probability},
           {"min_size", c.min_size},
           {"max_size", c.max_size},
           {"min_distance", c.min_distance},
