@@ -1,6 +1,8 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/instance_guided_region_merge.h>
 
+#include "overlap_table.h"
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -42,38 +44,14 @@ InstanceGuidedRegionMerge::setConfig (const InstanceGuidedRegionMergeConfig& con
 
 namespace
 {
-/** \brief Per label of \a labels (CV_32S, 1..max): its pixel count and a short list of
-  * (instance id of \a ids, pixels) — a segment meets a handful of masks.
-  */
-struct SegmentOverlaps
-{
-  std::vector<int> size;
-  std::vector<std::vector<std::pair<int, int>>> overlap;
-
-  /** \brief The instance id covering most of label \a l (the lower id on a tie), 0 if none. */
-  std::pair<int, int>
-  best (std::size_t l) const
-  {
-    int id = 0, count = 0;
-    for (const auto& [i, c] : overlap[l])
-      if (c > count || (c == count && i < id))
-      {
-        id = i;
-        count = c;
-      }
-    return {id, count};
-  }
-};
-
-SegmentOverlaps
+/** \brief Per label of \a labels (CV_32S, 1..max): its pixel count and the instance ids
+  * of \a ids it meets, with their pixels. */
+OverlapTable<int>
 countOverlaps (const cv::Mat& labels, const cv::Mat& ids)
 {
   double max_label = 0.0;
   cv::minMaxLoc (labels, nullptr, &max_label);
-  const std::size_t n = static_cast<std::size_t> (std::max (0.0, max_label)) + 1;
-  SegmentOverlaps out;
-  out.size.assign (n, 0);
-  out.overlap.resize (n);
+  OverlapTable<int> out (static_cast<std::size_t> (std::max (0.0, max_label)) + 1);
   for (int y = 0; y < labels.rows; ++y)
   {
     const std::int32_t* g = labels.ptr<std::int32_t> (y);
@@ -83,14 +61,8 @@ countOverlaps (const cv::Mat& labels, const cv::Mat& ids)
       if (g[x] <= 0)
         continue;
       ++out.size[static_cast<std::size_t> (g[x])];
-      if (s[x] == 0)
-        continue;
-      auto& list = out.overlap[static_cast<std::size_t> (g[x])];
-      auto it = std::find_if (list.begin (), list.end (), [&] (const std::pair<int, int>& e) { return e.first == s[x]; });
-      if (it == list.end ())
-        list.emplace_back (s[x], 1);
-      else
-        ++it->second;
+      if (s[x] != 0)
+        out.add (static_cast<std::size_t> (g[x]), s[x], 1);
     }
   }
   return out;
@@ -133,8 +105,8 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
   if (planes && (planes->width != geometric.cols || planes->height != geometric.rows))
     throw Error ("InstanceGuidedRegionMerge", "the surface planes must be of L^G's size");
   const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
-  const SegmentOverlaps overlaps = countOverlaps (geometric, ids);
-  const std::size_t labels = overlaps.size.size ();
+  const OverlapTable<int> overlaps = countOverlaps (geometric, ids);
+  const std::size_t labels = overlaps.labels ();
 
   // The instances that each hold a substantial part of a segment; two or more cut it.
   std::vector<std::vector<std::pair<int, int>>> parts (labels);
@@ -216,9 +188,9 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
   }
   if (!segments && !planes)
     return;
-  const SegmentOverlaps covered = countOverlaps (pieces, ids);
+  const OverlapTable<int> covered = countOverlaps (pieces, ids);
   std::vector<SegmentInstance> info (numbering.size () + 1);
-  for (std::size_t l = 1; l < covered.size.size (); ++l)
+  for (std::size_t l = 1; l < covered.labels (); ++l)
   {
     const auto [id, count] = covered.best (l);
     const float coverage = covered.size[l] > 0 ? static_cast<float> (count) / static_cast<float> (covered.size[l]) : 0.f;
@@ -414,24 +386,16 @@ namespace
   * comparing: sensor noise dominates a dark surface's hue. */
 constexpr double kMinMeanBrightness = 20.0;
 
-/** The pixels one instance owns in one segment of L^G and their summed colour (BGR). */
-struct OwnedColor
-{
-  int id = 0, pixels = 0;
-  double sum[3] = {0.0, 0.0, 0.0};
-};
-
-/** Per segment of L^G: its size and, per instance id of \a ids owning pixels of it, their
-  * count and summed colour (a segment meets a handful of masks). */
-void
-countOwnedColors (const cv::Mat& geometric, const cv::Mat& ids, const cv::Mat& color, std::vector<int>& size,
-                  std::vector<std::vector<OwnedColor>>& owned)
+/** Per segment of L^G: its size and the instance ids of \a ids owning pixels of it (the
+  * table), and per such entry those pixels' summed colour (BGR; \a sums[l][e] for entry e
+  * of segment l). */
+OverlapTable<int>
+countOwnedColors (const cv::Mat& geometric, const cv::Mat& ids, const cv::Mat& color, std::vector<std::vector<cv::Vec3d>>& sums)
 {
   double max_label = 0.0;
   cv::minMaxLoc (geometric, nullptr, &max_label);
-  const auto n = static_cast<std::size_t> (std::max (0.0, max_label)) + 1;
-  size.assign (n, 0);
-  owned.assign (n, {});
+  OverlapTable<int> owned (static_cast<std::size_t> (std::max (0.0, max_label)) + 1);
+  sums.assign (owned.labels (), {});
   for (int y = 0; y < geometric.rows; ++y)
   {
     const std::int32_t* g = geometric.ptr<std::int32_t> (y);
@@ -442,22 +406,16 @@ countOwnedColors (const cv::Mat& geometric, const cv::Mat& ids, const cv::Mat& c
       if (g[x] <= 0)
         continue;
       const auto l = static_cast<std::size_t> (g[x]);
-      ++size[l];
+      ++owned.size[l];
       if (s[x] == 0)
         continue;
-      auto& list = owned[l];
-      auto it = std::find_if (list.begin (), list.end (), [&] (const OwnedColor& e) { return e.id == s[x]; });
-      if (it == list.end ())
-      {
-        list.emplace_back ();
-        it = std::prev (list.end ());
-        it->id = s[x];
-      }
-      ++it->pixels;
-      for (int c = 0; c < 3; ++c)
-        it->sum[c] += bgr[x][c];
+      const std::size_t e = owned.add (l, s[x], 1);
+      if (e == sums[l].size ())
+        sums[l].emplace_back (0.0, 0.0, 0.0);
+      sums[l][e] += cv::Vec3d (bgr[x][0], bgr[x][1], bgr[x][2]);
     }
   }
+  return owned;
 }
 
 /** One segment an instance claims, with the rg chromaticity of its claimed pixels' mean
@@ -471,17 +429,17 @@ struct ColorClaim
 };
 
 ColorClaim
-colorClaim (std::size_t segment, const OwnedColor& owned)
+colorClaim (std::size_t segment, int pixels, const cv::Vec3d& sum)
 {
   ColorClaim claim;
   claim.segment = segment;
-  claim.pixels = owned.pixels;
-  const double total = owned.sum[0] + owned.sum[1] + owned.sum[2];
-  claim.known = total >= 3.0 * kMinMeanBrightness * owned.pixels;
+  claim.pixels = pixels;
+  const double total = sum[0] + sum[1] + sum[2];
+  claim.known = total >= 3.0 * kMinMeanBrightness * pixels;
   if (claim.known)
   {
-    claim.r = static_cast<float> (owned.sum[2] / total);
-    claim.g = static_cast<float> (owned.sum[1] / total);
+    claim.r = static_cast<float> (sum[2] / total);
+    claim.g = static_cast<float> (sum[1] / total);
   }
   return claim;
 }
@@ -559,21 +517,23 @@ InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::v
     throw Error ("InstanceGuidedRegionMerge", "the colour image must be CV_8UC3 of L^G's size " + std::to_string (geometric.cols) +
                                                 "x" + std::to_string (geometric.rows));
   const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
-  std::vector<int> size;
-  std::vector<std::vector<OwnedColor>> owned;
-  countOwnedColors (geometric, ids, color, size, owned);
+  std::vector<std::vector<cv::Vec3d>> sums;
+  const OverlapTable<int> owned = countOwnedColors (geometric, ids, color, sums);
 
   // The segments each instance claims (more than half of the segment is its own).
   std::vector<std::vector<ColorClaim>> claims (instances.size ());
-  for (std::size_t l = 1; l < owned.size (); ++l)
-    for (const OwnedColor& o : owned[l])
-      if (2 * o.pixels > size[l])
-        claims[static_cast<std::size_t> (o.id - 1)].push_back (colorClaim (l, o));
+  for (std::size_t l = 1; l < owned.labels (); ++l)
+    for (std::size_t e = 0; e < owned.overlap[l].size (); ++e)
+    {
+      const auto [id, pixels] = owned.overlap[l][e];
+      if (2 * pixels > owned.size[l])
+        claims[static_cast<std::size_t> (id - 1)].push_back (colorClaim (l, pixels, sums[l][e]));
+    }
 
   // Per divided instance, the groups other than its largest become new instances;
   // destination[l] is the instance that takes claimed segment l (−1: not claimed).
   std::vector<Instance> out = instances;
-  std::vector<int> destination (owned.size (), -1);
+  std::vector<int> destination (owned.labels (), -1);
   std::vector<std::size_t> divided;
   for (std::size_t k = 0; k < instances.size (); ++k)
   {

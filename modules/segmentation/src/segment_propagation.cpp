@@ -6,6 +6,8 @@
 #include <cuefusion/segmentation/parallel.h>
 #include <cuefusion/segmentation/segment_propagation.h>
 
+#include "overlap_table.h"
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -18,19 +20,6 @@ namespace segmentation
 {
 namespace
 {
-/** \brief Adds \a count pixels of overlap with global label \a global to a frame label's
-  * list (a handful of entries: linear search).
-  */
-inline void
-addOverlap (std::vector<std::pair<std::uint32_t, int>>& list, std::uint32_t global, int count)
-{
-  auto it = std::find_if (list.begin (), list.end (),
-                          [global] (const std::pair<std::uint32_t, int>& e) { return e.first == global; });
-  if (it == list.end ())
-    list.emplace_back (global, count);
-  else
-    it->second += count;
-}
 /** \brief §4.2.2.3's distance test at one pixel whose normals already agree: the frame's
   * and the model's vertex lie within k·σ_d(u) of each other along the viewing ray (σ_d
   * at θ = 0 first, a lower bound; the angle's exact σ_d only where that fails, or at
@@ -132,12 +121,7 @@ finishLabels (const cv::Mat& frame_labels, const std::vector<std::uint32_t>& giv
 
 /** Per frame label l_j: #l_j (its pixels) and Π(l_i, l_j) for each model label l_i it
   * meets, over the pixels where both maps agree (§4.2.2.3). */
-struct FrameOverlaps
-{
-  using Overlaps = std::vector<std::vector<std::pair<std::uint32_t, int>>>;
-  std::vector<int> frame_count;
-  Overlaps by_frame_label;
-};
+using FrameOverlaps = OverlapTable<std::uint32_t>;
 
 constexpr int kRowsPerChunk = 16;  ///< rows per work item of the row loops below
 
@@ -146,19 +130,16 @@ FrameOverlaps
 countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, const cv::Mat& normals, const cv::Mat& frame_labels,
                const cv::Mat& model_vertices, const cv::Mat& model_normals, const cv::Mat& model_labels, std::size_t labels)
 {
-  using Overlaps = FrameOverlaps::Overlaps;
   const cv::Size size = frame_labels.size ();
   // Rows in fixed chunks on the pool, each with its own counts, added up in chunk order
   // (the lists keep first-seen order, so the result does not depend on the thread count).
   const int chunks = chunkCount (size.height, kRowsPerChunk);
   [[maybe_unused]] const bool use_avx2 = vectorKernelsEnabled ();
-  std::vector<std::vector<int>> chunk_counts (static_cast<std::size_t> (chunks));
-  std::vector<Overlaps> chunk_overlaps (static_cast<std::size_t> (chunks));
+  std::vector<FrameOverlaps> chunk_overlaps (static_cast<std::size_t> (chunks));
   parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
-    std::vector<int>& counts = chunk_counts[static_cast<std::size_t> (k)];
-    Overlaps& overlaps = chunk_overlaps[static_cast<std::size_t> (k)];
-    counts.assign (labels, 0);
-    overlaps.resize (labels);
+    FrameOverlaps& overlaps = chunk_overlaps[static_cast<std::size_t> (k)];
+    overlaps = FrameOverlaps (labels);
+    std::vector<int>& counts = overlaps.size;
     for (int y = begin; y < end; ++y)
     {
       const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
@@ -169,7 +150,7 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
       const cv::Vec3f* nm_row = model_normals.ptr<cv::Vec3f> (y);
       // Model labels as allocated, not resolved: objects are groups of them.
       const auto overlap = [&] (int x) {
-        addOverlap (overlaps[static_cast<std::size_t> (lj[x])], static_cast<std::uint32_t> (li[x]), 1);
+        overlaps.add (static_cast<std::size_t> (lj[x]), static_cast<std::uint32_t> (li[x]), 1);
       };
       int x = 0;
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
@@ -207,16 +188,9 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
       }
     }
   });
-  FrameOverlaps out;
-  out.frame_count.assign (labels, 0);
-  out.by_frame_label.resize (labels);
-  for (int k = 0; k < chunks; ++k)
-    for (std::size_t j = 0; j < labels; ++j)
-    {
-      out.frame_count[j] += chunk_counts[static_cast<std::size_t> (k)][j];
-      for (const auto& [global, count] : chunk_overlaps[static_cast<std::size_t> (k)][j])
-        addOverlap (out.by_frame_label[j], global, count);
-    }
+  FrameOverlaps out (labels);
+  for (const FrameOverlaps& chunk : chunk_overlaps)
+    out.add (chunk);
   return out;
 }
 
@@ -242,11 +216,11 @@ maskIdentities (const SegmentPropagationConfig& config, const std::vector<Segmen
 std::vector<std::uint32_t>
 wantedLabels (const SegmentPropagationConfig& config, FrameOverlaps& overlaps, PropagationResult& result)
 {
-  const std::size_t labels = overlaps.frame_count.size ();
+  const std::size_t labels = overlaps.labels ();
   std::vector<std::uint32_t> wanted (labels, 0);
   for (std::size_t j = 1; j < labels; ++j)
   {
-    const int count = overlaps.frame_count[j];
+    const int count = overlaps.size[j];
     if (count == 0)
       continue;
     if (count < config.min_segment_size)
@@ -254,7 +228,7 @@ wantedLabels (const SegmentPropagationConfig& config, FrameOverlaps& overlaps, P
       ++result.dropped;
       continue;
     }
-    auto& list = overlaps.by_frame_label[j];
+    auto& list = overlaps.overlap[j];
     std::sort (list.begin (), list.end ());
     int best_count = 0;
     for (const auto& [li, c] : list)
@@ -319,14 +293,14 @@ giveLabels (const SegmentPropagationConfig& config, const FrameOverlaps& overlap
   Claims claims;
   for (std::size_t j = 1; j < labels; ++j)
     if (wanted[j] && identity[j] != kUnsure)
-      for (const auto& [li, c] : overlaps.by_frame_label[j])
+      for (const auto& [li, c] : overlaps.overlap[j])
         if (li == wanted[j])
           claims[wanted[j]][identity[j]] += c;
   std::map<std::pair<std::uint32_t, int>, std::uint32_t> fresh_for;  // (lost label, identity) → its fresh label
   std::vector<std::uint32_t> given (labels, 0);
   for (std::size_t j = 1; j < labels; ++j)
   {
-    if (overlaps.frame_count[j] < config.min_segment_size)
+    if (overlaps.size[j] < config.min_segment_size)
       continue;
     std::uint32_t label = wanted[j];
     bool successor = false;  // a successor of a lost label: neither inherited nor (unless new) fresh
@@ -343,9 +317,9 @@ giveLabels (const SegmentPropagationConfig& config, const FrameOverlaps& overlap
       {
         std::uint32_t next = 0;
         int next_count = 0;
-        for (const auto& [li, c] : overlaps.by_frame_label[j])
+        for (const auto& [li, c] : overlaps.overlap[j])
           if (li != label && c > next_count &&
-              static_cast<float> (c) > config.inherit_overlap * static_cast<float> (overlaps.frame_count[j]))
+              static_cast<float> (c) > config.inherit_overlap * static_cast<float> (overlaps.size[j]))
           {
             const auto other = claims.find (li);
             if (other == claims.end () || other->second.empty () || other->second.count (identity[j]))
@@ -382,8 +356,8 @@ placeMapSegments (const SegmentPropagationConfig& config, const FrameOverlaps& o
     std::size_t segment = 0;
   };
   std::map<std::uint32_t, Sighting> seen;  // by model label
-  for (std::size_t j = 1; j < overlaps.by_frame_label.size (); ++j)
-    for (const auto& [li, c] : overlaps.by_frame_label[j])
+  for (std::size_t j = 1; j < overlaps.labels (); ++j)
+    for (const auto& [li, c] : overlaps.overlap[j])
     {
       Sighting& s = seen[li];
       s.visible += c;
