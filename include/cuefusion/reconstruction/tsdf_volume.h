@@ -219,12 +219,6 @@ public:
   const TsdfVoxel* findVoxel (const Eigen::Vector3i& v) const;
   TsdfVoxel* findVoxel (const Eigen::Vector3i& v);
 
-  /** \brief Trilinearly interpolated distance (metres) at world point \a p; false when a
-    * corner voxel is unallocated or unobserved.
-    */
-  bool
-  interpolateSdf (const Eigen::Vector3f& p, float& sdf) const;
-
   /** \brief World position of voxel \a v. */
   Eigen::Vector3f
   voxelPosition (const Eigen::Vector3i& v) const

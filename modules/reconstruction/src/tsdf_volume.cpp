@@ -176,16 +176,6 @@ TSDFVolume::findVoxel (const Eigen::Vector3i& v)
   return const_cast<TsdfVoxel*> (static_cast<const TSDFVolume*> (this)->findVoxel (v));
 }
 
-bool
-TSDFVolume::interpolateSdf (const Eigen::Vector3f& p, float& sdf) const
-{
-  detail::VoxelAccessor access (*this);
-  if (!access.interpolate (p / static_cast<float> (config_.voxel_size), sdf))
-    return false;
-  sdf *= static_cast<float> (config_.truncation ());
-  return true;
-}
-
 void
 TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, const Eigen::Isometry3d& pose)
 {
