@@ -180,6 +180,12 @@ public:
   divideByColor (const cv::Mat& geometric, const std::vector<Instance>& instances, const cv::Mat& color) const;
 
 private:
+  /** \brief split(), returning the masks it cut along: \a given, or what divideByColor
+    * made of them (merge() describes its segments by these). */
+  std::vector<Instance>
+  splitAlongMasks (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& pieces,
+                   std::vector<SegmentInstance>* segments, const SurfacePlanes* planes, const cv::Mat& color) const;
+
   InstanceGuidedRegionMergeConfig config_;
 };
 /** \brief The masks alone as segments (the "masks" mode): label i + 1 for instance i,

@@ -45,24 +45,38 @@ InstanceGuidedRegionMerge::setConfig (const InstanceGuidedRegionMergeConfig& con
 namespace
 {
 /** \brief Per label of \a labels (CV_32S, 1..max): its pixel count and the instance ids
-  * of \a ids it meets, with their pixels. */
+  * of \a ids it meets, with their pixels; with \a color (CV_8UC3) and \a sums, also
+  * those pixels' summed colour (BGR), sums[l][e] for entry e of label l. */
 OverlapTable<int>
-countOverlaps (const cv::Mat& labels, const cv::Mat& ids)
+countOverlaps (const cv::Mat& labels, const cv::Mat& ids, const cv::Mat& color = cv::Mat (),
+               std::vector<std::vector<cv::Vec3d>>* sums = nullptr)
 {
   double max_label = 0.0;
   cv::minMaxLoc (labels, nullptr, &max_label);
   OverlapTable<int> out (static_cast<std::size_t> (std::max (0.0, max_label)) + 1);
+  const bool with_color = sums && !color.empty ();
+  if (with_color)
+    sums->assign (out.labels (), {});
   for (int y = 0; y < labels.rows; ++y)
   {
     const std::int32_t* g = labels.ptr<std::int32_t> (y);
     const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
+    const cv::Vec3b* bgr = with_color ? color.ptr<cv::Vec3b> (y) : nullptr;
     for (int x = 0; x < labels.cols; ++x)
     {
       if (g[x] <= 0)
         continue;
-      ++out.size[static_cast<std::size_t> (g[x])];
-      if (s[x] != 0)
-        out.add (static_cast<std::size_t> (g[x]), s[x], 1);
+      const auto l = static_cast<std::size_t> (g[x]);
+      ++out.size[l];
+      if (s[x] == 0)
+        continue;
+      const std::size_t e = out.add (l, s[x], 1);
+      if (!with_color)
+        continue;
+      auto& sum = (*sums)[l];
+      if (e == sum.size ())
+        sum.emplace_back (0.0, 0.0, 0.0);
+      sum[e] += cv::Vec3d (bgr[x][0], bgr[x][1], bgr[x][2]);
     }
   }
   return out;
@@ -93,330 +107,9 @@ describe (const std::vector<Instance>& instances, int id)
   }
   return info;
 }
-}  // namespace
-
-void
-InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& pieces,
-                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes, const cv::Mat& color) const
-{
-  checkInputs (geometric, given);
-  const std::vector<Instance> divided = color.empty () ? std::vector<Instance> () : divideByColor (geometric, given, color);
-  const std::vector<Instance>& instances = color.empty () ? given : divided;
-  if (planes && (planes->width != geometric.cols || planes->height != geometric.rows))
-    throw Error ("InstanceGuidedRegionMerge", "the surface planes must be of L^G's size");
-  const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
-  const OverlapTable<int> overlaps = countOverlaps (geometric, ids);
-  const std::size_t labels = overlaps.labels ();
-
-  // The instances that each hold a substantial part of a segment; two or more cut it.
-  std::vector<std::vector<std::pair<int, int>>> parts (labels);
-  bool any_split = false;
-  for (std::size_t g = 1; g < labels; ++g)
-  {
-    const float needed = std::max (static_cast<float> (config_.split_min_pixels), config_.split_share * static_cast<float> (overlaps.size[g]));
-    for (const auto& [id, count] : overlaps.overlap[g])
-      if (static_cast<float> (count) >= needed)
-        parts[g].emplace_back (id, count);
-    if (parts[g].size () < 2)
-      parts[g].clear ();
-    any_split = any_split || !parts[g].empty ();
-  }
-
-  // part: the instance id whose piece a pixel of a cut segment joins (0: segment whole).
-  const int cols = geometric.cols;
-  cv::Mat part (geometric.size (), CV_32S, cv::Scalar (0));
-  if (any_split)
-  {
-    std::vector<int> queue;
-    for (int y = 0; y < geometric.rows; ++y)
-    {
-      const std::int32_t* g = geometric.ptr<std::int32_t> (y);
-      const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
-      std::int32_t* p = part.ptr<std::int32_t> (y);
-      for (int x = 0; x < cols; ++x)
-      {
-        if (g[x] <= 0 || parts[static_cast<std::size_t> (g[x])].empty ())
-          continue;
-        const auto& list = parts[static_cast<std::size_t> (g[x])];
-        const bool owned = s[x] && std::any_of (list.begin (), list.end (), [&] (const std::pair<int, int>& e) { return e.first == s[x]; });
-        p[x] = owned ? s[x] : -1;
-        if (owned)
-          queue.push_back (y * cols + x);
-      }
-    }
-    // Pixels of a cut segment that no qualifying mask holds join the nearest piece
-    // (breadth-first, 4-connected, inside the segment); any left unreached join the
-    // largest piece.
-    auto* p = part.ptr<std::int32_t> ();
-    const auto* g = geometric.ptr<std::int32_t> ();
-    for (std::size_t k = 0; k < queue.size (); ++k)
-    {
-      const int i = queue[k], x = i % cols, y = i / cols;
-      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < geometric.rows ? i + cols : -1})
-        if (j >= 0 && p[j] == -1 && g[j] == g[i])
-        {
-          p[j] = p[i];
-          queue.push_back (j);
-        }
-    }
-    const int total = geometric.rows * cols;
-    for (int i = 0; i < total; ++i)
-      if (p[i] == -1)
-      {
-        const auto& list = parts[static_cast<std::size_t> (g[i])];
-        p[i] = std::max_element (list.begin (), list.end (), [] (const auto& a, const auto& b) { return a.second < b.second; })->first;
-      }
-  }
-
-  // Pieces numbered in raster order of their first pixel.
-  pieces.create (geometric.size (), CV_32S);
-  std::map<std::pair<int, int>, std::int32_t> numbering;
-  for (int y = 0; y < geometric.rows; ++y)
-  {
-    const std::int32_t* g = geometric.ptr<std::int32_t> (y);
-    const std::int32_t* p = part.ptr<std::int32_t> (y);
-    std::int32_t* out = pieces.ptr<std::int32_t> (y);
-    for (int x = 0; x < cols; ++x)
-    {
-      if (g[x] <= 0)
-      {
-        out[x] = 0;
-        continue;
-      }
-      out[x] = numbering.emplace (std::make_pair (g[x], p[x]), static_cast<std::int32_t> (numbering.size () + 1)).first->second;
-    }
-  }
-  if (!segments && !planes)
-    return;
-  const OverlapTable<int> covered = countOverlaps (pieces, ids);
-  std::vector<SegmentInstance> info (numbering.size () + 1);
-  for (std::size_t l = 1; l < covered.labels (); ++l)
-  {
-    const auto [id, count] = covered.best (l);
-    const float coverage = covered.size[l] > 0 ? static_cast<float> (count) / static_cast<float> (covered.size[l]) : 0.f;
-    if (id && coverage > config_.min_overlap)
-      info[l] = describe (instances, id);
-    info[l].coverage = coverage;
-    info[l].geometric_segments = 1;
-  }
-  if (planes)
-  {
-    // The rim: 0-pixels with a point inside the mask of the instance claiming a piece
-    // they continue in depth.
-    auto* out = pieces.ptr<std::int32_t> ();
-    const auto* id = ids.ptr<std::uint16_t> ();
-    const float* z = planes->z.data ();
-    const int rows = geometric.rows, total = rows * cols;
-    std::vector<int> queue;
-    for (int i = 0; i < total; ++i)
-      if (out[i] > 0 && info[static_cast<std::size_t> (out[i])].instance >= 0)
-        queue.push_back (i);
-    for (std::size_t k = 0; k < queue.size (); ++k)
-    {
-      const int i = queue[k], x = i % cols, y = i / cols;
-      const int claimed = info[static_cast<std::size_t> (out[i])].instance + 1;
-      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
-        if (j >= 0 && out[j] == 0 && id[j] == claimed && std::isfinite (z[j]) && std::abs (z[j] - z[i]) <= 0.02f * std::min (z[i], z[j]))
-        {
-          out[j] = out[i];
-          queue.push_back (j);
-        }
-    }
-  }
-  if (segments)
-    segments->swap (info);
-}
-
-namespace
-{
-/** \brief For merge(): per piece, the piece standing for its group among the pieces its
-  * instance claims. All of an instance's pieces form one group, unless two of them, each
-  * holding at least \a share of the instance's pieces, touch mostly along depth jumps
-  * (> 2 % of the depth between pixels 1–2 apart, the rule the normals use): then groups
-  * are the instance's pieces connected by contacts that are not such jumps.
-  */
-std::vector<std::size_t>
-groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& info, const SurfacePlanes& planes, float share)
-{
-  const std::size_t n = info.size ();
-  std::vector<std::size_t> group (n);
-  std::vector<int> size (n, 0);
-  std::map<std::pair<std::size_t, std::size_t>, std::pair<int, int>> contacts;  // (p, q) → (contacts, jumps)
-  const int rows = pieces.rows, cols = pieces.cols;
-  for (int y = 0; y < rows; ++y)
-  {
-    const std::int32_t* row = pieces.ptr<std::int32_t> (y);
-    const float* z = planes.z.data () + static_cast<std::size_t> (y) * cols;
-    for (int x = 0; x < cols; ++x)
-    {
-      const auto p = static_cast<std::size_t> (std::max (0, row[x]));
-      if (p == 0)
-        continue;
-      ++size[p];
-      if (info[p].instance < 0)
-        continue;
-      for (const auto& [dx, dy] : {std::pair<int, int> (1, 0), {2, 0}, {0, 1}, {0, 2}})
-      {
-        if (x + dx >= cols || y + dy >= rows)
-          continue;
-        const int other = pieces.ptr<std::int32_t> (y + dy)[x + dx];
-        const auto q = static_cast<std::size_t> (std::max (0, other));
-        if (q == 0 || q == p || info[q].instance != info[p].instance)
-          continue;
-        const float z0 = z[x], z1 = planes.z[static_cast<std::size_t> (y + dy) * cols + x + dx];
-        auto& c = contacts[{std::min (p, q), std::max (p, q)}];
-        ++c.first;
-        c.second += std::abs (z0 - z1) > 0.02f * std::min (z0, z1) ? 1 : 0;
-      }
-    }
-  }
-  std::map<int, int> claimed;  // instance → pixels of its pieces
-  for (std::size_t l = 1; l < n; ++l)
-    if (info[l].instance >= 0)
-      claimed[info[l].instance] += size[l];
-  const auto apart = [&] (std::size_t p, std::size_t q, const std::pair<int, int>& c) {
-    const float needed = share * static_cast<float> (claimed[info[p].instance]);
-    return 2 * c.second >= c.first && static_cast<float> (std::min (size[p], size[q])) >= needed;
-  };
-  std::set<int> divided;
-  for (const auto& [pair, c] : contacts)
-    if (apart (pair.first, pair.second, c))
-      divided.insert (info[pair.first].instance);
-  // Union–find over the pieces: whole instances, or crease-connected parts of divided ones.
-  for (std::size_t l = 0; l < n; ++l)
-    group[l] = l;
-  const auto find = [&] (std::size_t l) {
-    while (group[l] != l)
-      l = group[l] = group[group[l]];
-    return l;
-  };
-  std::map<int, std::size_t> first_piece;
-  for (std::size_t l = 1; l < n; ++l)
-    if (info[l].instance >= 0 && !divided.count (info[l].instance))
-    {
-      const auto it = first_piece.emplace (info[l].instance, l).first;
-      group[find (l)] = find (it->second);
-    }
-  for (const auto& [pair, c] : contacts)
-    if (divided.count (info[pair.first].instance) && !apart (pair.first, pair.second, c) && 2 * c.second < c.first)
-      group[find (pair.second)] = find (pair.first);
-  for (std::size_t l = 0; l < n; ++l)
-    group[l] = find (l);
-  return group;
-}
-}  // namespace
-
-void
-InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& fused,
-                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes, const cv::Mat& color) const
-{
-  checkInputs (geometric, given);
-  const std::vector<Instance> divided = color.empty () ? std::vector<Instance> () : divideByColor (geometric, given, color);
-  const std::vector<Instance>& instances = color.empty () ? given : divided;
-  // Cut where the masks see two objects, then unite the pieces each instance covers.
-  cv::Mat pieces;
-  std::vector<SegmentInstance> piece_info;
-  split (geometric, instances, pieces, &piece_info, planes);
-  std::vector<std::size_t> group (piece_info.size ());
-  if (planes && config_.occlusion_split_share <= 0.5f)
-    group = groupsAlongCreases (pieces, piece_info, *planes, config_.occlusion_split_share);
-  else
-    for (std::size_t l = 0; l < group.size (); ++l)
-      group[l] = piece_info[l].instance >= 0 ? static_cast<std::size_t> (piece_info[l].instance) + piece_info.size () : l;
-  // Output labels in raster order of first pixels; keys: a claimed piece's group, or the
-  // piece itself.
-  const auto keyOf = [&] (std::size_t piece) -> std::size_t { return piece_info[piece].instance >= 0 ? group[piece] : piece; };
-  fused.create (geometric.size (), CV_32S);
-  std::map<std::size_t, std::int32_t> output;
-  if (segments)
-    segments->assign (1, SegmentInstance ());
-  for (int y = 0; y < pieces.rows; ++y)
-  {
-    const std::int32_t* g = pieces.ptr<std::int32_t> (y);
-    std::int32_t* out = fused.ptr<std::int32_t> (y);
-    for (int x = 0; x < pieces.cols; ++x)
-    {
-      if (g[x] <= 0)
-      {
-        out[x] = 0;
-        continue;
-      }
-      const auto piece = static_cast<std::size_t> (g[x]);
-      auto it = output.find (keyOf (piece));
-      if (it == output.end ())
-      {
-        it = output.emplace (keyOf (piece), static_cast<std::int32_t> (output.size () + 1)).first;
-        if (segments)
-        {
-          const int instance = piece_info[piece].instance;
-          segments->push_back (describe (instances, instance >= 0 ? instance + 1 : 0));
-        }
-      }
-      out[x] = it->second;
-    }
-  }
-  if (!segments)
-    return;
-  // Per output segment: how many pieces it unites and the share of it its instance covers.
-  std::vector<float> pixels (segments->size (), 0.f), under (segments->size (), 0.f), size (piece_info.size (), 0.f);
-  for (int y = 0; y < pieces.rows; ++y)
-  {
-    const std::int32_t* g = pieces.ptr<std::int32_t> (y);
-    for (int x = 0; x < pieces.cols; ++x)
-      if (g[x] > 0)
-        size[static_cast<std::size_t> (g[x])] += 1.f;
-  }
-  for (std::size_t l = 1; l < piece_info.size (); ++l)
-  {
-    if (size[l] == 0.f)
-      continue;
-    const std::size_t target = static_cast<std::size_t> (output.at (keyOf (l)));
-    SegmentInstance& info = (*segments)[target];
-    ++info.geometric_segments;
-    pixels[target] += size[l];
-    under[target] += piece_info[l].coverage * size[l];
-  }
-  for (std::size_t l = 1; l < segments->size (); ++l)
-    (*segments)[l].coverage = pixels[l] > 0.f ? under[l] / pixels[l] : 0.f;
-}
-
-namespace
-{
 /** Mean colours below this (of 255, over the three channels) give no chromaticity worth
   * comparing: sensor noise dominates a dark surface's hue. */
 constexpr double kMinMeanBrightness = 20.0;
-
-/** Per segment of L^G: its size and the instance ids of \a ids owning pixels of it (the
-  * table), and per such entry those pixels' summed colour (BGR; \a sums[l][e] for entry e
-  * of segment l). */
-OverlapTable<int>
-countOwnedColors (const cv::Mat& geometric, const cv::Mat& ids, const cv::Mat& color, std::vector<std::vector<cv::Vec3d>>& sums)
-{
-  double max_label = 0.0;
-  cv::minMaxLoc (geometric, nullptr, &max_label);
-  OverlapTable<int> owned (static_cast<std::size_t> (std::max (0.0, max_label)) + 1);
-  sums.assign (owned.labels (), {});
-  for (int y = 0; y < geometric.rows; ++y)
-  {
-    const std::int32_t* g = geometric.ptr<std::int32_t> (y);
-    const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
-    const cv::Vec3b* bgr = color.ptr<cv::Vec3b> (y);
-    for (int x = 0; x < geometric.cols; ++x)
-    {
-      if (g[x] <= 0)
-        continue;
-      const auto l = static_cast<std::size_t> (g[x]);
-      ++owned.size[l];
-      if (s[x] == 0)
-        continue;
-      const std::size_t e = owned.add (l, s[x], 1);
-      if (e == sums[l].size ())
-        sums[l].emplace_back (0.0, 0.0, 0.0);
-      sums[l][e] += cv::Vec3d (bgr[x][0], bgr[x][1], bgr[x][2]);
-    }
-  }
-  return owned;
-}
 
 /** One segment an instance claims, with the rg chromaticity of its claimed pixels' mean
   * colour (known = bright enough to have one). */
@@ -505,21 +198,26 @@ moveToNearestGroup (const cv::Mat& geometric, const cv::Mat& ids, int k, const s
   for (const int c : changed)
     out[static_cast<std::size_t> (c)].box = cv::boundingRect (out[static_cast<std::size_t> (c)].mask);
 }
-}  // namespace
-
-std::vector<Instance>
-InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::vector<Instance>& instances, const cv::Mat& color) const
+/** Whether the colour division runs: a colour, the cue on, masks to divide; throws on a
+  * colour image of the wrong kind. */
+bool
+colorDivisionApplies (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const std::vector<Instance>& instances,
+                      const cv::Mat& color)
 {
-  checkInputs (geometric, instances);
-  if (color.empty () || config_.color_split_distance <= 0.f || instances.empty ())
-    return instances;
+  if (color.empty () || config.color_split_distance <= 0.f || instances.empty ())
+    return false;
   if (color.type () != CV_8UC3 || color.size () != geometric.size ())
     throw Error ("InstanceGuidedRegionMerge", "the colour image must be CV_8UC3 of L^G's size " + std::to_string (geometric.cols) +
                                                 "x" + std::to_string (geometric.rows));
-  const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
-  std::vector<std::vector<cv::Vec3d>> sums;
-  const OverlapTable<int> owned = countOwnedColors (geometric, ids, color, sums);
+  return true;
+}
 
+/** divideByColor on counts already made: \a owned and \a sums from countOverlaps of L^G
+  * against \a ids (the instances' id image) with the colour. */
+std::vector<Instance>
+divideOwned (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const std::vector<Instance>& instances,
+             const cv::Mat& ids, const OverlapTable<int>& owned, const std::vector<std::vector<cv::Vec3d>>& sums)
+{
   // The segments each instance claims (more than half of the segment is its own).
   std::vector<std::vector<ColorClaim>> claims (instances.size ());
   for (std::size_t l = 1; l < owned.labels (); ++l)
@@ -538,7 +236,7 @@ InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::v
   for (std::size_t k = 0; k < instances.size (); ++k)
   {
     const std::vector<ColorClaim>& list = claims[k];
-    const std::vector<std::size_t> group = colorGroups (list, config_.color_split_distance);
+    const std::vector<std::size_t> group = colorGroups (list, config.color_split_distance);
     std::map<std::size_t, int> weight;  // group (its first claim) → pixels
     int total = 0;
     for (std::size_t i = 0; i < list.size (); ++i)
@@ -548,7 +246,7 @@ InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::v
     }
     std::vector<std::size_t> large;  // colour groups holding color_split_share, first claim order
     for (const auto& [first, pixels] : weight)
-      if (list[first].known && static_cast<float> (pixels) >= config_.color_split_share * static_cast<float> (total))
+      if (list[first].known && static_cast<float> (pixels) >= config.color_split_share * static_cast<float> (total))
         large.push_back (first);
     if (large.size () < 2)
       continue;
@@ -576,6 +274,319 @@ InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::v
   for (const std::size_t k : divided)
     moveToNearestGroup (geometric, ids, static_cast<int> (k), destination, out);
   return out;
+}
+
+}  // namespace
+
+void
+InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& pieces,
+                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes, const cv::Mat& color) const
+{
+  splitAlongMasks (geometric, given, pieces, segments, planes, color);
+}
+
+std::vector<Instance>
+InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& pieces,
+                                            std::vector<SegmentInstance>* segments, const SurfacePlanes* planes,
+                                            const cv::Mat& color) const
+{
+  checkInputs (geometric, given);
+  if (planes && (planes->width != geometric.cols || planes->height != geometric.rows))
+    throw Error ("InstanceGuidedRegionMerge", "the surface planes must be of L^G's size");
+  // One id image and one count serve the colour division and the cut, unless masks were
+  // divided (then the divided ones are counted again).
+  const bool by_color = colorDivisionApplies (config_, geometric, given, color);
+  cv::Mat ids = instancesToIdImage (given, geometric.size ());  // id = index + 1, higher score on top
+  std::vector<std::vector<cv::Vec3d>> sums;
+  OverlapTable<int> overlaps = countOverlaps (geometric, ids, by_color ? color : cv::Mat (), &sums);
+  std::vector<Instance> instances = by_color ? divideOwned (config_, geometric, given, ids, overlaps, sums) : given;
+  if (instances.size () != given.size ())
+  {
+    ids = instancesToIdImage (instances, geometric.size ());
+    overlaps = countOverlaps (geometric, ids);
+  }
+  const std::size_t labels = overlaps.labels ();
+
+  // The instances that each hold a substantial part of a segment; two or more cut it.
+  std::vector<std::vector<std::pair<int, int>>> parts (labels);
+  bool any_split = false;
+  for (std::size_t g = 1; g < labels; ++g)
+  {
+    const float needed = std::max (static_cast<float> (config_.split_min_pixels), config_.split_share * static_cast<float> (overlaps.size[g]));
+    for (const auto& [id, count] : overlaps.overlap[g])
+      if (static_cast<float> (count) >= needed)
+        parts[g].emplace_back (id, count);
+    if (parts[g].size () < 2)
+      parts[g].clear ();
+    any_split = any_split || !parts[g].empty ();
+  }
+
+  // part: the instance id whose piece a pixel of a cut segment joins (0: segment whole).
+  const int cols = geometric.cols;
+  cv::Mat part (geometric.size (), CV_32S, cv::Scalar (0));
+  if (any_split)
+  {
+    std::vector<int> queue;
+    for (int y = 0; y < geometric.rows; ++y)
+    {
+      const std::int32_t* g = geometric.ptr<std::int32_t> (y);
+      const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
+      std::int32_t* p = part.ptr<std::int32_t> (y);
+      for (int x = 0; x < cols; ++x)
+      {
+        if (g[x] <= 0 || parts[static_cast<std::size_t> (g[x])].empty ())
+          continue;
+        const auto& list = parts[static_cast<std::size_t> (g[x])];
+        const bool owned = s[x] && std::any_of (list.begin (), list.end (), [&] (const std::pair<int, int>& e) { return e.first == s[x]; });
+        p[x] = owned ? s[x] : -1;
+        if (owned)
+          queue.push_back (y * cols + x);
+      }
+    }
+    // Pixels of a cut segment that no qualifying mask holds join the nearest piece
+    // (breadth-first, 4-connected, inside the segment); any left unreached join the
+    // largest piece.
+    auto* p = part.ptr<std::int32_t> ();
+    const auto* g = geometric.ptr<std::int32_t> ();
+    for (std::size_t k = 0; k < queue.size (); ++k)
+    {
+      const int i = queue[k], x = i % cols, y = i / cols;
+      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < geometric.rows ? i + cols : -1})
+        if (j >= 0 && p[j] == -1 && g[j] == g[i])
+        {
+          p[j] = p[i];
+          queue.push_back (j);
+        }
+    }
+    const int total = geometric.rows * cols;
+    for (int i = 0; i < total; ++i)
+      if (p[i] == -1)
+      {
+        const auto& list = parts[static_cast<std::size_t> (g[i])];
+        p[i] = std::max_element (list.begin (), list.end (), [] (const auto& a, const auto& b) { return a.second < b.second; })->first;
+      }
+  }
+
+  // Pieces numbered in raster order of their first pixel.
+  pieces.create (geometric.size (), CV_32S);
+  std::map<std::pair<int, int>, std::int32_t> numbering;
+  for (int y = 0; y < geometric.rows; ++y)
+  {
+    const std::int32_t* g = geometric.ptr<std::int32_t> (y);
+    const std::int32_t* p = part.ptr<std::int32_t> (y);
+    std::int32_t* out = pieces.ptr<std::int32_t> (y);
+    for (int x = 0; x < cols; ++x)
+    {
+      if (g[x] <= 0)
+      {
+        out[x] = 0;
+        continue;
+      }
+      out[x] = numbering.emplace (std::make_pair (g[x], p[x]), static_cast<std::int32_t> (numbering.size () + 1)).first->second;
+    }
+  }
+  if (!segments && !planes)
+    return instances;
+  const OverlapTable<int> covered = countOverlaps (pieces, ids);
+  std::vector<SegmentInstance> info (numbering.size () + 1);
+  for (std::size_t l = 1; l < covered.labels (); ++l)
+  {
+    const auto [id, count] = covered.best (l);
+    const float coverage = covered.size[l] > 0 ? static_cast<float> (count) / static_cast<float> (covered.size[l]) : 0.f;
+    if (id && coverage > config_.min_overlap)
+      info[l] = describe (instances, id);
+    info[l].coverage = coverage;
+    info[l].geometric_segments = 1;
+  }
+  if (planes)
+  {
+    // The rim: 0-pixels with a point inside the mask of the instance claiming a piece
+    // they continue in depth.
+    auto* out = pieces.ptr<std::int32_t> ();
+    const auto* id = ids.ptr<std::uint16_t> ();
+    const float* z = planes->z.data ();
+    const int rows = geometric.rows, total = rows * cols;
+    std::vector<int> queue;
+    for (int i = 0; i < total; ++i)
+      if (out[i] > 0 && info[static_cast<std::size_t> (out[i])].instance >= 0)
+        queue.push_back (i);
+    for (std::size_t k = 0; k < queue.size (); ++k)
+    {
+      const int i = queue[k], x = i % cols, y = i / cols;
+      const int claimed = info[static_cast<std::size_t> (out[i])].instance + 1;
+      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
+        if (j >= 0 && out[j] == 0 && id[j] == claimed && std::isfinite (z[j]) && std::abs (z[j] - z[i]) <= 0.02f * std::min (z[i], z[j]))
+        {
+          out[j] = out[i];
+          queue.push_back (j);
+        }
+    }
+  }
+  if (segments)
+    segments->swap (info);
+  return instances;
+}
+
+namespace
+{
+/** \brief For merge(): per piece, the piece standing for its group among the pieces its
+  * instance claims. All of an instance's pieces form one group, unless two of them, each
+  * holding at least \a share of the instance's pieces, touch mostly along depth jumps
+  * (> 2 % of the depth between pixels 1–2 apart, the rule the normals use): then groups
+  * are the instance's pieces connected by contacts that are not such jumps.
+  */
+std::vector<std::size_t>
+groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& info, const SurfacePlanes& planes, float share)
+{
+  const std::size_t n = info.size ();
+  std::vector<std::size_t> group (n);
+  std::vector<int> size (n, 0);
+  std::map<std::pair<std::size_t, std::size_t>, std::pair<int, int>> contacts;  // (p, q) → (contacts, jumps)
+  const int rows = pieces.rows, cols = pieces.cols;
+  for (int y = 0; y < rows; ++y)
+  {
+    const std::int32_t* row = pieces.ptr<std::int32_t> (y);
+    const float* z = planes.z.data () + static_cast<std::size_t> (y) * cols;
+    for (int x = 0; x < cols; ++x)
+    {
+      const auto p = static_cast<std::size_t> (std::max (0, row[x]));
+      if (p == 0)
+        continue;
+      ++size[p];
+      if (info[p].instance < 0)
+        continue;
+      for (const auto& [dx, dy] : {std::pair<int, int> (1, 0), {2, 0}, {0, 1}, {0, 2}})
+      {
+        if (x + dx >= cols || y + dy >= rows)
+          continue;
+        const int other = pieces.ptr<std::int32_t> (y + dy)[x + dx];
+        const auto q = static_cast<std::size_t> (std::max (0, other));
+        if (q == 0 || q == p || info[q].instance != info[p].instance)
+          continue;
+        const float z0 = z[x], z1 = planes.z[static_cast<std::size_t> (y + dy) * cols + x + dx];
+        auto& c = contacts[{std::min (p, q), std::max (p, q)}];
+        ++c.first;
+        c.second += std::abs (z0 - z1) > 0.02f * std::min (z0, z1) ? 1 : 0;
+      }
+    }
+  }
+  std::map<int, int> claimed;  // instance → pixels of its pieces
+  for (std::size_t l = 1; l < n; ++l)
+    if (info[l].instance >= 0)
+      claimed[info[l].instance] += size[l];
+  const auto apart = [&] (std::size_t p, std::size_t q, const std::pair<int, int>& c) {
+    const float needed = share * static_cast<float> (claimed[info[p].instance]);
+    return 2 * c.second >= c.first && static_cast<float> (std::min (size[p], size[q])) >= needed;
+  };
+  std::set<int> divided;
+  for (const auto& [pair, c] : contacts)
+    if (apart (pair.first, pair.second, c))
+      divided.insert (info[pair.first].instance);
+  // Union–find over the pieces: whole instances, or crease-connected parts of divided ones.
+  for (std::size_t l = 0; l < n; ++l)
+    group[l] = l;
+  const auto find = [&] (std::size_t l) {
+    while (group[l] != l)
+      l = group[l] = group[group[l]];
+    return l;
+  };
+  std::map<int, std::size_t> first_piece;
+  for (std::size_t l = 1; l < n; ++l)
+    if (info[l].instance >= 0 && !divided.count (info[l].instance))
+    {
+      const auto it = first_piece.emplace (info[l].instance, l).first;
+      group[find (l)] = find (it->second);
+    }
+  for (const auto& [pair, c] : contacts)
+    if (divided.count (info[pair.first].instance) && !apart (pair.first, pair.second, c) && 2 * c.second < c.first)
+      group[find (pair.second)] = find (pair.first);
+  for (std::size_t l = 0; l < n; ++l)
+    group[l] = find (l);
+  return group;
+}
+}  // namespace
+
+void
+InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& fused,
+                                  std::vector<SegmentInstance>* segments, const SurfacePlanes* planes, const cv::Mat& color) const
+{
+  // Cut where the masks see two objects, then unite the pieces each instance covers.
+  cv::Mat pieces;
+  std::vector<SegmentInstance> piece_info;
+  const std::vector<Instance> instances = splitAlongMasks (geometric, given, pieces, &piece_info, planes, color);
+  std::vector<std::size_t> group (piece_info.size ());
+  if (planes && config_.occlusion_split_share <= 0.5f)
+    group = groupsAlongCreases (pieces, piece_info, *planes, config_.occlusion_split_share);
+  else
+    for (std::size_t l = 0; l < group.size (); ++l)
+      group[l] = piece_info[l].instance >= 0 ? static_cast<std::size_t> (piece_info[l].instance) + piece_info.size () : l;
+  // Output labels in raster order of first pixels; keys: a claimed piece's group, or the
+  // piece itself.
+  const auto keyOf = [&] (std::size_t piece) -> std::size_t { return piece_info[piece].instance >= 0 ? group[piece] : piece; };
+  fused.create (geometric.size (), CV_32S);
+  std::map<std::size_t, std::int32_t> output;
+  if (segments)
+    segments->assign (1, SegmentInstance ());
+  for (int y = 0; y < pieces.rows; ++y)
+  {
+    const std::int32_t* g = pieces.ptr<std::int32_t> (y);
+    std::int32_t* out = fused.ptr<std::int32_t> (y);
+    for (int x = 0; x < pieces.cols; ++x)
+    {
+      if (g[x] <= 0)
+      {
+        out[x] = 0;
+        continue;
+      }
+      const auto piece = static_cast<std::size_t> (g[x]);
+      auto it = output.find (keyOf (piece));
+      if (it == output.end ())
+      {
+        it = output.emplace (keyOf (piece), static_cast<std::int32_t> (output.size () + 1)).first;
+        if (segments)
+        {
+          const int instance = piece_info[piece].instance;
+          segments->push_back (describe (instances, instance >= 0 ? instance + 1 : 0));
+        }
+      }
+      out[x] = it->second;
+    }
+  }
+  if (!segments)
+    return;
+  // Per output segment: how many pieces it unites and the share of it its instance covers.
+  std::vector<float> pixels (segments->size (), 0.f), under (segments->size (), 0.f), size (piece_info.size (), 0.f);
+  for (int y = 0; y < pieces.rows; ++y)
+  {
+    const std::int32_t* g = pieces.ptr<std::int32_t> (y);
+    for (int x = 0; x < pieces.cols; ++x)
+      if (g[x] > 0)
+        size[static_cast<std::size_t> (g[x])] += 1.f;
+  }
+  for (std::size_t l = 1; l < piece_info.size (); ++l)
+  {
+    if (size[l] == 0.f)
+      continue;
+    const std::size_t target = static_cast<std::size_t> (output.at (keyOf (l)));
+    SegmentInstance& info = (*segments)[target];
+    ++info.geometric_segments;
+    pixels[target] += size[l];
+    under[target] += piece_info[l].coverage * size[l];
+  }
+  for (std::size_t l = 1; l < segments->size (); ++l)
+    (*segments)[l].coverage = pixels[l] > 0.f ? under[l] / pixels[l] : 0.f;
+}
+
+std::vector<Instance>
+InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::vector<Instance>& instances, const cv::Mat& color) const
+{
+  checkInputs (geometric, instances);
+  if (!colorDivisionApplies (config_, geometric, instances, color))
+    return instances;
+  const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
+  std::vector<std::vector<cv::Vec3d>> sums;
+  const OverlapTable<int> owned = countOverlaps (geometric, ids, color, &sums);
+  return divideOwned (config_, geometric, instances, ids, owned, sums);
 }
 
 void
