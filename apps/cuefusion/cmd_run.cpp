@@ -720,12 +720,17 @@ RunSession::trackingJson ()
 void
 RunSession::writeOutputs ()
 {
-  const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr map = fusion_.labelledCloud ();
-  io::saveMapPCD (staged ("map.pcd"), *map);
-  map_points_ = map->size ();
-  const pcl::PolygonMesh mesh = fusion_.labelledMesh (true);
-  io::saveMeshPLY (staged ("mesh.ply"), mesh);
-  triangles_ = mesh.polygons.size ();
+  // One product in memory at a time: on a large map the mesh is what the run peaks at.
+  {
+    const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr map = fusion_.labelledCloud ();
+    io::saveMapPCD (staged ("map.pcd"), *map);
+    map_points_ = map->size ();
+  }
+  {
+    const pcl::PolygonMesh mesh = fusion_.labelledMesh (true);
+    io::saveMeshPLY (staged ("mesh.ply"), mesh);
+    triangles_ = mesh.polygons.size ();
+  }
   segments_ = fusion_.segments ();
   io::writeTextAtomic (staged ("segments.json"), segmentsJson (segments_).dump (1) + "\n");
   io::writeTumTrajectory (staged ("trajectory.txt"), result_.trajectory);

@@ -75,12 +75,32 @@ edgeKey (const Eigen::Vector3i& lower, int axis)
          ((static_cast<std::uint64_t> (lower.z () + offset) & mask) << 40) | (static_cast<std::uint64_t> (axis) << 60);
 }
 
+/** \brief The lower voxel and the axis of an edge key. */
+inline Eigen::Vector3i
+edgeLower (std::uint64_t key)
+{
+  constexpr std::uint64_t mask = (1u << 20) - 1;
+  constexpr int offset = 1 << 19;
+  return Eigen::Vector3i (static_cast<int> (key & mask) - offset, static_cast<int> ((key >> 20) & mask) - offset,
+                          static_cast<int> ((key >> 40) & mask) - offset);
+}
+
+inline int
+edgeAxis (std::uint64_t key)
+{
+  return static_cast<int> ((key >> 60) & 3u);
+}
+
+/** \brief The mesh's vertex cloud: positions, colour, label, then normals. Each input is
+  * released once converted, so the three blobs are never all alive beside both clouds. */
 pcl::PCLPointCloud2
-toMeshCloud (const pcl::PointCloud<pcl::PointXYZRGBL>& points, const pcl::PointCloud<pcl::Normal>& normals)
+toMeshCloud (pcl::PointCloud<pcl::PointXYZRGBL>&& points, pcl::PointCloud<pcl::Normal>&& normals)
 {
   pcl::PCLPointCloud2 a, b, out;
   pcl::toPCLPointCloud2 (points, a);
+  pcl::PointCloud<pcl::PointXYZRGBL> ().swap (points);
   pcl::toPCLPointCloud2 (normals, b);
+  pcl::PointCloud<pcl::Normal> ().swap (normals);
   pcl::concatenateFields (a, b, out);
   return out;
 }
@@ -153,13 +173,18 @@ TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::P
 pcl::PolygonMesh
 TSDFVolume::extractMesh () const
 {
-  // Pass 1 (parallel over blocks): triangles as edge keys plus the surface sample of every
-  // edge. Pass 2 (serial): one vertex per distinct edge, so neighbouring cubes share them.
+  // Pass 1 (parallel over blocks): for every cube with a surface, the keys of its crossed
+  // edges in the tables' edge order, and its triangles as edge keys. Pass 2 (serial, in block
+  // order): one vertex per distinct edge, numbered and sampled where it is first met, so
+  // neighbouring cubes share it. Keys, not samples, are kept between the passes (8 bytes
+  // instead of 32, and each edge is met by up to four cubes): the extraction's peak memory
+  // is what `run` peaks at on a large map.
   struct BlockTriangles
   {
-    std::vector<std::uint64_t> corners;               // 3 edge keys per triangle
-    std::vector<std::pair<std::uint64_t, EdgeSample>> samples;
+    std::vector<std::uint64_t> edges;    // edge key | kReversed when the cube walks it downwards
+    std::vector<std::uint64_t> corners;  // 3 edge keys per triangle
   };
+  constexpr std::uint64_t kReversed = std::uint64_t (1) << 62;
   const int n = static_cast<int> (blocks_.size ());
   std::vector<BlockTriangles> parts (static_cast<std::size_t> (n));
   parallelForChunks (n, 8, [&] (int, int begin, int end) {
@@ -173,14 +198,13 @@ TSDFVolume::extractMesh () const
           for (int x = 0; x < kBlockSide; ++x)
           {
             const Eigen::Vector3i g = block.index * kBlockSide + Eigen::Vector3i (x, y, z);
-            std::array<const TsdfVoxel*, 8> c;
             bool ok = true;
             int cube = 0;
             for (int k = 0; k < 8 && ok; ++k)
             {
-              c[static_cast<std::size_t> (k)] = access.get (g + kCorner[static_cast<std::size_t> (k)]);
-              ok = observed (c[static_cast<std::size_t> (k)]);
-              if (ok && c[static_cast<std::size_t> (k)]->sdf < 0.f)
+              const TsdfVoxel* c = access.get (g + kCorner[static_cast<std::size_t> (k)]);
+              ok = observed (c);
+              if (ok && c->sdf < 0.f)
                 cube |= 1 << k;
             }
             if (!ok || pcl::edgeTable[cube] == 0)
@@ -192,14 +216,11 @@ TSDFVolume::extractMesh () const
                 continue;
               const Eigen::Vector3i& ca = kCorner[static_cast<std::size_t> (kEdge[e][0])];
               const Eigen::Vector3i& cb = kCorner[static_cast<std::size_t> (kEdge[e][1])];
-              const Eigen::Vector3i lower = g + ca.cwiseMin (cb);
               int axis = 0;
               while (ca[axis] == cb[axis])
                 ++axis;
-              keys[static_cast<std::size_t> (e)] = edgeKey (lower, axis);
-              out.samples.emplace_back (keys[static_cast<std::size_t> (e)],
-                                        sampleEdge (*c[static_cast<std::size_t> (kEdge[e][0])], *c[static_cast<std::size_t> (kEdge[e][1])],
-                                                    voxelPosition (g + ca), voxelPosition (g + cb)));
+              keys[static_cast<std::size_t> (e)] = edgeKey (g + ca.cwiseMin (cb), axis);
+              out.edges.push_back (keys[static_cast<std::size_t> (e)] | (ca[axis] > cb[axis] ? kReversed : 0));
             }
             for (int t = 0; pcl::triTable[cube][t] != -1; t += 3)
               for (int k = 0; k < 3; ++k)
@@ -210,22 +231,34 @@ TSDFVolume::extractMesh () const
 
   pcl::PointCloud<pcl::PointXYZRGBL> points;
   std::unordered_map<std::uint64_t, pcl::index_t> vertex_of;
-  std::size_t sample_count = 0, corner_count = 0;
-  for (const auto& part : parts)
   {
-    sample_count += part.samples.size ();
-    corner_count += part.corners.size ();
+    detail::VoxelAccessor access (*this);
+    for (auto& part : parts)
+    {
+      for (const std::uint64_t edge : part.edges)
+      {
+        const std::uint64_t key = edge & ~kReversed;
+        if (!vertex_of.emplace (key, static_cast<pcl::index_t> (points.size ())).second)
+          continue;
+        // The sample as the cube that met the edge first takes it: from its corner
+        // kEdge[e][0] to kEdge[e][1] (the direction decides rounding and the label at t = 0.5).
+        const Eigen::Vector3i lower = edgeLower (key), upper = lower + Eigen::Vector3i::Unit (edgeAxis (key));
+        const Eigen::Vector3i& from = (edge & kReversed) ? upper : lower;
+        const Eigen::Vector3i& to = (edge & kReversed) ? lower : upper;
+        points.push_back (toPoint (sampleEdge (*access.get (from), *access.get (to), voxelPosition (from), voxelPosition (to))));
+      }
+      std::vector<std::uint64_t> ().swap (part.edges);
+    }
   }
-  vertex_of.reserve (sample_count);
-  for (const auto& part : parts)
-    for (const auto& [key, s] : part.samples)
-      if (vertex_of.emplace (key, static_cast<pcl::index_t> (points.size ())).second)
-        points.push_back (toPoint (s));
 
   pcl::PolygonMesh mesh;
+  std::size_t corner_count = 0;
+  for (const auto& part : parts)
+    corner_count += part.corners.size ();
   mesh.polygons.reserve (corner_count / 3);
   std::vector<Eigen::Vector3f> accumulated (points.size (), Eigen::Vector3f::Zero ());
-  for (const auto& part : parts)
+  for (auto& part : parts)
+  {
     for (std::size_t t = 0; t + 2 < part.corners.size (); t += 3)
     {
       pcl::Vertices face;
@@ -242,6 +275,10 @@ TSDFVolume::extractMesh () const
         accumulated[static_cast<std::size_t> (v)] += area_normal;
       mesh.polygons.push_back (std::move (face));
     }
+    std::vector<std::uint64_t> ().swap (part.corners);
+  }
+  std::unordered_map<std::uint64_t, pcl::index_t> ().swap (vertex_of);
+  std::vector<BlockTriangles> ().swap (parts);
   pcl::PointCloud<pcl::Normal> normals;
   normals.resize (points.size ());
   for (std::size_t i = 0; i < points.size (); ++i)
@@ -250,7 +287,8 @@ TSDFVolume::extractMesh () const
     normals[i].getNormalVector3fMap () = norm > 0.f ? Eigen::Vector3f (accumulated[i] / norm) : Eigen::Vector3f::Zero ();
     normals[i].curvature = 0.f;
   }
-  mesh.cloud = toMeshCloud (points, normals);
+  std::vector<Eigen::Vector3f> ().swap (accumulated);
+  mesh.cloud = toMeshCloud (std::move (points), std::move (normals));
   return mesh;
 }
 }  // namespace reconstruction
