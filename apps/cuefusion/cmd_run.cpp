@@ -1,4 +1,5 @@
 #include "cli.h"
+#include "run_display.h"
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/progress.h>
@@ -13,9 +14,6 @@
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/visualization/frame_view.h>
-#include <cuefusion/visualization/live_viewer.h>
-
-#include <opencv2/videoio.hpp>
 
 #include <boost/filesystem.hpp>
 #include <nlohmann/json.hpp>
@@ -138,71 +136,6 @@ segmentsJson (const std::vector<segmentation::SegmentRecord>& segments)
   }
   return {{"segments", list}};
 }
-
-/** --video: frames go to a temporary file next to the target, renamed into place when the
-  * run ends well (a failed run leaves no half-written video). The container follows the
-  * extension: .avi → Motion-JPEG (always available in OpenCV), .mp4 → MPEG-4 part 2. */
-class VideoOutput
-{
-public:
-  VideoOutput (const std::string& path, double fps) : path_ (path), fps_ (fps)
-  {
-    const std::string ext = fs::path (path).extension ().string ();
-    if (ext == ".avi")
-      fourcc_ = cv::VideoWriter::fourcc ('M', 'J', 'P', 'G');
-    else if (ext == ".mp4")
-      fourcc_ = cv::VideoWriter::fourcc ('m', 'p', '4', 'v');
-    else
-      throw ParameterError ("--video", "the file must end in .avi or .mp4, not '" + ext + "'");
-    const fs::path target (path);
-    boost::system::error_code ec;
-    const fs::file_status status = fs::status (target, ec);
-    if (fs::exists (status) && !fs::is_regular_file (status))  // renaming over it would replace a device or folder
-      throw Error (path, "exists and is not a regular file; refusing to replace it");
-    temporary_ = (target.parent_path () / fs::unique_path ("." + target.stem ().string () + ".tmp-%%%%%%" + ext)).string ();
-  }
-  ~VideoOutput ()
-  {
-    if (writer_.isOpened ())
-      writer_.release ();
-    if (!finished_)
-    {
-      boost::system::error_code ec;
-      fs::remove (temporary_, ec);
-    }
-  }
-  void write (const cv::Mat& image)
-  {
-    if (!writer_.isOpened ())
-    {
-      if (!writer_.open (temporary_, fourcc_, fps_, image.size ()))
-        throw Error (path_, "OpenCV cannot write this video format here");
-      size_ = image.size ();
-    }
-    if (image.size () != size_)
-      throw Error (path_, "frame size changed during the run");
-    writer_.write (image);
-  }
-  void finish ()
-  {
-    if (!writer_.isOpened ())
-      return;
-    writer_.release ();
-    boost::system::error_code ec;
-    fs::rename (temporary_, path_, ec);
-    if (ec)
-      throw Error (path_, "cannot move the finished video into place: " + ec.message ());
-    finished_ = true;
-  }
-
-private:
-  std::string path_, temporary_;
-  double fps_;
-  int fourcc_ = 0;
-  cv::Size size_;
-  cv::VideoWriter writer_;
-  bool finished_ = false;
-};
 
 /** The map's labels seen from the camera as a 16-bit id PNG (for `cuefusion eval`). */
 cv::Mat
@@ -402,8 +335,8 @@ private:
   bool asynchronous_masks_ = false;
   io::OutputSet outputs_;
   pipeline::FusionPipeline fusion_;
-  std::unique_ptr<VideoOutput> video_;
-  std::unique_ptr<visualization::LiveViewer> viewer_;
+  std::unique_ptr<VideoSink> video_;
+  std::unique_ptr<ViewerWindow> viewer_;
   std::chrono::steady_clock::time_point last_view_post_ = std::chrono::steady_clock::now () - std::chrono::seconds (10);
   RunOutputs result_;
   std::mutex mutex_;
@@ -475,11 +408,17 @@ RunSession::RunSession (const RunSettings& s, const po::variables_map& vm)
       throw Error (s.render_dir, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
   }
   if (!s.video_path.empty ())
-    video_ = std::make_unique<VideoOutput> (s.video_path,
-                                            dataset_ && dataset_->getFramesPerSecond () > 0.f ? dataset_->getFramesPerSecond () : 30.0);
+  {
+    const std::string ext = fs::path (s.video_path).extension ().string ();
+    if (ext != ".avi" && ext != ".mp4")
+      throw ParameterError ("--video", "the file must end in .avi or .mp4, not '" + ext + "'");
+    video_ = loadRunDisplay ().openVideo (s.video_path, dataset_ && dataset_->getFramesPerSecond () > 0.f
+                                                          ? dataset_->getFramesPerSecond ()
+                                                          : 30.0);
+  }
   // The window belongs to this (the main) thread; processing moves to a worker in run().
   if (s.view)
-    viewer_ = std::make_unique<visualization::LiveViewer> ("cuefusion run: " + s.source);
+    viewer_ = loadRunDisplay ().openViewer ("cuefusion run: " + s.source);
 }
 
 bool

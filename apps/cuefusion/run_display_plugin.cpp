@@ -1,0 +1,123 @@
+// libcuefusion_run_display.so: the live viewer window and the video file of `run`, loaded
+// by loadRunDisplay (run_display.cpp) only when --view or --video asks for them.
+#include "run_display.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/visualization/live_viewer.h>
+
+#include <boost/filesystem.hpp>
+#include <opencv2/videoio.hpp>
+
+namespace fs = boost::filesystem;
+
+namespace cuefusion
+{
+namespace cli
+{
+namespace
+{
+/** Frames go to a temporary file next to the target, renamed into place when the run ends
+  * well (a failed run leaves no half-written video). The container follows the extension:
+  * .avi → Motion-JPEG (always available in OpenCV), .mp4 → MPEG-4 part 2. */
+class VideoFile : public VideoSink
+{
+public:
+  VideoFile (const std::string& path, double fps) : path_ (path), fps_ (fps)
+  {
+    const std::string ext = fs::path (path).extension ().string ();
+    if (ext == ".avi")
+      fourcc_ = cv::VideoWriter::fourcc ('M', 'J', 'P', 'G');
+    else if (ext == ".mp4")
+      fourcc_ = cv::VideoWriter::fourcc ('m', 'p', '4', 'v');
+    else
+      throw Error (path, "a video must end in .avi or .mp4, not '" + ext + "'");
+    const fs::path target (path);
+    boost::system::error_code ec;
+    const fs::file_status status = fs::status (target, ec);
+    if (fs::exists (status) && !fs::is_regular_file (status))  // renaming over it would replace a device or folder
+      throw Error (path, "exists and is not a regular file; refusing to replace it");
+    temporary_ = (target.parent_path () / fs::unique_path ("." + target.stem ().string () + ".tmp-%%%%%%" + ext)).string ();
+  }
+  ~VideoFile () override
+  {
+    if (writer_.isOpened ())
+      writer_.release ();
+    if (!finished_)
+    {
+      boost::system::error_code ec;
+      fs::remove (temporary_, ec);
+    }
+  }
+  void write (const cv::Mat& image) override
+  {
+    if (!writer_.isOpened ())
+    {
+      if (!writer_.open (temporary_, fourcc_, fps_, image.size ()))
+        throw Error (path_, "OpenCV cannot write this video format here");
+      size_ = image.size ();
+    }
+    if (image.size () != size_)
+      throw Error (path_, "frame size changed during the run");
+    writer_.write (image);
+  }
+  void finish () override
+  {
+    if (!writer_.isOpened ())
+      return;
+    writer_.release ();
+    boost::system::error_code ec;
+    fs::rename (temporary_, path_, ec);
+    if (ec)
+      throw Error (path_, "cannot move the finished video into place: " + ec.message ());
+    finished_ = true;
+  }
+
+private:
+  std::string path_, temporary_;
+  double fps_;
+  int fourcc_ = 0;
+  cv::Size size_;
+  cv::VideoWriter writer_;
+  bool finished_ = false;
+};
+
+class LiveViewerWindow : public ViewerWindow
+{
+public:
+  explicit LiveViewerWindow (const std::string& title) : viewer_ (title) {}
+  void postMap (const pcl::PointCloud<pcl::PointXYZRGBL>::ConstPtr& map) override { viewer_.postMap (map); }
+  void postFrame (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
+                  const pcl::PointCloud<pcl::PointXYZRGBA>::ConstPtr& points) override
+  {
+    viewer_.postFrame (camera, pose, points);
+  }
+  bool spinOnce (int ms) override { return viewer_.spinOnce (ms); }
+  void setFollowCamera (bool follow) override { viewer_.setFollowCamera (follow); }
+  void saveScreenshot (const std::string& path) override { viewer_.saveScreenshot (path); }
+
+private:
+  visualization::LiveViewer viewer_;
+};
+
+class Display : public RunDisplay
+{
+public:
+  std::unique_ptr<VideoSink> openVideo (const std::string& path, double fps) const override
+  {
+    return std::make_unique<VideoFile> (path, fps);
+  }
+  std::unique_ptr<ViewerWindow> openViewer (const std::string& title) const override
+  {
+    return std::make_unique<LiveViewerWindow> (title);
+  }
+};
+}  // namespace
+}  // namespace cli
+}  // namespace cuefusion
+
+extern "C" __attribute__ ((visibility ("default"))) const cuefusion::cli::RunDisplay*
+cuefusion_run_display ()
+{
+  static const cuefusion::cli::Display display;
+  return &display;
+}
