@@ -1,8 +1,10 @@
+#include "image_codec.h"
+
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // the IMREAD_ constants; decoding is image_codec.cpp's
 
 #include <boost/filesystem.hpp>
 
@@ -67,85 +69,6 @@ isTruncatedJpeg (const std::vector<uchar>& bytes)
     --end;  // some writers pad after EOI
   return !(bytes[end - 2] == 0xff && bytes[end - 1] == 0xd9);
 }
-/** What third-party code (libpng, libjpeg inside OpenCV) prints to stderr while an
-  * object lives, captured, so an error reaches the user as one line that includes it.
-  * File descriptor 2 points at a pipe meanwhile; captures are serialised. Output of
-  * other threads in that window is captured too and handed back by release(). */
-class StderrCapture
-{
-public:
-  StderrCapture () : lock_ (mutex ())
-  {
-    std::fflush (stderr);
-    if (::pipe2 (pipe_, O_NONBLOCK | O_CLOEXEC) != 0)
-      return;
-    saved_ = ::dup (2);
-    if (saved_ < 0 || ::dup2 (pipe_[1], 2) < 0)
-      restore ();
-  }
-  ~StderrCapture () { release (); }
-
-  /** Restores stderr; returns what was printed meanwhile (at most one pipe's worth). */
-  std::string
-  release ()
-  {
-    restore ();
-    std::string text;
-    if (pipe_[0] >= 0)
-    {
-      char buffer[4096];
-      ssize_t n;
-      while ((n = ::read (pipe_[0], buffer, sizeof (buffer))) > 0)
-        text.append (buffer, static_cast<std::size_t> (n));
-      ::close (pipe_[0]);
-      pipe_[0] = -1;
-    }
-    return text;
-  }
-
-private:
-  static std::mutex&
-  mutex ()
-  {
-    static std::mutex m;
-    return m;
-  }
-  void
-  restore ()
-  {
-    std::fflush (stderr);
-    if (saved_ >= 0)
-    {
-      ::dup2 (saved_, 2);
-      ::close (saved_);
-      saved_ = -1;
-    }
-    if (pipe_[1] >= 0)
-    {
-      ::close (pipe_[1]);
-      pipe_[1] = -1;
-    }
-  }
-  std::lock_guard<std::mutex> lock_;
-  int pipe_[2] = {-1, -1};
-  int saved_ = -1;
-};
-
-/** Captured library messages as one clause: lines joined by "; ", library warnings
-  * ("libpng warning: ...") kept only when \a failed. */
-std::string
-libraryMessages (const std::string& captured, bool failed)
-{
-  std::string joined;
-  std::istringstream lines (captured);
-  for (std::string line; std::getline (lines, line);)
-  {
-    if (line.empty () || (!failed && line.find ("warning") != std::string::npos))
-      continue;
-    joined += (joined.empty () ? "" : "; ") + line;
-  }
-  return joined;
-}
 }  // namespace
 
 cv::Mat
@@ -157,26 +80,12 @@ readImage (const std::string& path, int flags)
     throw Error (path, "file is empty");
   if (isTruncatedPng (bytes) || isTruncatedJpeg (bytes))
     throw Error (path, "image file is truncated");
-  cv::Mat image;
-  std::string failure;
-  StderrCapture capture;  // libpng reports "libpng error: ..." on stderr, not to OpenCV
-  try
-  {
-    image = cv::imdecode (bytes, flags);
-  }
-  catch (const cv::Exception& e)
-  {
-    failure = e.err;
-  }
-  const bool failed = image.empty ();
-  const std::string messages = libraryMessages (capture.release (), failed);
-  if (failed)
-  {
-    std::string reason = failure.empty () ? messages : failure + (messages.empty () ? "" : "; " + messages);
-    throw Error (path, "cannot decode image (" + (reason.empty () ? std::string ("corrupt or not an image") : reason) + ")");
-  }
-  if (!messages.empty ())  // not ours to swallow: another thread's output, or a library's
-    std::cerr << messages << "\n";
+  std::string failure, warnings;
+  const cv::Mat image = detail::decodeImage (bytes, flags, failure, warnings);
+  if (image.empty ())
+    throw Error (path, "cannot decode image (" + (failure.empty () ? std::string ("corrupt or not an image") : failure) + ")");
+  if (!warnings.empty ())  // a good image with oddities (a bad CRC in an ancillary chunk, ...)
+    std::cerr << path << ": " << warnings << "\n";
   return image;
 }
 
@@ -478,18 +387,9 @@ void
 writeImageAtomic (const std::string& path, const cv::Mat& image, const std::vector<int>& params)
 {
   std::vector<uchar> buffer;
-  const std::string ext = fs::path (path).extension ().string ();
-  bool ok = false;
-  try
-  {
-    ok = cv::imencode (ext, image, buffer, params);
-  }
-  catch (const cv::Exception& e)
-  {
-    throw Error (path, "cannot encode image (" + std::string (e.err) + ")");
-  }
-  if (!ok)
-    throw Error (path, "cannot encode image as " + ext);
+  std::string failure;
+  if (!detail::encodeImage (fs::path (path).extension ().string (), image, params, buffer, failure))
+    throw Error (path, "cannot encode image (" + failure + ")");
   writeBytesAtomic (path, reinterpret_cast<const char*> (buffer.data ()), buffer.size ());
 }
 
