@@ -84,18 +84,6 @@ timingSummary (std::vector<double> values)
   return {{"median", at (0.5)}, {"p90", at (0.9)}, {"frames", values.size ()}};
 }
 
-pipeline::SegmentationMode
-chooseSegmentationMode (const std::string& mode, const std::string& masks, const std::string& model)
-{
-  if (!masks.empty () && !model.empty ())
-    throw UsageError ("--masks and --model exclude each other");
-  const bool have_source = !masks.empty () || !model.empty ();
-  const pipeline::SegmentationMode chosen = pipeline::parseSegmentationMode (mode.empty () ? (have_source ? "fused" : "geometry") : mode);
-  if (chosen != pipeline::SegmentationMode::Geometry && !have_source)
-    throw UsageError ("--mode " + mode + " needs --masks or --model");
-  return chosen;
-}
-
 std::vector<std::string>
 listInputs (const std::string& path, const std::vector<std::string>& extensions)
 {

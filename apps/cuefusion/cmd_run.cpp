@@ -277,6 +277,18 @@ checkRunSettings (const RunSettings& s)
     s.onnx.validate ();  // the segmenter checks it again when it is built
 }
 
+pipeline::SegmentationMode
+chooseSegmentationMode (const std::string& mode, const std::string& masks, const std::string& model)
+{
+  if (!masks.empty () && !model.empty ())
+    throw UsageError ("--masks and --model exclude each other");
+  const bool have_source = !masks.empty () || !model.empty ();
+  const pipeline::SegmentationMode chosen = pipeline::parseSegmentationMode (mode.empty () ? (have_source ? "fused" : "geometry") : mode);
+  if (chosen != pipeline::SegmentationMode::Geometry && !have_source)
+    throw UsageError ("--mode " + mode + " needs --masks or --model");
+  return chosen;
+}
+
 pipeline::FusionPipelineConfig
 runPipelineConfig (const RunSettings& s)
 {

@@ -1,6 +1,8 @@
 // cuefusion: object-level 3D segmentation of RGB-D sequences — command-line front end.
 // Exit codes: 0 success, 1 failure (bad input, I/O), 2 bad usage.
 #include "cli.h"
+#include "commands.h"
+#include "plugin.h"
 
 #include <cuefusion/common/exceptions.h>
 
@@ -36,9 +38,10 @@ int
 main (int argc, char** argv)
 {
   using namespace cuefusion::cli;
+  // The commands of this executable; the others (nullptr) are libcuefusion_commands.so's.
   const std::map<std::string, int (*) (const std::vector<std::string>&)> commands = {
-    {"synth", runSynth}, {"synth-views", runSynthViews}, {"info", runInfo}, {"run", runRun}, {"segment-frame", runSegmentFrame}, {"eval", runEval}, {"render", runRender},
-    {"batch", runBatch}, {"batch-task", runBatchTask}};
+    {"synth", runSynth}, {"synth-views", runSynthViews}, {"info", runInfo}, {"run", nullptr}, {"segment-frame", nullptr},
+    {"eval", nullptr},   {"render", nullptr},            {"batch", nullptr},  {"batch-task", nullptr}};
   if (argc < 2)
   {
     std::cerr << kUsage;
@@ -61,7 +64,15 @@ main (int argc, char** argv)
   pcl::console::setVerbosityLevel (pcl::console::L_ALWAYS);
   try
   {
-    return it->second (std::vector<std::string> (argv + 2, argv + argc));
+    int (*run) (const std::vector<std::string>&) = it->second;
+    if (!run)
+      for (const Command* c = reinterpret_cast<const Command* (*) ()> (pluginSymbol (kCommandsLibrary, kCommandsSymbol)) ();
+           c->name; ++c)
+        if (command == c->name)
+          run = c->run;
+    if (!run)
+      throw cuefusion::Error (kCommandsLibrary, "has no command '" + command + "'; it is not this cuefusion's");
+    return run (std::vector<std::string> (argv + 2, argv + argc));
   }
   catch (const UsageError& e)
   {

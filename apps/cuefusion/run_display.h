@@ -52,8 +52,8 @@ public:
   virtual std::unique_ptr<ViewerWindow> openViewer (const std::string& title) const = 0;
 };
 
-/** The display library, loaded on the first call. Throws cuefusion::Error naming the
-  * library and the loader's reason when it cannot be loaded. */
+/** The display library, loaded on the first call (plugin.h). Throws cuefusion::Error
+  * naming the library and the loader's reason when it cannot be loaded. */
 const RunDisplay&
 loadRunDisplay ();
 

@@ -39,6 +39,9 @@ sed 's/^scene .*/scene installed_only/' "$prefix/share/cuefusion/scenes/tabletop
 # PCL's visualization (VTK's rendering, Qt) and video I/O are not linked into the command;
 # `run --video` loads them from the installed display library.
 ldd "$bin" | grep -E 'libpcl_visualization|libvtkRenderingOpenGL|libQt|libopencv_videoio' && fail "installed cuefusion links the viewer's or video's libraries"
+# Nor the pipeline: info, synth and synth-views run without it; the other commands load
+# libcuefusion_commands.so (segment-frame and run below come from the installed one).
+ldd "$bin" | grep -E 'libcuefusion_pipeline|libpcl_segmentation|libopencv_dnn' && fail "installed cuefusion links the pipeline"
 "$bin" run "$tmp/sequence" --frames 3 --out "$tmp/run" --video "$tmp/run.avi" >"$tmp/run.log" 2>&1 \
   || { cat "$tmp/run.log"; fail "installed cuefusion could not write a video"; }
 [ -s "$tmp/run.avi" ] || fail "installed cuefusion run --video wrote no video"
@@ -69,7 +72,9 @@ done
 deb=$(ls "$tmp"/package/cuefusion_*_amd64.deb 2>/dev/null | head -1)
 [ -n "$deb" ] || fail "cpack made no cuefusion_<version>_amd64.deb"
 dpkg-deb -c "$deb" >"$tmp/contents"
-grep -q '/libcuefusion_run_display\.so$' "$tmp/contents" || fail "$(basename "$deb") lacks libcuefusion_run_display.so"
+for f in libcuefusion_run_display.so libcuefusion_commands.so; do
+  grep -q "/$f\$" "$tmp/contents" || fail "$(basename "$deb") lacks $f"
+done
 for f in ./usr/bin/cuefusion ./usr/include/cuefusion/segmentation/geometric_segmentation.h \
          ./usr/lib/cmake/cuefusion/cuefusionConfig.cmake ./usr/share/cuefusion/models/xyz_instances.onnx; do
   grep -q " $f\$" "$tmp/contents" || fail "$(basename "$deb") lacks $f"
