@@ -6,6 +6,7 @@
 #include <cuefusion/evaluation/trajectory_error.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/map_io.h>
+#include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
 #include <cuefusion/io/sequence.h>
 #include <cuefusion/common/label_colors.h>
@@ -678,9 +679,9 @@ RunSession::writeOutputs ()
     map_points_ = map->size ();
   }
   {
-    const pcl::PolygonMesh mesh = fusion_.labelledMesh (true);
-    io::saveMeshPLY (staged ("mesh.ply"), mesh);
-    triangles_ = mesh.polygons.size ();
+    const io::TriangleMesh mesh = fusion_.labelledTriangleMesh (true);
+    io::writeMeshPLY (staged ("mesh.ply"), mesh);
+    triangles_ = mesh.triangles.size ();
   }
   segments_ = fusion_.segments ();
   io::writeTextAtomic (staged ("segments.json"), segmentsJson (segments_).dump (1) + "\n");

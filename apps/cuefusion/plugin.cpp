@@ -1,5 +1,6 @@
 #include "plugin.h"
 
+#include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
 
 #include <dlfcn.h>
@@ -13,8 +14,13 @@ namespace cli
 void*
 pluginSymbol (const char* library, const char* symbol)
 {
-  // dlopen counts references: a second call returns the same handle.
-  void* handle = dlopen (library, RTLD_NOW | RTLD_LOCAL);
+  // By its full path beside the cuefusion libraries, not by dlopen's search: a tool that
+  // wraps dlopen (heaptrack, some profilers) becomes the "caller" whose run path is
+  // searched, and would not find it. dlopen counts references: a second call returns the
+  // same handle.
+  const std::string folder = libraryDirectory ();
+  const std::string path = folder.empty () ? std::string (library) : folder + "/" + library;
+  void* handle = dlopen (path.c_str (), RTLD_NOW | RTLD_LOCAL);
   if (!handle)
   {
     const char* why = dlerror ();

@@ -5,9 +5,9 @@ namespace cuefusion
 namespace cli
 {
 /** \a symbol of the shared library \a library (a file name, no folder), loaded once and
-  * never closed. The library is found like the calling program's own: its run path (the
-  * build's lib/ folder, or the installed library folder relative to the executable), then
-  * the system's. Throws cuefusion::Error naming the library and the loader's reason. */
+  * never closed, from the folder of the cuefusion libraries (libraryDirectory (): the
+  * build's lib/, or the installed library folder). Throws cuefusion::Error naming the
+  * library and the loader's reason. */
 void*
 pluginSymbol (const char* library, const char* symbol);
 }  // namespace cli

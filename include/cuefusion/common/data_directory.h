@@ -13,4 +13,11 @@ namespace cuefusion
   */
 std::string
 dataDirectory ();
+
+/** \brief The folder of the loaded libcuefusion_common (the build's lib/, or the installed
+  * library folder), where the other cuefusion libraries and the command line's loadable
+  * libraries are; "" when the loader cannot say.
+  */
+std::string
+libraryDirectory ();
 }  // namespace cuefusion

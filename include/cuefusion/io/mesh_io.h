@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <pcl/PolygonMesh.h>
 
 #include <array>
 #include <cstdint>
@@ -11,11 +12,14 @@ namespace cuefusion
 {
 namespace io
 {
-/** \brief A triangle mesh as PLY files carry it: per-vertex position, optional colour and
-  * segment label, and triangles. */
+/** \brief A triangle mesh as PLY files carry it: per-vertex position, optional normal,
+  * colour and segment label, and triangles. Compact (12 bytes a triangle; a
+  * pcl::PolygonMesh spends about 56, a heap vector per face): what TSDFVolume extracts and
+  * `run` writes. */
 struct TriangleMesh
 {
   std::vector<Eigen::Vector3f> vertices;
+  std::vector<Eigen::Vector3f> normals;             ///< unit (zero where undefined), empty when none
   std::vector<std::array<std::uint8_t, 3>> colors;  ///< RGB, empty when the file has none
   std::vector<std::uint32_t> labels;                ///< empty when the file has no `label`
   std::vector<Eigen::Vector3i> triangles;
@@ -30,5 +34,21 @@ struct TriangleMesh
   */
 TriangleMesh
 readMeshPLY (const std::string& path);
+
+/** \brief Writes \a mesh as binary little-endian PLY, atomically (temporary file, then
+  * rename): x y z, then nx ny nz, red green blue and label where the mesh has them — what
+  * readMeshPLY reads back and pcl_viewer or MeshLab open. Throws cuefusion::Error naming the
+  * file when a per-vertex list's length is not the vertices' or a triangle names a vertex
+  * the mesh does not have.
+  */
+void
+writeMeshPLY (const std::string& path, const TriangleMesh& mesh);
+
+/** \brief \a mesh as PCL holds meshes: a cloud with the fields of pcl::PointXYZRGBL (alpha
+  * 255; colour and label 0 where the mesh has none) followed by those of pcl::Normal
+  * (zero where the mesh has none), one polygon per triangle.
+  */
+pcl::PolygonMesh
+toPolygonMesh (const TriangleMesh& mesh);
 }  // namespace io
 }  // namespace cuefusion

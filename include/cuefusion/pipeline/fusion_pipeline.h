@@ -128,8 +128,11 @@ public:
     */
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr labelledCloud () const;
   /** \brief Marching-cubes mesh with labels as labelledCloud's, vertices coloured by
-    * segment (labelColor) when \a color_by_segment, else by the fused colour.
+    * segment (labelColor; unlabelled grey) when \a color_by_segment, else by the fused
+    * colour. io::writeMeshPLY writes it.
     */
+  io::TriangleMesh labelledTriangleMesh (bool color_by_segment = true) const;
+  /** \brief labelledTriangleMesh as a pcl::PolygonMesh (io::toPolygonMesh). */
   pcl::PolygonMesh labelledMesh (bool color_by_segment = true) const;
   /** \brief Refreshes and returns the records of the segments outputs show (voxel counts,
     * bounds; settled fragments counted with their object).

@@ -7,6 +7,8 @@
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
+#include <cuefusion/io/mesh_io.h>
+
 #include <pcl/PolygonMesh.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -142,8 +144,14 @@ public:
   extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::PointCloud<pcl::Normal>* normals = nullptr) const;
 
   /** \brief Triangle mesh by marching cubes over every allocated block, vertices shared
-    * between neighbouring cubes. The mesh cloud has fields x y z rgba label normal_x
-    * normal_y normal_z; triangles wind counter-clockwise seen from outside.
+    * between neighbouring cubes, each with its fused colour, label and the area-weighted
+    * normal of its triangles; triangles wind counter-clockwise seen from outside.
+    */
+  io::TriangleMesh
+  extractTriangleMesh () const;
+
+  /** \brief extractTriangleMesh () as a pcl::PolygonMesh (io::toPolygonMesh: cloud fields x
+    * y z rgba label normal_x normal_y normal_z). It takes about three times the memory.
     */
   pcl::PolygonMesh
   extractMesh () const;

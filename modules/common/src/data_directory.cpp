@@ -10,24 +10,16 @@ namespace cuefusion
 {
 namespace fs = boost::filesystem;
 
-namespace
-{
-/** \brief <folder of the file holding this function>/CUEFUSION_DATA_FROM_LIBDIR, or "" when
-  * the loader cannot say where that file is.
-  */
-fs::path
-installedDataDirectory ()
+std::string
+libraryDirectory ()
 {
   Dl_info info;
-  if (dladdr (reinterpret_cast<void*> (&installedDataDirectory), &info) == 0 || !info.dli_fname)
+  if (dladdr (reinterpret_cast<void*> (&libraryDirectory), &info) == 0 || !info.dli_fname)
     return {};
   boost::system::error_code error;
   const fs::path library = fs::canonical (info.dli_fname, error);
-  if (error)
-    return {};
-  return library.parent_path () / CUEFUSION_DATA_FROM_LIBDIR;
+  return error ? std::string () : library.parent_path ().string ();
 }
-}  // namespace
 
 std::string
 dataDirectory ()
@@ -35,9 +27,10 @@ dataDirectory ()
   if (const char* dir = std::getenv ("CUEFUSION_DATA_DIR"))
     if (*dir)
       return dir;
-  const fs::path installed = installedDataDirectory ();
+  const std::string libraries = libraryDirectory ();
+  const fs::path installed = fs::path (libraries) / CUEFUSION_DATA_FROM_LIBDIR;
   boost::system::error_code error;
-  if (!installed.empty () && fs::is_directory (installed / "scenes", error))
+  if (!libraries.empty () && fs::is_directory (installed / "scenes", error))
     return installed.lexically_normal ().string ();
   return CUEFUSION_SOURCE_DATA_DIR;
 }

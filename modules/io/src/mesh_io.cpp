@@ -1,5 +1,11 @@
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/file_io.h>
+#include <cuefusion/io/map_io.h>
 #include <cuefusion/io/mesh_io.h>
+
+#include <pcl/common/io.h>
+#include <pcl/conversions.h>
+#include <pcl/point_types.h>
 
 #include <algorithm>
 #include <cmath>
@@ -181,13 +187,14 @@ readPlyHeader (PlyInput& ply)
   return elements;
 }
 
-/** The vertex element: positions, colours (red, green, blue) and labels when present. */
+/** The vertex element: positions, normals (nx, ny, nz), colours (red, green, blue) and
+  * labels when present. */
 void
 readPlyVertices (PlyInput& ply, const Element& e, TriangleMesh& mesh)
 {
   const std::string& path = ply.path;
   std::size_t stride = 0;
-  int ix = -1, iy = -1, iz = -1, ir = -1, ig = -1, ib = -1, il = -1;
+  int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, ir = -1, ig = -1, ib = -1, il = -1;
   std::vector<std::size_t> offsets;
   for (std::size_t k = 0; k < e.properties.size (); ++k)
   {
@@ -200,6 +207,9 @@ readPlyVertices (PlyInput& ply, const Element& e, TriangleMesh& mesh)
     if (p.name == "x") ix = index;
     else if (p.name == "y") iy = index;
     else if (p.name == "z") iz = index;
+    else if (p.name == "nx") inx = index;
+    else if (p.name == "ny") iny = index;
+    else if (p.name == "nz") inz = index;
     else if (p.name == "red") ir = index;
     else if (p.name == "green") ig = index;
     else if (p.name == "blue") ib = index;
@@ -208,6 +218,7 @@ readPlyVertices (PlyInput& ply, const Element& e, TriangleMesh& mesh)
   if (ix < 0 || iy < 0 || iz < 0)
     throw Error (path, "PLY vertices have no x, y, z");
   const bool color = ir >= 0 && ig >= 0 && ib >= 0;
+  const bool normal = inx >= 0 && iny >= 0 && inz >= 0;
   if (e.count > ply.left () / stride)
     throw Error (path, "PLY declares " + std::to_string (e.count) + " vertices but the file holds " +
                          std::to_string (ply.left () / stride) + " (truncated?)");
@@ -215,6 +226,8 @@ readPlyVertices (PlyInput& ply, const Element& e, TriangleMesh& mesh)
   if (!ply.in.read (data.data (), static_cast<std::streamsize> (data.size ())))
     throw Error (path, "PLY file ends inside its vertex data (truncated?)");
   mesh.vertices.resize (e.count);
+  if (normal)
+    mesh.normals.resize (e.count);
   if (color)
     mesh.colors.resize (e.count);
   if (il >= 0)
@@ -226,6 +239,9 @@ readPlyVertices (PlyInput& ply, const Element& e, TriangleMesh& mesh)
   {
     mesh.vertices[v] = Eigen::Vector3f (static_cast<float> (value (v, ix)), static_cast<float> (value (v, iy)),
                                         static_cast<float> (value (v, iz)));
+    if (normal)
+      mesh.normals[v] = Eigen::Vector3f (static_cast<float> (value (v, inx)), static_cast<float> (value (v, iny)),
+                                         static_cast<float> (value (v, inz)));
     if (color)
       mesh.colors[v] = {colorByte (value (v, ir)), colorByte (value (v, ig)), colorByte (value (v, ib))};
     if (il >= 0)
@@ -334,6 +350,186 @@ readMeshPLY (const std::string& path)
   if (!have_vertices)
     throw Error (path, "PLY file has no vertex element");
   return mesh;
+}
+namespace
+{
+template <typename T>
+void
+put (std::ostream& out, const T& value)
+{
+  out.write (reinterpret_cast<const char*> (&value), sizeof value);
+}
+
+/** What a PLY mesh written by cuefusion holds. */
+struct PlyLayout
+{
+  std::size_t vertices = 0, faces = 0;
+  bool normals = false, colors = false, labels = false;
+};
+
+/** Writes the header of \a layout, then lets \a body write the vertex and face records;
+  * atomically (temporary file, then rename). */
+template <typename Body>
+void
+writePly (const std::string& path, const PlyLayout& layout, Body body)
+{
+  std::ostringstream header;
+  header << "ply\nformat binary_little_endian 1.0\ncomment written by cuefusion\n"
+         << "element vertex " << layout.vertices << "\nproperty float x\nproperty float y\nproperty float z\n";
+  if (layout.normals)
+    header << "property float nx\nproperty float ny\nproperty float nz\n";
+  if (layout.colors)
+    header << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (layout.labels)
+    header << "property uint label\n";
+  header << "element face " << layout.faces << "\nproperty list uchar int vertex_indices\nend_header\n";
+  writeFileAtomic (path, [&] (const std::string& tmp) {
+    std::ofstream out (tmp, std::ios::binary);
+    out << header.str ();
+    body (out);
+    out.close ();
+    return static_cast<bool> (out);
+  });
+}
+}  // namespace
+
+void
+writeMeshPLY (const std::string& path, const TriangleMesh& mesh)
+{
+  const FileContext context (path);
+  const std::size_t n = mesh.vertices.size ();
+  const auto check = [&] (std::size_t count, const char* what) {
+    if (count != 0 && count != n)
+      throw Error (path, "mesh has " + std::to_string (count) + " " + what + " for " + std::to_string (n) + " vertices");
+  };
+  check (mesh.normals.size (), "normals");
+  check (mesh.colors.size (), "colours");
+  check (mesh.labels.size (), "labels");
+  for (const Eigen::Vector3i& t : mesh.triangles)
+    if ((t.array () < 0).any () || (t.array () >= static_cast<int> (std::min<std::size_t> (n, 0x7fffffff))).any ())
+      throw Error (path, "mesh face indexes a vertex it does not have");
+  const PlyLayout layout{n, mesh.triangles.size (), !mesh.normals.empty (), !mesh.colors.empty (), !mesh.labels.empty ()};
+  writePly (path, layout, [&] (std::ostream& out) {
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      for (int k = 0; k < 3; ++k)
+        put (out, mesh.vertices[i][k]);
+      if (layout.normals)
+        for (int k = 0; k < 3; ++k)
+          put (out, mesh.normals[i][k]);
+      if (layout.colors)
+        for (const std::uint8_t c : mesh.colors[i])
+          put (out, c);
+      if (layout.labels)
+        put (out, mesh.labels[i]);
+    }
+    for (const Eigen::Vector3i& t : mesh.triangles)
+    {
+      put (out, std::uint8_t (3));
+      for (int k = 0; k < 3; ++k)
+        put (out, static_cast<std::int32_t> (t[k]));
+    }
+  });
+}
+
+// PCL's own PLY writer drops the label field, which is the point of a labelled mesh.
+void
+saveMeshPLY (const std::string& path, const pcl::PolygonMesh& mesh)
+{
+  const FileContext context (path);
+  if (!hasField (mesh.cloud, "x") || !hasField (mesh.cloud, "y") || !hasField (mesh.cloud, "z"))
+    throw Error (path, "mesh has no vertex positions");
+  pcl::PointCloud<pcl::PointXYZRGBL> points;
+  pcl::PointCloud<pcl::Normal> normals;
+  pcl::fromPCLPointCloud2 (mesh.cloud, points);
+  PlyLayout layout;
+  layout.vertices = points.size ();
+  layout.faces = mesh.polygons.size ();
+  layout.normals = hasField (mesh.cloud, "normal_x");
+  layout.colors = hasField (mesh.cloud, "rgb") || hasField (mesh.cloud, "rgba");
+  layout.labels = hasField (mesh.cloud, "label");
+  if (layout.normals)
+    pcl::fromPCLPointCloud2 (mesh.cloud, normals);
+  const auto vertex_count = static_cast<pcl::index_t> (points.size ());
+  for (const auto& face : mesh.polygons)
+  {
+    if (face.vertices.size () > 255)
+      throw Error (path, "mesh has a face of more than 255 vertices");
+    for (const auto v : face.vertices)
+      if (v < 0 || v >= vertex_count)
+        throw Error (path, "mesh face indexes a vertex it does not have");
+  }
+  writePly (path, layout, [&] (std::ostream& out) {
+    for (std::size_t i = 0; i < points.size (); ++i)
+    {
+      const auto& p = points[i];
+      put (out, p.x);
+      put (out, p.y);
+      put (out, p.z);
+      if (layout.normals)
+      {
+        put (out, normals[i].normal_x);
+        put (out, normals[i].normal_y);
+        put (out, normals[i].normal_z);
+      }
+      if (layout.colors)
+      {
+        put (out, p.r);
+        put (out, p.g);
+        put (out, p.b);
+      }
+      if (layout.labels)
+        put (out, static_cast<std::uint32_t> (p.label));
+    }
+    for (const auto& face : mesh.polygons)
+    {
+      put (out, static_cast<std::uint8_t> (face.vertices.size ()));
+      for (const auto v : face.vertices)
+        put (out, static_cast<std::int32_t> (v));
+    }
+  });
+}
+
+pcl::PolygonMesh
+toPolygonMesh (const TriangleMesh& mesh)
+{
+  const std::size_t n = mesh.vertices.size ();
+  pcl::PolygonMesh out;
+  pcl::PCLPointCloud2 a, b;
+  {
+    pcl::PointCloud<pcl::PointXYZRGBL> points;
+    points.resize (n);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      pcl::PointXYZRGBL& p = points[i];
+      p.getVector3fMap () = mesh.vertices[i];
+      if (!mesh.colors.empty ())
+      {
+        p.r = mesh.colors[i][0];
+        p.g = mesh.colors[i][1];
+        p.b = mesh.colors[i][2];
+      }
+      p.a = 255;
+      p.label = mesh.labels.empty () ? 0 : mesh.labels[i];
+    }
+    pcl::toPCLPointCloud2 (points, a);
+  }
+  {
+    pcl::PointCloud<pcl::Normal> normals;
+    normals.resize (n);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      normals[i].getNormalVector3fMap () = mesh.normals.empty () ? Eigen::Vector3f::Zero () : mesh.normals[i];
+      normals[i].curvature = 0.f;
+    }
+    pcl::toPCLPointCloud2 (normals, b);
+  }
+  pcl::concatenateFields (a, b, out.cloud);
+  out.polygons.resize (mesh.triangles.size ());
+  for (std::size_t t = 0; t < mesh.triangles.size (); ++t)
+    out.polygons[t].vertices = {static_cast<pcl::index_t> (mesh.triangles[t][0]), static_cast<pcl::index_t> (mesh.triangles[t][1]),
+                                static_cast<pcl::index_t> (mesh.triangles[t][2])};
+  return out;
 }
 }  // namespace io
 }  // namespace cuefusion

@@ -229,37 +229,28 @@ FusionPipeline::labelledCloud () const
   return cloud;
 }
 
-pcl::PolygonMesh
-FusionPipeline::labelledMesh (bool color_by_segment) const
+io::TriangleMesh
+FusionPipeline::labelledTriangleMesh (bool color_by_segment) const
 {
-  pcl::PolygonMesh mesh = reconstruction_.volume ().extractMesh ();
-  int label_offset = -1, color_offset = -1;
-  for (const auto& field : mesh.cloud.fields)
-  {
-    if (field.name == "label")
-      label_offset = static_cast<int> (field.offset);
-    if (field.name == "rgba" || field.name == "rgb")
-      color_offset = static_cast<int> (field.offset);
-  }
-  if (label_offset < 0)
-    return mesh;
+  io::TriangleMesh mesh = reconstruction_.volume ().extractTriangleMesh ();
   refreshSettled (true);
-  const std::size_t points = static_cast<std::size_t> (mesh.cloud.width) * mesh.cloud.height;
-  for (std::size_t i = 0; i < points; ++i)
+  for (std::size_t i = 0; i < mesh.labels.size (); ++i)
   {
-    std::uint8_t* point = mesh.cloud.data.data () + i * mesh.cloud.point_step;
-    std::uint32_t label;
-    std::memcpy (&label, point + label_offset, sizeof label);
-    label = settledLabel (label, true);
-    std::memcpy (point + label_offset, &label, sizeof label);
-    if (color_by_segment && color_offset >= 0)
+    const std::uint32_t label = settledLabel (mesh.labels[i], true);
+    mesh.labels[i] = label;
+    if (color_by_segment)
     {
       const cv::Vec3b rgb = label ? labelColor (label) : cv::Vec3b (160, 160, 160);
-      const std::uint32_t packed = 0xff000000u | (std::uint32_t (rgb[0]) << 16) | (std::uint32_t (rgb[1]) << 8) | rgb[2];
-      std::memcpy (point + color_offset, &packed, sizeof packed);
+      mesh.colors[i] = {rgb[0], rgb[1], rgb[2]};
     }
   }
   return mesh;
+}
+
+pcl::PolygonMesh
+FusionPipeline::labelledMesh (bool color_by_segment) const
+{
+  return io::toPolygonMesh (labelledTriangleMesh (color_by_segment));
 }
 
 std::vector<segmentation::SegmentRecord>

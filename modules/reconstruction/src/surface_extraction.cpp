@@ -4,8 +4,6 @@
 #include <cuefusion/common/parallel.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
-#include <pcl/common/io.h>
-#include <pcl/conversions.h>
 #include <pcl/surface/marching_cubes.h>  // pcl::edgeTable, pcl::triTable (Bourke's tables)
 
 #include <unordered_map>
@@ -91,19 +89,6 @@ edgeAxis (std::uint64_t key)
   return static_cast<int> ((key >> 60) & 3u);
 }
 
-/** \brief The mesh's vertex cloud: positions, colour, label, then normals. Each input is
-  * released once converted, so the three blobs are never all alive beside both clouds. */
-pcl::PCLPointCloud2
-toMeshCloud (pcl::PointCloud<pcl::PointXYZRGBL>&& points, pcl::PointCloud<pcl::Normal>&& normals)
-{
-  pcl::PCLPointCloud2 a, b, out;
-  pcl::toPCLPointCloud2 (points, a);
-  pcl::PointCloud<pcl::PointXYZRGBL> ().swap (points);
-  pcl::toPCLPointCloud2 (normals, b);
-  pcl::PointCloud<pcl::Normal> ().swap (normals);
-  pcl::concatenateFields (a, b, out);
-  return out;
-}
 }  // namespace
 
 void
@@ -170,8 +155,8 @@ TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::P
   }
 }
 
-pcl::PolygonMesh
-TSDFVolume::extractMesh () const
+io::TriangleMesh
+TSDFVolume::extractTriangleMesh () const
 {
   // Pass 1 (parallel over blocks): for every cube with a surface, the keys of its crossed
   // edges in the tables' edge order, and its triangles as edge keys. Pass 2 (serial, in block
@@ -229,67 +214,75 @@ TSDFVolume::extractMesh () const
     }
   });
 
-  pcl::PointCloud<pcl::PointXYZRGBL> points;
+  // Vertices numbered where first met; then sampled into a cloud of exactly their number.
   std::unordered_map<std::uint64_t, pcl::index_t> vertex_of;
+  std::vector<std::uint64_t> first_met;
+  for (auto& part : parts)
+  {
+    for (const std::uint64_t edge : part.edges)
+      if (vertex_of.emplace (edge & ~kReversed, static_cast<pcl::index_t> (first_met.size ())).second)
+        first_met.push_back (edge);
+    std::vector<std::uint64_t> ().swap (part.edges);
+  }
+  io::TriangleMesh mesh;
+  mesh.vertices.reserve (first_met.size ());
+  mesh.colors.reserve (first_met.size ());
+  mesh.labels.reserve (first_met.size ());
   {
     detail::VoxelAccessor access (*this);
-    for (auto& part : parts)
+    for (const std::uint64_t edge : first_met)
     {
-      for (const std::uint64_t edge : part.edges)
-      {
-        const std::uint64_t key = edge & ~kReversed;
-        if (!vertex_of.emplace (key, static_cast<pcl::index_t> (points.size ())).second)
-          continue;
-        // The sample as the cube that met the edge first takes it: from its corner
-        // kEdge[e][0] to kEdge[e][1] (the direction decides rounding and the label at t = 0.5).
-        const Eigen::Vector3i lower = edgeLower (key), upper = lower + Eigen::Vector3i::Unit (edgeAxis (key));
-        const Eigen::Vector3i& from = (edge & kReversed) ? upper : lower;
-        const Eigen::Vector3i& to = (edge & kReversed) ? lower : upper;
-        points.push_back (toPoint (sampleEdge (*access.get (from), *access.get (to), voxelPosition (from), voxelPosition (to))));
-      }
-      std::vector<std::uint64_t> ().swap (part.edges);
+      // The sample as the cube that met the edge first takes it: from its corner
+      // kEdge[e][0] to kEdge[e][1] (the direction decides rounding and the label at t = 0.5).
+      const std::uint64_t key = edge & ~kReversed;
+      const Eigen::Vector3i lower = edgeLower (key), upper = lower + Eigen::Vector3i::Unit (edgeAxis (key));
+      const Eigen::Vector3i& from = (edge & kReversed) ? upper : lower;
+      const Eigen::Vector3i& to = (edge & kReversed) ? lower : upper;
+      const EdgeSample sample = sampleEdge (*access.get (from), *access.get (to), voxelPosition (from), voxelPosition (to));
+      mesh.vertices.push_back (sample.position);
+      mesh.colors.push_back ({sample.r, sample.g, sample.b});
+      mesh.labels.push_back (sample.label);
     }
   }
+  std::vector<std::uint64_t> ().swap (first_met);
 
-  pcl::PolygonMesh mesh;
   std::size_t corner_count = 0;
   for (const auto& part : parts)
     corner_count += part.corners.size ();
-  mesh.polygons.reserve (corner_count / 3);
-  std::vector<Eigen::Vector3f> accumulated (points.size (), Eigen::Vector3f::Zero ());
+  mesh.triangles.reserve (corner_count / 3);
+  // Area-weighted triangle normals summed per vertex, normalised below (in place).
+  mesh.normals.assign (mesh.vertices.size (), Eigen::Vector3f::Zero ());
   for (auto& part : parts)
   {
     for (std::size_t t = 0; t + 2 < part.corners.size (); t += 3)
     {
-      pcl::Vertices face;
       // With "inside" meaning sdf < 0, the table's order winds counter-clockwise seen from
       // outside, so face normals point into free space (checked by the tests).
-      face.vertices = {vertex_of.at (part.corners[t]), vertex_of.at (part.corners[t + 1]), vertex_of.at (part.corners[t + 2])};
-      if (face.vertices[0] == face.vertices[1] || face.vertices[1] == face.vertices[2] || face.vertices[0] == face.vertices[2])
+      const Eigen::Vector3i face (vertex_of.at (part.corners[t]), vertex_of.at (part.corners[t + 1]), vertex_of.at (part.corners[t + 2]));
+      if (face[0] == face[1] || face[1] == face[2] || face[0] == face[2])
         continue;
-      const Eigen::Vector3f a = points[static_cast<std::size_t> (face.vertices[0])].getVector3fMap ();
-      const Eigen::Vector3f b = points[static_cast<std::size_t> (face.vertices[1])].getVector3fMap ();
-      const Eigen::Vector3f c = points[static_cast<std::size_t> (face.vertices[2])].getVector3fMap ();
+      const Eigen::Vector3f& a = mesh.vertices[static_cast<std::size_t> (face[0])];
+      const Eigen::Vector3f& b = mesh.vertices[static_cast<std::size_t> (face[1])];
+      const Eigen::Vector3f& c = mesh.vertices[static_cast<std::size_t> (face[2])];
       const Eigen::Vector3f area_normal = (b - a).cross (c - a);
-      for (const pcl::index_t v : face.vertices)
-        accumulated[static_cast<std::size_t> (v)] += area_normal;
-      mesh.polygons.push_back (std::move (face));
+      for (int k = 0; k < 3; ++k)
+        mesh.normals[static_cast<std::size_t> (face[k])] += area_normal;
+      mesh.triangles.push_back (face);
     }
     std::vector<std::uint64_t> ().swap (part.corners);
   }
-  std::unordered_map<std::uint64_t, pcl::index_t> ().swap (vertex_of);
-  std::vector<BlockTriangles> ().swap (parts);
-  pcl::PointCloud<pcl::Normal> normals;
-  normals.resize (points.size ());
-  for (std::size_t i = 0; i < points.size (); ++i)
+  for (Eigen::Vector3f& normal : mesh.normals)
   {
-    const float norm = accumulated[i].norm ();
-    normals[i].getNormalVector3fMap () = norm > 0.f ? Eigen::Vector3f (accumulated[i] / norm) : Eigen::Vector3f::Zero ();
-    normals[i].curvature = 0.f;
+    const float norm = normal.norm ();
+    normal = norm > 0.f ? Eigen::Vector3f (normal / norm) : Eigen::Vector3f::Zero ();
   }
-  std::vector<Eigen::Vector3f> ().swap (accumulated);
-  mesh.cloud = toMeshCloud (std::move (points), std::move (normals));
   return mesh;
+}
+
+pcl::PolygonMesh
+TSDFVolume::extractMesh () const
+{
+  return io::toPolygonMesh (extractTriangleMesh ());
 }
 }  // namespace reconstruction
 }  // namespace cuefusion

@@ -1,0 +1,79 @@
+// io::writeMeshPLY and io::toPolygonMesh against readMeshPLY and saveMeshPLY.
+#include "test_utils.h"
+
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/map_io.h>
+#include <cuefusion/io/mesh_io.h>
+
+#include <boost/filesystem.hpp>
+#include <gtest/gtest.h>
+
+#include <random>
+
+using namespace cuefusion;
+using cuefusion::test::TempDir;
+
+namespace
+{
+io::TriangleMesh
+randomMesh (std::size_t vertices, std::size_t triangles, unsigned seed)
+{
+  std::mt19937 rng (seed);
+  std::uniform_real_distribution<float> coordinate (-2.f, 2.f);
+  std::uniform_int_distribution<int> byte (0, 255), vertex (0, static_cast<int> (vertices) - 1);
+  io::TriangleMesh mesh;
+  for (std::size_t i = 0; i < vertices; ++i)
+  {
+    mesh.vertices.emplace_back (coordinate (rng), coordinate (rng), coordinate (rng));
+    mesh.normals.push_back (Eigen::Vector3f (coordinate (rng), coordinate (rng), coordinate (rng)).normalized ());
+    mesh.colors.push_back ({static_cast<std::uint8_t> (byte (rng)), static_cast<std::uint8_t> (byte (rng)),
+                            static_cast<std::uint8_t> (byte (rng))});
+    mesh.labels.push_back (static_cast<std::uint32_t> (rng ()));
+  }
+  for (std::size_t t = 0; t < triangles; ++t)
+    mesh.triangles.emplace_back (vertex (rng), vertex (rng), vertex (rng));
+  return mesh;
+}
+}  // namespace
+
+TEST (MeshIO, AWrittenMeshReadsBackExactlyAndAsPclWritesIt)
+{
+  TempDir dir;
+  const io::TriangleMesh mesh = randomMesh (500, 900, 3);
+  io::writeMeshPLY (dir / "mesh.ply", mesh);
+  const io::TriangleMesh back = io::readMeshPLY (dir / "mesh.ply");
+  EXPECT_EQ (back.vertices, mesh.vertices);
+  EXPECT_EQ (back.normals, mesh.normals);
+  EXPECT_EQ (back.colors, mesh.colors);
+  EXPECT_EQ (back.labels, mesh.labels);
+  EXPECT_EQ (back.triangles, mesh.triangles);
+  // The PolygonMesh form of the same mesh is written byte for byte alike.
+  io::saveMeshPLY (dir / "pcl.ply", io::toPolygonMesh (mesh));
+  EXPECT_EQ (test::readFile (dir / "pcl.ply"), test::readFile (dir / "mesh.ply"));
+
+  // Without normals, colours and labels: positions and faces only.
+  io::TriangleMesh bare = mesh;
+  bare.normals.clear ();
+  bare.colors.clear ();
+  bare.labels.clear ();
+  io::writeMeshPLY (dir / "bare.ply", bare);
+  const io::TriangleMesh bare_back = io::readMeshPLY (dir / "bare.ply");
+  EXPECT_EQ (bare_back.vertices, mesh.vertices);
+  EXPECT_TRUE (bare_back.normals.empty () && bare_back.colors.empty () && bare_back.labels.empty ());
+  EXPECT_EQ (bare_back.triangles, mesh.triangles);
+}
+
+TEST (MeshIO, AnInconsistentMeshIsRefusedAndNothingIsWritten)
+{
+  TempDir dir;
+  io::TriangleMesh short_labels = randomMesh (20, 10, 4);
+  short_labels.labels.pop_back ();
+  test::expectError ([&] { io::writeMeshPLY (dir / "a.ply", short_labels); }, "a.ply", "19 labels for 20 vertices");
+  io::TriangleMesh bad_face = randomMesh (20, 10, 5);
+  bad_face.triangles[3][1] = 20;
+  test::expectError ([&] { io::writeMeshPLY (dir / "b.ply", bad_face); }, "b.ply", "indexes a vertex");
+  bad_face.triangles[3][1] = -1;
+  test::expectError ([&] { io::writeMeshPLY (dir / "b.ply", bad_face); }, "b.ply", "indexes a vertex");
+  EXPECT_FALSE (boost::filesystem::exists (dir / "a.ply"));
+  EXPECT_FALSE (boost::filesystem::exists (dir / "b.ply"));
+}
