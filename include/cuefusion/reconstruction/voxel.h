@@ -224,17 +224,49 @@ projectiveTsdf (float depth, float voxel_z, float truncation, float& tsdf)
   return true;
 }
 
+/** \brief a + (b − a) · t, for one value (T = float) or eight (T = __m256, with GCC's
+  * vector arithmetic): the ray caster's scalar and eight-ray paths share these formulas,
+  * so both give the same bits. Always inlined, so that an eight-lane use compiles in its
+  * caller's AVX2 context.
+  */
+// Eight-lane values passed by value in a file compiled without AVX would change the ABI,
+// GCC notes; these are always inlined into their AVX2 callers, so no call passes one.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+template <typename T>
+__attribute__ ((always_inline)) inline T
+blend (T a, T b, T t)
+{
+  return a + (b - a) * t;
+}
+
+/** \brief Trilinear blend of eight corner values c[i], corner i = (i&1, (i>>1)&1, (i>>2)&1),
+  * at the fractions (fx, fy, fz) of the cell; T as for blend. */
+template <typename T>
+__attribute__ ((always_inline)) inline T
+trilinearBlend (const T* c, T fx, T fy, T fz)
+{
+  const T x0 = blend (c[0], c[1], fx), x1 = blend (c[2], c[3], fx), x2 = blend (c[4], c[5], fx), x3 = blend (c[6], c[7], fx);
+  return blend (blend (x0, x1, fy), blend (x2, x3, fy), fz);
+}
+
+/** \brief The gradient of trilinearBlend within the cell (per unit of fraction); T as for
+  * blend. */
+template <typename T>
+__attribute__ ((always_inline)) inline void
+trilinearGradient (const T* c, T fx, T fy, T fz, T& gx, T& gy, T& gz)
+{
+  gx = blend (blend (c[1] - c[0], c[3] - c[2], fy), blend (c[5] - c[4], c[7] - c[6], fy), fz);
+  gy = blend (blend (c[2] - c[0], c[3] - c[1], fx), blend (c[6] - c[4], c[7] - c[5], fx), fz);
+  gz = blend (blend (c[4] - c[0], c[5] - c[1], fx), blend (c[6] - c[2], c[7] - c[3], fx), fy);
+}
+#pragma GCC diagnostic pop
+
 /** \brief Trilinear blend of eight corner values c[i], corner i = (i&1, (i>>1)&1, (i>>2)&1). */
 inline float
 trilinear (const std::array<float, 8>& c, const Eigen::Vector3f& f)
 {
-  const float x0 = c[0] + (c[1] - c[0]) * f.x ();
-  const float x1 = c[2] + (c[3] - c[2]) * f.x ();
-  const float x2 = c[4] + (c[5] - c[4]) * f.x ();
-  const float x3 = c[6] + (c[7] - c[6]) * f.x ();
-  const float y0 = x0 + (x1 - x0) * f.y ();
-  const float y1 = x2 + (x3 - x2) * f.y ();
-  return y0 + (y1 - y0) * f.z ();
+  return trilinearBlend (c.data (), f.x (), f.y (), f.z ());
 }
 
 /** \brief Position of the zero crossing between two samples along an edge, as a fraction

@@ -286,12 +286,11 @@ refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, co
   return 0.f;
 }
 #ifdef CUEFUSION_HAVE_AVX2_KERNELS
-CUEFUSION_AVX2 inline __m256
-lerp8 (__m256 a, __m256 b, __m256 t)
-{
-  return _mm256_add_ps (a, _mm256_mul_ps (_mm256_sub_ps (b, a), t));
-}
-
+// blend, trilinearBlend and trilinearGradient (voxel.h) are instantiated below for eight
+// lanes in a file compiled without AVX; GCC notes (at the end of the file, hence no pop)
+// that passing such values by value would change the ABI. They are always inlined into
+// the AVX2 functions, so no call ever passes one.
+#pragma GCC diagnostic ignored "-Wpsabi"
 /** \brief refineNearHint for eight rays at once (lanes whose bit is set in \a lanes):
   * the cells are read per lane, the trilinear value, gradient and Newton step are computed
   * for all eight in AVX2. On return z[i] > 0 and grad[3][i] for the rays that settled,
@@ -392,15 +391,13 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
     }
     read &= ~_mm256_movemask_ps (_mm256_castsi256_ps (unobserved));
     const __m256 fx = _mm256_sub_ps (gx, flx), fy = _mm256_sub_ps (gy, fly), fz = _mm256_sub_ps (gz, flz);
-    // trilinear () and VoxelAccessor::interpolate's gradient, lane by lane.
-    const __m256 x0 = lerp8 (v[0], v[1], fx), x1 = lerp8 (v[2], v[3], fx), x2 = lerp8 (v[4], v[5], fx), x3 = lerp8 (v[6], v[7], fx);
-    const __m256 f = _mm256_mul_ps (lerp8 (lerp8 (x0, x1, fy), lerp8 (x2, x3, fy), fz), scale);
-    const __m256 grad_x = _mm256_mul_ps (lerp8 (lerp8 (_mm256_sub_ps (v[1], v[0]), _mm256_sub_ps (v[3], v[2]), fy),
-                                                lerp8 (_mm256_sub_ps (v[5], v[4]), _mm256_sub_ps (v[7], v[6]), fy), fz), scale);
-    const __m256 grad_y = _mm256_mul_ps (lerp8 (lerp8 (_mm256_sub_ps (v[2], v[0]), _mm256_sub_ps (v[3], v[1]), fx),
-                                                lerp8 (_mm256_sub_ps (v[6], v[4]), _mm256_sub_ps (v[7], v[5]), fx), fz), scale);
-    const __m256 grad_z = _mm256_mul_ps (lerp8 (lerp8 (_mm256_sub_ps (v[4], v[0]), _mm256_sub_ps (v[5], v[1]), fx),
-                                                lerp8 (_mm256_sub_ps (v[6], v[2]), _mm256_sub_ps (v[7], v[3]), fx), fy), scale);
+    // The scalar path's formulas (voxel.h, VoxelAccessor::interpolate), eight lanes at once.
+    const __m256 f = _mm256_mul_ps (trilinearBlend (v, fx, fy, fz), scale);
+    __m256 grad_x, grad_y, grad_z;
+    trilinearGradient (v, fx, fy, fz, grad_x, grad_y, grad_z);
+    grad_x = _mm256_mul_ps (grad_x, scale);
+    grad_y = _mm256_mul_ps (grad_y, scale);
+    grad_z = _mm256_mul_ps (grad_z, scale);
     const __m256i bits = _mm256_setr_epi32 (1, 2, 4, 8, 16, 32, 64, 128);
     __m256 ok = _mm256_castsi256_ps (
         _mm256_cmpeq_epi32 (_mm256_and_si256 (_mm256_set1_epi32 (read), bits), bits));

@@ -115,12 +115,11 @@ public:
     if (!cell (lower, v))
       return false;
     const Eigen::Vector3f f = g - lower.cast<float> ();
-    const auto lerp = [] (float a, float b, float t) { return a + (b - a) * t; };
     constexpr float scale = 1.f / kDistanceScale;
-    grad.x () = lerp (lerp (v[1] - v[0], v[3] - v[2], f.y ()), lerp (v[5] - v[4], v[7] - v[6], f.y ()), f.z ()) * scale;
-    grad.y () = lerp (lerp (v[2] - v[0], v[3] - v[1], f.x ()), lerp (v[6] - v[4], v[7] - v[5], f.x ()), f.z ()) * scale;
-    grad.z () = lerp (lerp (v[4] - v[0], v[5] - v[1], f.x ()), lerp (v[6] - v[2], v[7] - v[3], f.x ()), f.y ()) * scale;
-    sdf = trilinear (v, f) * scale;
+    float gx, gy, gz;
+    trilinearGradient (v.data (), f.x (), f.y (), f.z (), gx, gy, gz);
+    grad = Eigen::Vector3f (gx * scale, gy * scale, gz * scale);
+    sdf = trilinearBlend (v.data (), f.x (), f.y (), f.z ()) * scale;
     return true;
   }
 
