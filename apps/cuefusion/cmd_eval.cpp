@@ -475,7 +475,7 @@ scoreInstanceAP (const EvalSettings& s, const io::GroundTruthCloud& gt_cloud, co
   {
     const RunData& run = runs[k];
     const std::string map_path = (fs::path (run.dir) / "map.pcd").string ();
-    pcl::PointCloud<pcl::PointXYZL>::Ptr map (new pcl::PointCloud<pcl::PointXYZL>);
+    pcl::PointCloud<pcl::PointXYZL>::Ptr map = pcl::make_shared<pcl::PointCloud<pcl::PointXYZL>> ();
     pcl::fromPCLPointCloud2 (io::readPCD (map_path, {"x", "y", "z", "label"}), *map);
     evaluation::InstanceEvaluationInput input;
     input.truth.reserve (gt_cloud.cloud->size ());

@@ -55,7 +55,7 @@ loadOrganizedPCD (const std::string& path)
   const pcl::PCLPointCloud2 blob = io::readPCD (path);
   if (blob.height < 2 || blob.width * blob.height == 0)
     throw Error (path, "PCD is not organized (height " + std::to_string (blob.height) + "); segment-frame needs an image-shaped cloud");
-  Cloud::Ptr cloud (new Cloud);
+  Cloud::Ptr cloud = pcl::make_shared<Cloud> ();
   pcl::fromPCLPointCloud2 (blob, *cloud);
   if (!hasField (blob, "rgb") && !hasField (blob, "rgba"))
     for (auto& p : cloud->points)
@@ -78,7 +78,7 @@ loadDepthPNG (const std::string& path, const PinholeCamera& camera, double units
     if (color.size () != depth.size ())
       throw Error (rgb_path, "colour image size differs from the depth image's");
   }
-  Cloud::Ptr cloud (new Cloud (depth.cols, depth.rows));
+  Cloud::Ptr cloud = pcl::make_shared<Cloud> (depth.cols, depth.rows);
   const float nan = std::numeric_limits<float>::quiet_NaN ();
   for (int y = 0; y < depth.rows; ++y)
     for (int x = 0; x < depth.cols; ++x)

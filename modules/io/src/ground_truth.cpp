@@ -71,7 +71,7 @@ readScanNetGroundTruth (const ScanNetGroundTruthFiles& files, const std::set<std
   {
     throw Error (files.aggregation, std::string ("not a ScanNet aggregation file (segGroups with objectId, label, segments): ") + e.what ());
   }
-  gt.cloud.reset (new pcl::PointCloud<pcl::PointXYZL>);
+  gt.cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZL>> ();
   gt.cloud->resize (mesh.vertices.size ());
   for (std::size_t i = 0; i < mesh.vertices.size (); ++i)
   {
@@ -133,7 +133,7 @@ readSyntheticGroundTruth (const std::string& folder)
   const pcl::PCLPointCloud2 blob = readPCD (cloud_path.string (), {"x", "y", "z", "label"});
   GroundTruthCloud gt;
   gt.source = cloud_path.string ();
-  gt.cloud.reset (new pcl::PointCloud<pcl::PointXYZL>);
+  gt.cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZL>> ();
   pcl::fromPCLPointCloud2 (blob, *gt.cloud);
   const fs::path scene = fs::path (folder) / "scene.json";
   if (fs::exists (scene))

@@ -221,7 +221,7 @@ FusionPipeline::modelLabels () const
 pcl::PointCloud<pcl::PointXYZRGBL>::Ptr
 FusionPipeline::labelledCloud () const
 {
-  pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZRGBL>);
+  pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGBL>> ();
   reconstruction_.volume ().extractPointCloud (*cloud);
   refreshSettled (true);
   for (auto& p : cloud->points)

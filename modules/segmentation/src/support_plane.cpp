@@ -23,7 +23,7 @@ removeSupportPlane (const SurfacePlanes& planes, const SupportPlaneRemovalConfig
   CV_Assert (labels.type () == CV_32S && labels.cols == w && labels.rows == h);
   auto vertex = [&planes] (std::size_t i) { return Eigen::Vector3f (planes.x[i], planes.y[i], planes.z[i]); };
 
-  pcl::PointCloud<pcl::PointXYZ>::Ptr samples (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr samples = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>> ();
   for (int y = 0; y < h; y += config.sample_step)
     for (int x = 0; x < w; x += config.sample_step)
     {

@@ -47,7 +47,7 @@ preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& confi
     computeNormalPlanes (planes, config.normal_step, config.max_depth_jump);
   else
   {
-    pcl::PointCloud<pcl::PointXYZ>::Ptr points (new pcl::PointCloud<pcl::PointXYZ> (w, h));
+    pcl::PointCloud<pcl::PointXYZ>::Ptr points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>> (w, h);
     for (std::size_t i = 0; i < points->size (); ++i)
       (*points)[i] = pcl::PointXYZ (planes.x[i], planes.y[i], planes.z[i]);
     pcl::PointCloud<pcl::Normal> normals;

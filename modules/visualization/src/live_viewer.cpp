@@ -131,7 +131,7 @@ LiveViewer::spinOnce (int ms)
   if (map && !map->empty ())
   {
     // Colour by segment with the project's fixed palette (label 0 grey).
-    pcl::PointCloud<pcl::PointXYZRGB>::Ptr colored (new pcl::PointCloud<pcl::PointXYZRGB>);
+    pcl::PointCloud<pcl::PointXYZRGB>::Ptr colored = pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGB>> ();
     colored->resize (map->size ());
     for (std::size_t i = 0; i < map->size (); ++i)
     {
