@@ -87,7 +87,7 @@ private:
 /** What `run` writes into --out (outputs.json, written last, marks a complete set). */
 const std::vector<std::string> kRunOutputs = {"map.pcd",        "mesh.ply",      "segments.json",
                                               "trajectory.txt", "reference_trajectory.txt",
-                                              "volume.tsdf",    "volume.keyframes", "tracking.json",
+                                              "volume.tsdf",    "volume.labels",    "volume.keyframes", "tracking.json",
                                               "timings.json",   "labels",           "outputs.json"};
 
 struct RunOutputs
@@ -197,7 +197,7 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
 }
 }  // namespace
 
-/** --load-volume: \a path and the .keyframes beside it continued by \a fusion. --voxel,
+/** --load-volume: \a path and the .labels and .keyframes beside it continued by \a fusion. --voxel,
   * --truncation and --max-depth are the volume's; given with other values they are refused. */
 void
 continueSavedVolume (const std::string& path, const po::variables_map& vm, const reconstruction::KeyframeDatabaseConfig& keyframes,
@@ -215,15 +215,17 @@ continueSavedVolume (const std::string& path, const po::variables_map& vm, const
       why << "the loaded volume " << path << " has " << value << "; leave it out or give the same";
       throw ParameterError (std::string ("--") + option, why.str ());
     }
+  segmentation::VoxelLabelLayer labels =
+      segmentation::VoxelLabelLayer::load (fs::path (path).replace_extension (".labels").string (), volume);
   const std::string keyframes_path = fs::path (path).replace_extension (".keyframes").string ();
   boost::system::error_code ec;
   if (fs::exists (keyframes_path, ec))
-    fusion.continueFrom (std::move (volume), reconstruction::KeyframeDatabase::load (keyframes_path));
+    fusion.continueFrom (std::move (volume), std::move (labels), reconstruction::KeyframeDatabase::load (keyframes_path));
   else
   {
     std::cerr << "cuefusion run: no " << keyframes_path << " beside the volume: the first frame can be placed only at "
               << "the sequence's own pose\n";
-    fusion.continueFrom (std::move (volume), reconstruction::KeyframeDatabase (keyframes));
+    fusion.continueFrom (std::move (volume), std::move (labels), reconstruction::KeyframeDatabase (keyframes));
   }
 }
 
@@ -241,8 +243,8 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("no-motion-model", po::bool_switch (&s.no_motion_model), "tracking: start ICP at the last pose instead of the constant-velocity prediction")
     ("no-noise-weighting", po::bool_switch (&s.no_noise_weighting), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
     ("hole-refresh", po::value (&s.hole_refresh)->default_value (s.hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
-    ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf, labels as map.pcd's) and the relocalisation keyframes (volume.keyframes)")
-    ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (and the volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
+    ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf), its voxels' labels as map.pcd's (volume.labels) and the relocalisation keyframes (volume.keyframes)")
+    ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (with the volume.labels and volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
     ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
     ("color-split", po::value (&s.color_split)->default_value (s.color_split),
      "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
@@ -689,7 +691,7 @@ RunSession::writeOutputs ()
   if (!result_.reference.empty ())  // for evaluating the estimate with any TUM tool
     io::writeTumTrajectory (staged ("reference_trajectory.txt"), result_.reference);
   if (s_.save_volume)
-    fusion_.saveVolume (staged ("volume.tsdf"), staged ("volume.keyframes"));
+    fusion_.saveVolume (staged ("volume.tsdf"), staged ("volume.labels"), staged ("volume.keyframes"));
   io::writeTextAtomic (staged ("tracking.json"), trackingJson ().dump (2) + "\n");
   io::writeTextAtomic (staged ("timings.json"),
                        timingsJson (result_.reports, result_.segmentation, result_.volume_bytes, result_.loop_ms).dump (2) + "\n");

@@ -180,6 +180,7 @@ TEST_F (Cli, RunContinuesASavedVolume)
   ASSERT_EQ (r.code, 0) << r.err;
   const nlohmann::json first_outputs = nlohmann::json::parse (test::readFile (dir / "first/outputs.json"));
   EXPECT_NE (first_outputs["files"].dump ().find ("volume.keyframes"), std::string::npos) << first_outputs.dump ();
+  EXPECT_NE (first_outputs["files"].dump ().find ("volume.labels"), std::string::npos) << first_outputs.dump ();
   const nlohmann::json first_segments = nlohmann::json::parse (test::readFile (dir / "first/segments.json"))["segments"];
 
   // The voxel size comes from the volume; the first frame is placed by the sequence's own
@@ -216,6 +217,12 @@ TEST_F (Cli, RunContinuesASavedVolume)
   EXPECT_EQ (r.code, 1);
   EXPECT_EQ (lines (r.err), 1) << r.err;
   EXPECT_NE (r.err.find (dir / "first/volume.keyframes"), std::string::npos) << r.err;
+  // Without the voxels' labels beside it: refused, naming the file.
+  boost::filesystem::rename (dir / "first/volume.labels", dir / "volume.labels");
+  r = run ("run " + seq + " --load-volume " + (dir / "first/volume.tsdf") + " --out " + (dir / "bad"));
+  EXPECT_EQ (r.code, 1);
+  EXPECT_EQ (lines (r.err), 1) << r.err;
+  EXPECT_NE (r.err.find (dir / "first/volume.labels"), std::string::npos) << r.err;
   r = run ("batch " + seq + " --load-volume " + (dir / "first/volume.tsdf") + " --out " + (dir / "bad"));
   EXPECT_EQ (r.code, 2);
   EXPECT_NE (r.err.find ("--load-volume"), std::string::npos) << r.err;

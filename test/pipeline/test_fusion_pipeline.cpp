@@ -452,12 +452,13 @@ TEST (FusionPipeline, AContinuedMapKeepsItsObjects)
   const test::TempDir dir;
   pipeline::FusionPipeline first = withReferencePoses (pipeline::SegmentationMode::Fused);
   fuseFrames (first, sequence, 0, 20);
-  first.saveVolume (dir / "volume.tsdf", dir / "volume.keyframes");
+  first.saveVolume (dir / "volume.tsdf", dir / "volume.labels", dir / "volume.keyframes");
   const auto saved = first.labelledCloud ();
 
   pipeline::FusionPipeline continued = withReferencePoses (pipeline::SegmentationMode::Fused);
-  continued.continueFrom (reconstruction::TSDFVolume::load (dir / "volume.tsdf"),
-                          reconstruction::KeyframeDatabase::load (dir / "volume.keyframes"));
+  reconstruction::TSDFVolume volume = reconstruction::TSDFVolume::load (dir / "volume.tsdf");
+  segmentation::VoxelLabelLayer labels = segmentation::VoxelLabelLayer::load (dir / "volume.labels", volume);
+  continued.continueFrom (std::move (volume), std::move (labels), reconstruction::KeyframeDatabase::load (dir / "volume.keyframes"));
   const auto loaded = continued.labelledCloud ();
   ASSERT_EQ (loaded->size (), saved->size ());
   std::map<std::uint32_t, std::uint32_t> forward, backward;  // saved ↔ loaded labels, one for one

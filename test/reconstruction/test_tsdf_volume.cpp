@@ -48,6 +48,21 @@ analyticSurface (const io::SyntheticScene& scene, const Eigen::Vector3d& p, doub
 }
 }  // namespace
 
+namespace
+{
+/** \brief Distance from \a p to the voxel numbered \a v (its block id and index). */
+float
+nearerVoxelDistance (const TSDFVolume& volume, VoxelNumber v, const Eigen::Vector3f& p)
+{
+  const std::size_t id = v / kBlockVoxels, local = v % kBlockVoxels;
+  if (id >= volume.blockCount ())
+    return std::numeric_limits<float>::infinity ();
+  const Eigen::Vector3i offset (static_cast<int> (local % kBlockSide), static_cast<int> ((local / kBlockSide) % kBlockSide),
+                                static_cast<int> (local / (kBlockSide * kBlockSide)));
+  return (volume.voxelPosition (volume.blocks ()[id]->index * kBlockSide + offset) - p).norm ();
+}
+}  // namespace
+
 TEST (TSDFVolume, SurfacePointsLieOnTheAnalyticSurface)
 {
   const io::SyntheticScene scene = test::sphereAndBoxScene ();
@@ -55,9 +70,15 @@ TEST (TSDFVolume, SurfacePointsLieOnTheAnalyticSurface)
   test::integrateOrbit (scene, 16, volume);
   pcl::PointCloud<pcl::PointXYZRGBL> cloud;
   pcl::PointCloud<pcl::Normal> normals;
-  volume.extractPointCloud (cloud, &normals);
+  // Labelled by the number of the voxel nearer each point (+ 1, 0 being "none").
+  volume.extractPointCloud (cloud, &normals, [] (VoxelNumber v) { return v + 1; });
   ASSERT_EQ (cloud.size (), normals.size ());
   ASSERT_GT (cloud.size (), 5000u);
+  for (const pcl::PointXYZRGBL& p : cloud)
+  {
+    ASSERT_GT (p.label, 0u);
+    ASSERT_LE (nearerVoxelDistance (volume, p.label - 1, p.getVector3fMap ()), 0.5f * volume.getConfig ().voxel_size + 1e-5f);
+  }
   std::vector<double> distance, sphere_distance, angle;
   for (std::size_t i = 0; i < cloud.size (); ++i)
   {
@@ -65,7 +86,7 @@ TEST (TSDFVolume, SurfacePointsLieOnTheAnalyticSurface)
     Eigen::Vector3d n;
     analyticSurface (scene, cloud[i].getVector3fMap ().cast<double> (), d, n);
     distance.push_back (std::abs (d));
-    if (cloud[i].label == 0 && (cloud[i].getVector3fMap ().cast<double> () - scene.objects[0].parts[0].center).norm () < 0.2)
+    if ((cloud[i].getVector3fMap ().cast<double> () - scene.objects[0].parts[0].center).norm () < 0.2)
       sphere_distance.push_back (std::abs (d));
     if (std::isfinite (normals[i].normal_x))
       angle.push_back (std::acos (std::clamp (n.dot (normals[i].getNormalVector3fMap ().cast<double> ()), -1.0, 1.0)) * 180.0 / M_PI);
@@ -187,10 +208,13 @@ TEST (TSDFVolume, MeshVerticesLieOnTheSurfaceAndFacesPointOutwards)
   const io::SyntheticScene scene = test::sphereAndBoxScene ();
   TSDFVolume volume;
   test::integrateOrbit (scene, 16, volume);
-  const pcl::PolygonMesh mesh = volume.extractMesh ();
+  const pcl::PolygonMesh mesh = volume.extractMesh ([] (VoxelNumber v) { return v + 1; });
   pcl::PointCloud<pcl::PointXYZRGBL> points;
   pcl::fromPCLPointCloud2 (mesh.cloud, points);
   ASSERT_GT (mesh.polygons.size (), 10000u);
+  for (const pcl::PointXYZRGBL& p : points)  // each vertex labelled by its nearer voxel
+    ASSERT_LE (nearerVoxelDistance (volume, p.label - 1, p.getVector3fMap ()), 0.5f * volume.getConfig ().voxel_size + 1e-5f);
+  EXPECT_TRUE (volume.extractTriangleMesh ().labels.empty ());  // no label function, no labels
   std::vector<std::string> fields;
   for (const auto& f : mesh.cloud.fields)
     fields.push_back (f.name);
@@ -267,8 +291,6 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
   config.bounds = Eigen::AlignedBox3d (Eigen::Vector3d (-1, -1, 0), Eigen::Vector3d (1, 1, 2));
   TSDFVolume volume (config);
   test::integrateOrbit (scene, 4, volume);
-  volume.voxels (0)[5].label = 42;
-  volume.voxels (0)[5].label_confidence = 7;
   test::TempDir dir;
   const std::string path = dir.str () + "/volume.tsdf";
   volume.save (path);
@@ -278,7 +300,7 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
   EXPECT_TRUE (loaded.getConfig ().bounds->isApprox (*config.bounds));
   ASSERT_EQ (loaded.blockCount (), volume.blockCount ());
   // Both volumes mirror each block's first layers in its neighbours' aprons (what cells
-  // across blocks read), and refreshDistances () keeps them so after a direct write.
+  // across blocks read): load () rebuilds them whatever order the blocks come in.
   {
     SCOPED_TRACE ("integrated");
     expectDistanceLayersMatchTheVoxels (volume);
@@ -294,15 +316,6 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
     EXPECT_EQ (std::memcmp (loaded.blocks ()[static_cast<std::size_t> (id)]->voxels.data (), block->voxels.data (),
                             sizeof (TsdfVoxel) * kBlockVoxels), 0);
   }
-  for (std::size_t id = 0; id < volume.blocks ().size (); ++id)
-  {
-    TsdfVoxel& corner = volume.voxels (id)[0];  // on three of the block's lower faces
-    corner.sdf = 0.25f;
-    corner.weight = 3.f;
-    volume.refreshDistances (id);
-  }
-  SCOPED_TRACE ("written directly");
-  expectDistanceLayersMatchTheVoxels (volume);
 
   // Damaged files are refused with the file's name.
   const std::string bytes = test::readFile (path);
@@ -312,6 +325,9 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
   other[8] = 9;  // version
   test::writeFile (path + ".v9", other);
   test::expectError ([&] { TSDFVolume::load (path + ".v9"); }, path + ".v9", "version 9");
+  other[8] = 1;  // cuefusion 0.1's, with the labels inside the voxels
+  test::writeFile (path + ".v1", other);
+  test::expectError ([&] { TSDFVolume::load (path + ".v1"); }, path + ".v1", "version 1");
   test::writeFile (path + ".txt", "not a volume at all, just some text that is long enough to hold a header.........");
   test::expectError ([&] { TSDFVolume::load (path + ".txt"); }, path + ".txt", "not a cuefusion volume");
   test::expectError ([&] { TSDFVolume::load (dir.str () + "/missing.tsdf"); }, "missing.tsdf", "cannot open");

@@ -152,47 +152,6 @@ TEST (VectorKernels, IntegrationUsesTheImageBorder)
   EXPECT_LE (differs, 2u + border / 50);
 }
 
-TEST (VectorKernels, IntegrationLeavesTheLabelLayerAlone)
-{
-  // The vector kernel stores whole rows of voxels back: label and label_confidence, which
-  // integration never changes, must come out as they went in, in both kernels.
-  const io::SyntheticScene scene = test::sphereAndBoxScene (320, 240);
-  const std::vector<io::RenderedView> views = viewsWithHoles (scene, 3);
-  for (const bool vector : {false, true})
-  {
-    if (vector && !cpuHasAvx2Fma ())
-      continue;
-    const KernelChoice choice (vector);
-    TSDFVolumeConfig config;
-    config.voxel_size = 0.01;
-    TSDFVolume volume (config);
-    volume.integrate (views[0].depth, views[0].color, scene.camera, scene.trajectory.poseAt (0.0));
-    const auto label_of = [] (std::size_t block, std::size_t i) { return static_cast<std::uint32_t> (block * 1000 + i + 1); };
-    for (std::size_t b = 0; b < volume.blockCount (); ++b)
-      for (std::size_t i = 0; i < static_cast<std::size_t> (kBlockVoxels); ++i)
-      {
-        volume.voxels (b)[i].label = label_of (b, i);
-        volume.voxels (b)[i].label_confidence = static_cast<std::uint8_t> ((b + i) % 11);
-      }
-    const std::size_t labelled_blocks = volume.blockCount ();
-    const std::vector<TsdfVoxel> before (volume.blocks ()[0]->voxels.begin (), volume.blocks ()[0]->voxels.end ());
-    for (std::size_t k = 1; k < views.size (); ++k)
-      volume.integrate (views[k].depth, views[k].color, scene.camera,
-                        scene.trajectory.poseAt (static_cast<double> (k) / static_cast<double> (views.size ())));
-    std::size_t changed = 0, updated = 0;
-    for (std::size_t b = 0; b < labelled_blocks; ++b)
-      for (std::size_t i = 0; i < static_cast<std::size_t> (kBlockVoxels); ++i)
-      {
-        const TsdfVoxel& voxel = volume.voxels (b)[i];
-        changed += voxel.label != label_of (b, i) || voxel.label_confidence != (b + i) % 11;
-      }
-    for (std::size_t i = 0; i < before.size (); ++i)
-      updated += volume.blocks ()[0]->voxels[i].weight != before[i].weight;
-    EXPECT_EQ (changed, 0u) << (vector ? "vector" : "scalar") << " kernel";
-    EXPECT_GT (updated, 0u) << "the later views must reach the labelled voxels";
-  }
-}
-
 TEST (VectorKernels, ICPFindsTheScalarMotion)
 {
   if (!cpuHasAvx2Fma ())

@@ -148,6 +148,16 @@ protected:
     volume_config.voxel_size = 0.01;
     volume.reset (new reconstruction::TSDFVolume (volume_config));
     volume->setRecordObservedSurface (true);
+    layer.reset ();
+  }
+
+  /** L^m of a raycast: the labels of the voxels it hit. */
+  cv::Mat
+  modelLabels (const reconstruction::RaycastResult& model) const
+  {
+    cv::Mat labels;
+    layer.labelImage (model.voxels, labels);
+    return labels;
   }
 
   /** L_t for frame i: the true instances under ids that change every frame, so that only
@@ -180,12 +190,12 @@ protected:
     reconstruction::computeNormalMap (vertices, normals);
     PropagationResult result;
     propagation.propagate (vertices, normals, frame_labels_override.empty () ? frameLabels (*frame, i) : frame_labels_override,
-                           model.vertices, model.normals, model.labels, map, i, result);
+                           model.vertices, model.normals, modelLabels (model), map, i, result);
     // CUEFUSION_TEST_VERBOSE=1 lists the merges the map confirms.
     const std::size_t changed = map.addEvidence (result.votes);
     if (std::getenv ("CUEFUSION_TEST_VERBOSE") && changed)
       std::cerr << "frame " << i << ": " << changed << " labels changed object\n";
-    writes += updateVoxelLabels (*volume, result.labels, map);
+    writes += updateVoxelLabels (*volume, layer, result.labels, map);
     truth = frame->instance_mask;
     return result.labels;
   }
@@ -212,6 +222,7 @@ protected:
 
   std::unique_ptr<io::SyntheticSequence> sequence;
   std::unique_ptr<reconstruction::TSDFVolume> volume;
+  VoxelLabelLayer layer;
   GlobalSegmentMap map;
   SegmentPropagation propagation;
   cv::Mat truth;
@@ -242,7 +253,7 @@ TEST_F (PropagationFixture, LabelsStayStableOverAStaticSequence)
       distinct.insert (label);
   EXPECT_GE (distinct.size (), 6u);
   EXPECT_EQ (distinct.size (), static_cast<std::size_t> (std::count_if (first.begin (), first.end (), [] (const auto& e) { return e.second != 0; })));
-  map.refreshStatistics (*volume);
+  map.refreshStatistics (*volume, layer);
   for (const std::uint32_t label : distinct)
   {
     ASSERT_TRUE (map.record (label));
@@ -257,7 +268,7 @@ TEST_F (PropagationFixture, OneNoisyFrameDoesNotFlipVoxelLabelsAndMergesWriteNoV
   reconstruction::RaycastResult model;
   const Eigen::Isometry3d pose = sequence->poseAt (11);
   volume->raycast (sequence->camera (), pose, model);
-  const cv::Mat before = resolveLabels (model.labels, map);
+  const cv::Mat before = resolveLabels (modelLabels (model), map);
   const std::uint32_t mug = majority (before, 5), ball = majority (before, 6);
   ASSERT_NE (mug, 0u);
   ASSERT_NE (ball, 0u);
@@ -267,23 +278,22 @@ TEST_F (PropagationFixture, OneNoisyFrameDoesNotFlipVoxelLabelsAndMergesWriteNoV
   const RGBDFrame::Ptr frame = sequence->frame (11);
   cv::Mat wrong = cv::Mat::zeros (frame->instance_mask.size (), CV_32S);
   wrong.setTo (static_cast<int> (ball), frame->instance_mask == 5);
-  updateVoxelLabels (*volume, wrong, map);
+  updateVoxelLabels (*volume, layer, wrong, map);
   volume->raycast (sequence->camera (), pose, model);
-  EXPECT_EQ (majority (resolveLabels (model.labels, map), 5), mug);
+  EXPECT_EQ (majority (resolveLabels (modelLabels (model), map), 5), mug);
 
   // A merge is an equivalence entry: no voxel changes, yet reads resolve to one label.
   std::vector<std::uint32_t> stored;
-  for (const auto& block : volume->blocks ())
-    for (const auto& voxel : block->voxels)
-      stored.push_back (voxel.label);
+  for (std::size_t id = 0; id < layer.blockCount (); ++id)
+    stored.insert (stored.end (), layer.block (id).labels.begin (), layer.block (id).labels.end ());
   EXPECT_EQ (map.merge (mug, ball), std::min (mug, ball));
   std::size_t k = 0, changed = 0;
-  for (const auto& block : volume->blocks ())
-    for (const auto& voxel : block->voxels)
-      changed += voxel.label != stored[k++] ? 1 : 0;
+  for (std::size_t id = 0; id < layer.blockCount (); ++id)
+    for (const std::uint32_t label : layer.block (id).labels)
+      changed += label != stored[k++] ? 1 : 0;
   EXPECT_EQ (changed, 0u);
   volume->raycast (sequence->camera (), pose, model);
-  const cv::Mat after = resolveLabels (model.labels, map);
+  const cv::Mat after = resolveLabels (modelLabels (model), map);
   EXPECT_EQ (majority (after, 5), majority (after, 6));
 }
 
@@ -304,12 +314,14 @@ TEST_F (PropagationFixture, VectorKernelsLabelTheMapAsTheScalarOnes)
     map = GlobalSegmentMap ();
     for (std::size_t i = 0; i < 10; ++i)
       propagated[vector].push_back (step (i).clone ());
-    for (const auto& block : volume->blocks ())
+    for (std::size_t id = 0; id < layer.blockCount (); ++id)
       for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
       {
-        const reconstruction::TsdfVoxel& v = block->voxels[static_cast<std::size_t> (i)];
-        if (v.label != 0)
-          labelled[vector][{block->index.x (), block->index.y (), block->index.z (), i}] = {map.resolve (v.label), v.label_confidence};
+        const Eigen::Vector3i& index = volume->blocks ()[id]->index;
+        const std::uint32_t label = layer.block (id).labels[static_cast<std::size_t> (i)];
+        if (label != 0)
+          labelled[vector][{index.x (), index.y (), index.z (), i}] = {map.resolve (label),
+                                                                       layer.block (id).confidence[static_cast<std::size_t> (i)]};
       }
   }
   setVectorKernelsEnabled (before);
@@ -369,7 +381,7 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
         }
       VoxelLabelUpdateConfig config;
       config.band = band;
-      const std::size_t writes = updateVoxelLabels (*volume, labels, GlobalSegmentMap (), config);
+      const std::size_t writes = updateVoxelLabels (*volume, layer, labels, GlobalSegmentMap (), config);
 
       std::set<std::size_t> expected, labelled;
       const Eigen::Isometry3d world_to_camera = pose.inverse ();
@@ -380,7 +392,7 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
         {
           const std::size_t key = static_cast<std::size_t> (id) * reconstruction::kBlockVoxels + static_cast<std::size_t> (i);
           const reconstruction::TsdfVoxel& voxel = block.voxels[static_cast<std::size_t> (i)];
-          if (voxel.label != 0)
+          if (layer.label (static_cast<reconstruction::VoxelNumber> (key)) != 0)
             labelled.insert (key);
           const auto it = weight_before.find (key);
           if (!(voxel.weight > (it == weight_before.end () ? 0.f : it->second)))
@@ -412,11 +424,63 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
   // Misuse: a volume that does not record what it integrates, or L^p of another size.
   volume->setRecordObservedSurface (false);
   volume->integrate (frame->depth, frame->color, camera, pose);
-  EXPECT_THROW (updateVoxelLabels (*volume, labels, GlobalSegmentMap ()), Error);
+  EXPECT_THROW (updateVoxelLabels (*volume, layer, labels, GlobalSegmentMap ()), Error);
   volume->setRecordObservedSurface (true);
   volume->integrate (frame->depth, frame->color, camera, pose);
-  EXPECT_THROW (updateVoxelLabels (*volume, labels.colRange (0, 100).clone (), GlobalSegmentMap ()), Error);
-  EXPECT_GT (updateVoxelLabels (*volume, labels, GlobalSegmentMap ()), 0u);
+  EXPECT_THROW (updateVoxelLabels (*volume, layer, labels.colRange (0, 100).clone (), GlobalSegmentMap ()), Error);
+  EXPECT_GT (updateVoxelLabels (*volume, layer, labels, GlobalSegmentMap ()), 0u);
+}
+
+TEST_F (PropagationFixture, LabelLayerKeysTheVolumesVoxelsAndItsFileRoundTrips)
+{
+  for (std::size_t i = 0; i < 4; ++i)
+    step (i);
+  ASSERT_EQ (layer.blockCount (), volume->blockCount ());
+  // L^m: each pixel shows the label of the voxel the raycast reports, 0 where it hit none.
+  const reconstruction::RaycastResult model = volume->raycast (sequence->camera (), sequence->poseAt (3));
+  const cv::Mat labels = modelLabels (model);
+  int hits = 0, labelled = 0;
+  for (int y = 0; y < labels.rows; ++y)
+    for (int x = 0; x < labels.cols; ++x)
+    {
+      const auto v = static_cast<reconstruction::VoxelNumber> (model.voxels.at<std::int32_t> (y, x));
+      const bool hit = std::isfinite (model.vertices.at<cv::Vec3f> (y, x)[0]);
+      ASSERT_EQ (v != reconstruction::kNoVoxel, hit) << x << "," << y;
+      ASSERT_EQ (static_cast<std::uint32_t> (labels.at<std::int32_t> (y, x)), hit ? layer.label (v) : 0u);
+      hits += hit;
+      labelled += labels.at<std::int32_t> (y, x) != 0;
+    }
+  EXPECT_GT (labelled, hits / 2);
+
+  // Saved with a label map, loaded for the same volume: every voxel's label mapped, Ψ kept.
+  test::TempDir dir;
+  const std::string path = dir / "volume.labels";
+  layer.save (path, *volume, [] (std::uint32_t label) { return label + 1000; });
+  const VoxelLabelLayer loaded = VoxelLabelLayer::load (path, *volume);
+  ASSERT_EQ (loaded.blockCount (), volume->blockCount ());
+  std::size_t voxels = 0;
+  for (reconstruction::VoxelNumber v = 0; v < volume->blockCount () * reconstruction::kBlockVoxels; ++v)
+  {
+    const std::uint32_t label = layer.label (v);
+    ASSERT_EQ (loaded.label (v), label != 0 ? label + 1000 : 0u) << v;
+    ASSERT_EQ (loaded.confidence (v), layer.confidence (v)) << v;
+    voxels += label != 0;
+  }
+  EXPECT_GT (voxels, 20000u);
+  EXPECT_EQ (loaded.label (reconstruction::kNoVoxel), 0u);
+
+  // Damaged files, and a volume without the file's blocks, are refused naming the file.
+  const std::string bytes = test::readFile (path);
+  test::writeFile (path + ".cut", bytes.substr (0, bytes.size () - 10));
+  test::expectError ([&] { VoxelLabelLayer::load (path + ".cut", *volume); }, path + ".cut", "truncated");
+  std::string other = bytes;
+  other[8] = 9;  // version
+  test::writeFile (path + ".v9", other);
+  test::expectError ([&] { VoxelLabelLayer::load (path + ".v9", *volume); }, path + ".v9", "version 9");
+  test::writeFile (path + ".txt", "not a label file, only text long enough for a header");
+  test::expectError ([&] { VoxelLabelLayer::load (path + ".txt", *volume); }, path + ".txt", "not a cuefusion label file");
+  test::expectError ([&] { VoxelLabelLayer::load (path, reconstruction::TSDFVolume ()); }, path, "does not have");
+  test::expectError ([&] { VoxelLabelLayer::load (dir / "missing.labels", *volume); }, "missing.labels", "cannot open");
 }
 
 TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)

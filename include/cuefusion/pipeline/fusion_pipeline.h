@@ -8,6 +8,7 @@
 #include <cuefusion/segmentation/instance_guided_region_merge.h>
 #include <cuefusion/segmentation/segment_propagation.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
+#include <cuefusion/segmentation/voxel_label_layer.h>
 
 #include <pcl/PolygonMesh.h>
 #include <pcl/point_cloud.h>
@@ -101,22 +102,29 @@ public:
   /** \brief Continues a saved map (before the first frame; cuefusion::Error after it):
     * the reconstruction continues \a volume and \a keyframes
     * (DenseReconstruction::continueFrom: the first frame is relocalised in it), and each
-    * label in the volume becomes a segment of the map (SegmentRecord::loaded), its voxels
-    * relabelled 1, 2, … in the order found. Save with saveVolume(), whose labels are the
-    * outputs' (one per object), so a continued map starts with the objects its outputs
-    * showed. Class votes and frame counts are not saved: segments.json counts this run's.
+    * label of \a labels (the volume's label layer, VoxelLabelLayer::load) becomes a segment
+    * of the map (SegmentRecord::loaded), its voxels relabelled 1, 2, … in the order found.
+    * Save with saveVolume(), whose labels are the outputs' (one per object), so a continued
+    * map starts with the objects its outputs showed. Class votes and frame counts are not
+    * saved: segments.json counts this run's.
     */
-  void continueFrom (reconstruction::TSDFVolume volume, reconstruction::KeyframeDatabase keyframes);
+  void continueFrom (reconstruction::TSDFVolume volume, segmentation::VoxelLabelLayer labels,
+                     reconstruction::KeyframeDatabase keyframes);
 
-  /** \brief Writes the volume (TSDFVolume::save) with each voxel's label as the outputs
-    * show it (labelledCloud), and, when \a keyframes_path is not empty, the
-    * relocalisation keyframes and the last fused frame (DenseReconstruction::
-    * keyframesForContinuing, KeyframeDatabase::save): what continueFrom reads back.
+  /** \brief Writes the volume (TSDFVolume::save), its label layer with each voxel's label
+    * as the outputs show it (labelledCloud; VoxelLabelLayer::save) and, when
+    * \a keyframes_path is not empty, the relocalisation keyframes and the last fused frame
+    * (DenseReconstruction::keyframesForContinuing, KeyframeDatabase::save): what
+    * continueFrom reads back.
     */
-  void saveVolume (const std::string& volume_path, const std::string& keyframes_path) const;
+  void saveVolume (const std::string& volume_path, const std::string& labels_path, const std::string& keyframes_path) const;
 
   const reconstruction::DenseReconstruction& reconstruction () const { return reconstruction_; }
   const segmentation::GlobalSegmentMap& segmentMap () const { return map_; }
+  /** \brief The label layer beside the volume (§4.2.4): each voxel's label (as stored, not
+    * resolved) and confidence Ψ.
+    */
+  const segmentation::VoxelLabelLayer& voxelLabels () const { return labels_; }
   /** \brief The last frame's L^p (global labels), empty before the first segmented frame. */
   const cv::Mat& frameLabels () const { return frame_labels_; }
   /** \brief The model's labels seen from the last pose, as outputs show them (CV_32S). */
@@ -146,8 +154,10 @@ private:
   segmentation::InstanceGuidedRegionMerge instance_merge_;
   segmentation::SegmentPropagation propagation_;
   segmentation::GlobalSegmentMap map_;
+  segmentation::VoxelLabelLayer labels_;
   segmentation::SurfacePlanes planes_;
   cv::Mat frame_labels_;
+  cv::Mat model_labels_;  ///< L^m of the last segmented frame: labels_ read through the model's voxels
   /** \brief The output label of \a label (GlobalSegmentMap::settledLabels). Exact for
     * the written outputs; for per-frame views (\a exact false) the table may be up to
     * kViewSettleFrames frames old (it scans the whole volume), and labels made since show

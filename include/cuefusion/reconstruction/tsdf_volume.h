@@ -40,9 +40,11 @@ struct TSDFVolumeConfig
   void validate () const;
 };
 
-/** \brief What the volume looks like from a camera (§4.1.5, §4.2.2.1): the model maps
-  * V^m, N^m and L^m, all organized like the camera's image and in that camera's frame.
-  * Pixels where the ray hits no surface hold NaN vertices and normals, label 0.
+/** \brief What the volume looks like from a camera (§4.1.5): the model maps V^m and N^m,
+  * colours, and the voxel each ray hit, all organized like the camera's image and in
+  * that camera's frame. Pixels where the ray hits no surface hold NaN vertices and
+  * normals, black and kNoVoxel. Layers beside the TSDF turn the voxel numbers into their
+  * own maps (the segmentation's L^m of §4.2.2.1: segmentation::VoxelLabelLayer::labelImage).
   */
 struct RaycastResult
 {
@@ -51,7 +53,7 @@ struct RaycastResult
   cv::Mat vertices;   ///< CV_32FC3, camera frame (metres)
   cv::Mat normals;    ///< CV_32FC3, camera frame, unit, facing the camera
   cv::Mat colors;     ///< CV_8UC3 BGR
-  cv::Mat labels;     ///< CV_32S segment label of the voxel hit (0 = none)
+  cv::Mat voxels;     ///< CV_32S: VoxelNumber of the voxel nearest each hit (kNoVoxel, i.e. −1, where none)
   /// CV_8U, set by the depth-hinted raycast: 255 where the hint had a hole and the ray
   /// found no surface (the next raycast may skip searching there, see RaycastHoleSkip)
   cv::Mat empty_holes;
@@ -82,8 +84,9 @@ struct RaycastHoleSkip
   * Memory therefore grows with the observed surface, not with the bounding volume.
   *
   * Voxel (i, j, k) is the lattice point (i, j, k) · voxel_size in world coordinates.
-  * Each voxel carries a distance, weight, colour and a segment label with confidence
-  * (the label layer the global segment map writes).
+  * Each voxel carries a distance, weight and colour (TsdfVoxel); other layers key what they
+  * keep per voxel by its number (VoxelNumber: block id and index), which the raycast and
+  * the extraction report, so the volume knows nothing of them.
   *
   * integrate() and raycast() run their per-block and per-pixel loops in parallel
   * (the project's thread pool, common/parallel.h); the volume is not safe to modify from
@@ -136,33 +139,39 @@ public:
   RaycastResult
   raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose) const;
 
+  /** \brief What an extraction writes as each point's label: a function of the number of
+    * the voxel nearer the point (e.g. a label layer's lookup), called from several threads
+    * at once. Empty: label 0 / no labels.
+    */
+  using VoxelLabelFunction = std::function<std::uint32_t (VoxelNumber)>;
+
   /** \brief Surface points: the zero crossings along the x, y and z voxel edges, with
-    * interpolated colour and the label of the nearer voxel; \a normals (when given) gets
-    * the normalised TSDF gradient at each point.
+    * interpolated colour and label_of (the nearer voxel); \a normals (when given) gets the
+    * normalised TSDF gradient at each point.
     */
   void
-  extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::PointCloud<pcl::Normal>* normals = nullptr) const;
+  extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::PointCloud<pcl::Normal>* normals = nullptr,
+                     const VoxelLabelFunction& label_of = {}) const;
 
   /** \brief Triangle mesh by marching cubes over every allocated block, vertices shared
-    * between neighbouring cubes, each with its fused colour, label and the area-weighted
-    * normal of its triangles; triangles wind counter-clockwise seen from outside.
+    * between neighbouring cubes, each with its fused colour, the area-weighted normal of its
+    * triangles and, when \a label_of is given, label_of (the voxel nearer it) (labels stay
+    * empty otherwise); triangles wind counter-clockwise seen from outside.
     */
   io::TriangleMesh
-  extractTriangleMesh () const;
+  extractTriangleMesh (const VoxelLabelFunction& label_of = {}) const;
 
   /** \brief extractTriangleMesh () as a pcl::PolygonMesh (io::toPolygonMesh: cloud fields x
-    * y z rgba label normal_x normal_y normal_z). It takes about three times the memory.
+    * y z rgba [label] normal_x normal_y normal_z). It takes about three times the memory.
     */
   pcl::PolygonMesh
-  extractMesh () const;
+  extractMesh (const VoxelLabelFunction& label_of = {}) const;
 
   /** \brief Writes the whole volume (config, blocks, voxels) in a versioned binary format;
     * atomic (temporary file, then rename). Throws cuefusion::Error naming the file.
-    * \param[in] label_map when given, each voxel's label is written as label_map (label)
-    * (the segment map's output labels; the volume itself is unchanged)
     */
   void
-  save (const std::string& path, const std::function<std::uint32_t (std::uint32_t)>& label_map = {}) const;
+  save (const std::string& path) const;
 
   /** \brief Reads a volume written by save(); throws cuefusion::Error naming the file when
     * it is missing, of another format or version, or truncated.
@@ -201,16 +210,8 @@ public:
   /** \brief Block storage, indexed by block id (for the segment map and tests). */
   const std::vector<std::unique_ptr<VoxelBlock>>& blocks () const { return blocks_; }
 
-  /** \brief Rebuilds block \a id's distance copy from its voxels, and the copies of its
-    * first layer in the aprons of the blocks below it (see VoxelBlock).
-    */
-  void refreshDistances (std::size_t id);
-
-  /** \brief Writable voxels of block \a id, for the label layer (label, label_confidence).
-    * Changing sdf or weight here bypasses the block's distance copy that raycast() reads;
-    * call refreshDistances (id) afterwards if you must.
-    */
-  std::array<TsdfVoxel, kBlockVoxels>& voxels (std::size_t id) { return blocks_[id]->voxels; }
+  /** \brief Block \a id's voxels; the voxel numbered n is voxels (n / kBlockVoxels)[n % kBlockVoxels]. */
+  const std::array<TsdfVoxel, kBlockVoxels>& voxels (std::size_t id) const { return blocks_[id]->voxels; }
 
   /** \brief Id (position in blocks()) of the block with block coordinates \a index, or
     * VoxelBlockHash::kNone when it is not allocated.
@@ -221,11 +222,13 @@ public:
     return inBlockRange (index) ? hash_.find (packBlockIndex (index)) : VoxelBlockHash::kNone;
   }
 
-  /** \brief Voxel with global index \a v, or nullptr when its block is not allocated.
-    * Through the writable overload change labels only (see voxels()).
-    */
+  /** \brief Voxel with global index \a v, or nullptr when its block is not allocated. */
   const TsdfVoxel* findVoxel (const Eigen::Vector3i& v) const;
-  TsdfVoxel* findVoxel (const Eigen::Vector3i& v);
+
+  /** \brief Number of the voxel with global index \a v, or kNoVoxel when its block is not
+    * allocated.
+    */
+  VoxelNumber findVoxelNumber (const Eigen::Vector3i& v) const;
 
   /** \brief World position of voxel \a v. */
   Eigen::Vector3f
@@ -241,6 +244,11 @@ private:
 
   std::int32_t
   allocateBlock (const Eigen::Vector3i& index);
+
+  /** \brief Rebuilds block \a id's distance copy from its voxels, and the copies of its
+    * first layer in the aprons of the blocks below it (see VoxelBlock).
+    */
+  void refreshDistances (std::size_t id);
 
   /** \brief Copies block \a id's first layers into the aprons of the blocks below it. */
   void

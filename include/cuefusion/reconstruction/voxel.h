@@ -13,27 +13,41 @@ namespace cuefusion
 {
 namespace reconstruction
 {
-/** \brief One voxel of the TSDF volume (16 bytes).
+/** \brief One voxel of the TSDF volume (12 bytes).
   *
   * sdf is the truncated signed distance in units of the truncation distance, in [-1, 1]
   * (positive in front of the surface). weight is the fusion weight of §4.1.4, capped at
-  * w_max. The label layer (label, label_confidence Ψ of §4.2.4) takes 5 of the 16 bytes:
-  * a 32-bit segment label so labels never wrap on long sequences, and Ψ ≤ Ψ_max = 10
-  * fits a byte.
+  * w_max. r, g, b are the fused colour. Nothing else lives here: what other layers keep
+  * per voxel (the segmentation's labels, segmentation::VoxelLabelLayer) they keep in
+  * their own storage under the voxel's number (VoxelNumber), as voxblox keeps its label
+  * layer beside its TSDF layer.
   */
 struct TsdfVoxel
 {
   float sdf = 1.f;
   float weight = 0.f;
   std::uint8_t r = 0, g = 0, b = 0;
-  std::uint8_t label_confidence = 0;
-  std::uint32_t label = 0;
+  std::uint8_t reserved = 0;  ///< keeps the colour a 32-bit word (the AVX2 integration reads it as one)
 };
-static_assert (sizeof (TsdfVoxel) == 16, "TsdfVoxel is meant to stay 16 bytes");
+static_assert (sizeof (TsdfVoxel) == 12, "TsdfVoxel is meant to stay 12 bytes");
 
 /** \brief Voxels per block side; a block is 8³ voxels as in InfiniTAM. */
 constexpr int kBlockSide = 8;
 constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
+
+/** \brief A voxel's number in a volume: its block's id (the position in
+  * TSDFVolume::blocks (), which never changes while the block lives) × kBlockVoxels + its
+  * index in the block (localVoxelIndex). Layers beside the TSDF key their data by it;
+  * SurfaceObservation, RaycastResult::voxels and the extraction's label lookups carry it.
+  */
+using VoxelNumber = std::uint32_t;
+constexpr VoxelNumber kNoVoxel = 0xffffffffu;  ///< "no voxel" (−1 in a CV_32S image)
+
+inline VoxelNumber
+voxelNumber (std::size_t block_id, std::size_t local)
+{
+  return static_cast<VoxelNumber> (block_id * static_cast<std::size_t> (kBlockVoxels) + local);
+}
 
 /** \brief The distance layer's marker for a voxel no measurement has reached. */
 constexpr std::int16_t kUnobservedDistance = -32768;
@@ -81,9 +95,9 @@ distanceIndex (int x, int y, int z)
 
 /** \brief 8³ voxels and a compact copy of their distances.
   *
-  * The ray caster reads only distances, and reading them from the 16-byte voxels costs a
+  * The ray caster reads only distances, and reading them from the 12-byte voxels costs a
   * cell of 2×2×2 voxels four cache lines; the 2-byte copy mostly fits one, and a whole
-  * block's distances are 1.4 KiB instead of 8. The copy is 9³: besides the block's own
+  * block's distances are 1.4 KiB instead of 6. The copy is 9³: besides the block's own
   * voxels it holds an apron, a copy of the distances of the voxels one past its positive
   * faces, edges and corner, which belong to the seven neighbouring blocks on the positive
   * side (kUnobservedDistance where such a block is not allocated). So every 2×2×2 cell
@@ -163,7 +177,7 @@ copyApron (const VoxelBlock& upper, VoxelBlock& lower, int j)
   */
 struct SurfaceObservation
 {
-  std::uint32_t voxel = 0;  ///< block id × kBlockVoxels + the voxel's index in its block
+  VoxelNumber voxel = 0;    ///< the voxel's number (block id × kBlockVoxels + its index in the block)
   std::uint32_t pixel = 0;  ///< nearest pixel the voxel projects to: v << 16 | u
   float gap = 0.f;          ///< |z_voxel − D(u)| at that pixel, metres (< truncation)
 };

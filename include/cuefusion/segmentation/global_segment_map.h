@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cuefusion/segmentation/instance_guided_region_merge.h>
+#include <cuefusion/segmentation/voxel_label_layer.h>
 
 #include <Eigen/Geometry>
 
@@ -188,10 +189,10 @@ public:
   const PairEvidence& evidence () const { return evidence_; }
   std::size_t labelsAllocated () const { return next_label_ - 1; }
 
-  /** \brief Voxel counts and world bounds of every segment from \a volume's label layer
-    * (labels as stored; voxels with no weight or no label are skipped).
+  /** \brief Voxel counts and world bounds of every segment from the label layer \a labels
+    * of \a volume (labels as stored; voxels with no weight or no label are skipped).
     */
-  void refreshStatistics (const reconstruction::TSDFVolume& volume);
+  void refreshStatistics (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels);
 
   /** \brief One record per object (group of labels), under its smallest label, in
     * increasing id: frames, class votes, voxels and bounds of its labels combined. With
@@ -209,7 +210,8 @@ public:
     * other fragments), or 0 when it touches none. Labels not in the result are 0. Reads
     * the volume; nothing is written, so a fragment confirmed later shows as itself.
     */
-  std::unordered_map<std::uint32_t, std::uint32_t> settledLabels (const reconstruction::TSDFVolume& volume) const;
+  std::unordered_map<std::uint32_t, std::uint32_t> settledLabels (const reconstruction::TSDFVolume& volume,
+                                                                  const VoxelLabelLayer& labels) const;
   /** \brief The record of the object \a label belongs to; none for an unknown label. */
   std::optional<SegmentRecord> record (std::uint32_t label) const;
 

@@ -115,7 +115,7 @@ using SegmentUpdateConfig [[deprecated ("renamed VoxelLabelUpdateConfig")]] = Vo
 /** \brief §4.2.4: every voxel the frame last integrated into \a volume saw inside the
   * truncation band of the surface its pixel shows (|z_voxel − D(u)| < band · τ along that
   * pixel's ray, and |sdf| < band — voxels of surfaces hidden behind it are not touched),
-  * where that pixel of L^p carries a label, is updated: unlabelled → the pixel's label
+  * where that pixel of L^p carries a label, is updated in \a layer: unlabelled → the pixel's label
   * with Ψ = 0; the same label (resolved) → Ψ = min(Ψ + 1, Ψ_max); a different one →
   * Ψ = max(Ψ − 1, 0), and at 0 the label is replaced. Each voxel is visited once, through
   * the pixel integration projected it to (projective association), so no two pixels race
@@ -124,8 +124,8 @@ using SegmentUpdateConfig [[deprecated ("renamed VoxelLabelUpdateConfig")]] = Vo
   * voxel writes (label or Ψ changed).
   */
 std::size_t
-updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const GlobalSegmentMap& map,
-                   const VoxelLabelUpdateConfig& config = VoxelLabelUpdateConfig ());
+updateVoxelLabels (const reconstruction::TSDFVolume& volume, VoxelLabelLayer& layer, const cv::Mat& labels,
+                   const GlobalSegmentMap& map, const VoxelLabelUpdateConfig& config = VoxelLabelUpdateConfig ());
 
 /** \brief A raycast label map (voxel labels) resolved through the map's equivalence. */
 cv::Mat

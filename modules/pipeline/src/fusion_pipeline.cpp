@@ -84,30 +84,36 @@ FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
 }
 
 void
-FusionPipeline::continueFrom (reconstruction::TSDFVolume volume, reconstruction::KeyframeDatabase keyframes)
+FusionPipeline::continueFrom (reconstruction::TSDFVolume volume, segmentation::VoxelLabelLayer labels,
+                              reconstruction::KeyframeDatabase keyframes)
 {
   if (processed_ > 0)
     throw Error ("FusionPipeline::continueFrom", "must come before the first frame");
+  if (labels.blockCount () > volume.blockCount ())
+    throw Error ("FusionPipeline::continueFrom", "the label layer has more blocks than the volume");
   // Each saved label becomes a segment of this map; the voxels take its new label.
   std::unordered_map<std::uint32_t, std::uint32_t> adopted;
-  for (std::size_t id = 0; id < volume.blockCount (); ++id)
-    for (reconstruction::TsdfVoxel& voxel : volume.voxels (id))
-      if (voxel.label != 0)
+  for (std::size_t id = 0; id < labels.blockCount (); ++id)
+    for (std::uint32_t& label : labels.block (id).labels)
+      if (label != 0)
       {
-        const auto [it, fresh] = adopted.try_emplace (voxel.label, 0u);
+        const auto [it, fresh] = adopted.try_emplace (label, 0u);
         if (fresh)
           it->second = map_.newLoadedSegment (0);
-        voxel.label = it->second;
+        label = it->second;
       }
+  labels_ = std::move (labels);
   reconstruction_.continueFrom (std::move (volume), std::move (keyframes));
   settled_at_ = static_cast<std::size_t> (-1);
 }
 
 void
-FusionPipeline::saveVolume (const std::string& volume_path, const std::string& keyframes_path) const
+FusionPipeline::saveVolume (const std::string& volume_path, const std::string& labels_path,
+                            const std::string& keyframes_path) const
 {
   refreshSettled (true);
-  reconstruction_.volume ().save (volume_path, [this] (std::uint32_t label) { return settledLabel (label, true); });
+  reconstruction_.volume ().save (volume_path);
+  labels_.save (labels_path, reconstruction_.volume (), [this] (std::uint32_t label) { return settledLabel (label, true); });
   if (!keyframes_path.empty ())
     reconstruction_.keyframesForContinuing ().save (keyframes_path);
 }
@@ -160,8 +166,9 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   watch.reset ();
   const reconstruction::PyramidLevel& level = reconstruction_.framePyramid ().front ();
   const reconstruction::RaycastResult& model = reconstruction_.model ();
+  labels_.labelImage (model.voxels, model_labels_);
   segmentation::PropagationResult propagated;
-  propagation_.propagate (level.vertices, level.normals, frame_segments, model.vertices, model.normals, model.labels, map_,
+  propagation_.propagate (level.vertices, level.normals, frame_segments, model.vertices, model.normals, model_labels_, map_,
                           frame.index, propagated, info.empty () ? nullptr : &info);
   frame_labels_ = propagated.labels;
   report.fresh_segments = propagated.fresh;
@@ -173,7 +180,8 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   report.merges = map_.addEvidence (propagated.votes);
   report.segmentation.merging_ms = watch.getTime ();
   watch.reset ();
-  report.voxel_writes = segmentation::updateVoxelLabels (reconstruction_.volume (), propagated.labels, map_, config_.update);
+  report.voxel_writes =
+      segmentation::updateVoxelLabels (reconstruction_.volume (), labels_, propagated.labels, map_, config_.update);
   report.segmentation.update_ms = watch.getTime ();
   return report;
 }
@@ -185,7 +193,7 @@ FusionPipeline::refreshSettled (bool exact) const
                      (exact ? settled_at_ != processed_ : processed_ - settled_at_ >= kViewSettleFrames);
   if (!stale)
     return;
-  settled_ = map_.settledLabels (reconstruction_.volume ());
+  settled_ = map_.settledLabels (reconstruction_.volume (), labels_);
   settled_at_ = processed_;
   settled_end_ = static_cast<std::uint32_t> (map_.labelsAllocated () + 1);
 }
@@ -204,7 +212,7 @@ FusionPipeline::settledLabel (std::uint32_t label, bool exact) const
 cv::Mat
 FusionPipeline::modelLabels () const
 {
-  const cv::Mat& labels = reconstruction_.model ().labels;
+  const cv::Mat& labels = model_labels_;
   if (labels.empty ())
     return cv::Mat ();
   refreshSettled (false);
@@ -222,22 +230,22 @@ pcl::PointCloud<pcl::PointXYZRGBL>::Ptr
 FusionPipeline::labelledCloud () const
 {
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGBL>> ();
-  reconstruction_.volume ().extractPointCloud (*cloud);
   refreshSettled (true);
-  for (auto& p : cloud->points)
-    p.label = settledLabel (p.label, true);
+  reconstruction_.volume ().extractPointCloud (*cloud, nullptr, [this] (reconstruction::VoxelNumber v) {
+    return settledLabel (labels_.label (v), true);
+  });
   return cloud;
 }
 
 io::TriangleMesh
 FusionPipeline::labelledTriangleMesh (bool color_by_segment) const
 {
-  io::TriangleMesh mesh = reconstruction_.volume ().extractTriangleMesh ();
   refreshSettled (true);
+  io::TriangleMesh mesh = reconstruction_.volume ().extractTriangleMesh (
+      [this] (reconstruction::VoxelNumber v) { return settledLabel (labels_.label (v), true); });
   for (std::size_t i = 0; i < mesh.labels.size (); ++i)
   {
-    const std::uint32_t label = settledLabel (mesh.labels[i], true);
-    mesh.labels[i] = label;
+    const std::uint32_t label = mesh.labels[i];
     if (color_by_segment)
     {
       const cv::Vec3b rgb = label ? labelColor (label) : cv::Vec3b (160, 160, 160);
@@ -256,7 +264,7 @@ FusionPipeline::labelledMesh (bool color_by_segment) const
 std::vector<segmentation::SegmentRecord>
 FusionPipeline::segments ()
 {
-  map_.refreshStatistics (reconstruction_.volume ());
+  map_.refreshStatistics (reconstruction_.volume (), labels_);
   refreshSettled (true);
   std::vector<segmentation::SegmentRecord> all = map_.segments (&settled_), kept;
   for (auto& s : all)

@@ -97,44 +97,39 @@ usableDepth8 (__m256 d, __m256 min_depth, __m256 max_depth)
   return _mm256_and_ps (_mm256_cmp_ps (d, min_depth, _CMP_GE_OQ), _mm256_cmp_ps (d, max_depth, _CMP_LE_OQ));
 }
 
-/** \brief Eight consecutive 16-byte voxels at \a p (four unaligned loads) as four vectors of
-  * their 32-bit fields: sdf, weight, the colour word (r, g, b, label_confidence) and the
-  * label, lane i holding voxel i.
+/** \brief Eight consecutive 12-byte voxels at \a p (three unaligned loads) as three vectors
+  * of their 32-bit fields: sdf, weight and the colour word (r, g, b, reserved), lane i
+  * holding voxel i.
+  *
+  * The 24 floats repeat sdf, weight, colour, so each load holds every field at lanes three
+  * apart, and the lanes of one field across the three loads do not collide (sdf: lanes 0 3 6
+  * of the first, 1 4 7 of the second, 2 5 of the third): two blends gather a field, one
+  * permute puts it in voxel order.
   */
 CUEFUSION_AVX2 inline void
-loadVoxels8 (const float* p, __m256& sdf, __m256& weight, __m256& color, __m256& label)
+loadVoxels8 (const float* p, __m256& sdf, __m256& weight, __m256& color)
 {
-  static_assert (sizeof (TsdfVoxel) == 16 && offsetof (TsdfVoxel, weight) == 4 && offsetof (TsdfVoxel, r) == 8 &&
-                     offsetof (TsdfVoxel, label) == 12,
+  static_assert (sizeof (TsdfVoxel) == 12 && offsetof (TsdfVoxel, weight) == 4 && offsetof (TsdfVoxel, r) == 8,
                  "loadVoxels8 assumes TsdfVoxel's layout");
-  const __m256 a0 = _mm256_loadu_ps (p), a1 = _mm256_loadu_ps (p + 8);        // voxels 0 1 | 2 3
-  const __m256 a2 = _mm256_loadu_ps (p + 16), a3 = _mm256_loadu_ps (p + 24);  // voxels 4 5 | 6 7
-  // Per 128-bit half: unpack pairs the fields of voxels k and k+2, the shuffle gathers four
-  // voxels' field; the halves then hold voxels 0 2 4 6 and 1 3 5 7, which the permute sorts.
-  const __m256 t0 = _mm256_unpacklo_ps (a0, a1), t1 = _mm256_unpacklo_ps (a2, a3);
-  const __m256 t2 = _mm256_unpackhi_ps (a0, a1), t3 = _mm256_unpackhi_ps (a2, a3);
-  const __m256i order = _mm256_setr_epi32 (0, 4, 1, 5, 2, 6, 3, 7);
-  sdf = _mm256_permutevar8x32_ps (_mm256_shuffle_ps (t0, t1, _MM_SHUFFLE (1, 0, 1, 0)), order);
-  weight = _mm256_permutevar8x32_ps (_mm256_shuffle_ps (t0, t1, _MM_SHUFFLE (3, 2, 3, 2)), order);
-  color = _mm256_permutevar8x32_ps (_mm256_shuffle_ps (t2, t3, _MM_SHUFFLE (1, 0, 1, 0)), order);
-  label = _mm256_permutevar8x32_ps (_mm256_shuffle_ps (t2, t3, _MM_SHUFFLE (3, 2, 3, 2)), order);
+  const __m256 a0 = _mm256_loadu_ps (p), a1 = _mm256_loadu_ps (p + 8), a2 = _mm256_loadu_ps (p + 16);
+  sdf = _mm256_permutevar8x32_ps (_mm256_blend_ps (_mm256_blend_ps (a0, a1, 0x92), a2, 0x24),
+                                  _mm256_setr_epi32 (0, 3, 6, 1, 4, 7, 2, 5));
+  weight = _mm256_permutevar8x32_ps (_mm256_blend_ps (_mm256_blend_ps (a0, a1, 0x24), a2, 0x49),
+                                     _mm256_setr_epi32 (1, 4, 7, 2, 5, 0, 3, 6));
+  color = _mm256_permutevar8x32_ps (_mm256_blend_ps (_mm256_blend_ps (a0, a1, 0x49), a2, 0x92),
+                                    _mm256_setr_epi32 (2, 5, 0, 3, 6, 1, 4, 7));
 }
 
 /** \brief The inverse of loadVoxels8. */
 CUEFUSION_AVX2 inline void
-storeVoxels8 (float* p, __m256 sdf, __m256 weight, __m256 color, __m256 label)
+storeVoxels8 (float* p, __m256 sdf, __m256 weight, __m256 color)
 {
-  const __m256i order = _mm256_setr_epi32 (0, 2, 4, 6, 1, 3, 5, 7);
-  sdf = _mm256_permutevar8x32_ps (sdf, order);
-  weight = _mm256_permutevar8x32_ps (weight, order);
-  color = _mm256_permutevar8x32_ps (color, order);
-  label = _mm256_permutevar8x32_ps (label, order);
-  const __m256 t0 = _mm256_unpacklo_ps (sdf, weight), t1 = _mm256_unpacklo_ps (color, label);
-  const __m256 t2 = _mm256_unpackhi_ps (sdf, weight), t3 = _mm256_unpackhi_ps (color, label);
-  _mm256_storeu_ps (p, _mm256_shuffle_ps (t0, t1, _MM_SHUFFLE (1, 0, 1, 0)));
-  _mm256_storeu_ps (p + 8, _mm256_shuffle_ps (t0, t1, _MM_SHUFFLE (3, 2, 3, 2)));
-  _mm256_storeu_ps (p + 16, _mm256_shuffle_ps (t2, t3, _MM_SHUFFLE (1, 0, 1, 0)));
-  _mm256_storeu_ps (p + 24, _mm256_shuffle_ps (t2, t3, _MM_SHUFFLE (3, 2, 3, 2)));
+  const __m256 s = _mm256_permutevar8x32_ps (sdf, _mm256_setr_epi32 (0, 3, 6, 1, 4, 7, 2, 5));
+  const __m256 w = _mm256_permutevar8x32_ps (weight, _mm256_setr_epi32 (5, 0, 3, 6, 1, 4, 7, 2));
+  const __m256 c = _mm256_permutevar8x32_ps (color, _mm256_setr_epi32 (2, 5, 0, 3, 6, 1, 4, 7));
+  _mm256_storeu_ps (p, _mm256_blend_ps (_mm256_blend_ps (s, w, 0x92), c, 0x24));
+  _mm256_storeu_ps (p + 8, _mm256_blend_ps (_mm256_blend_ps (s, w, 0x24), c, 0x49));
+  _mm256_storeu_ps (p + 16, _mm256_blend_ps (_mm256_blend_ps (s, w, 0x49), c, 0x92));
 }
 
 /** \brief updateVoxel's colour average of one channel (0–255 in 32-bit lanes). */
@@ -214,7 +209,7 @@ sampleDepth8 (const IntegrationFrame& f, __m256 seen, __m256 uf, __m256 vf, __m2
 
 /** The colour words of eight voxels after fusing the frame's colour at their pixels
   * (u, v) into their running average (weights \a w before, \a w_new after); the top byte,
-  * label_confidence, is kept. Lanes not in \a update read pixel 0 (their result is unused). */
+  * TsdfVoxel::reserved, is kept. Lanes not in \a update read pixel 0 (their result is unused). */
 CUEFUSION_AVX2 inline __m256i
 fuseColor8 (const IntegrationFrame& f, __m256 update, __m256i u, __m256i v, __m256i word, __m256 w, __m256 w_new)
 {
@@ -238,7 +233,7 @@ fuseColor8 (const IntegrationFrame& f, __m256 update, __m256i u, __m256i v, __m2
                                     _mm256_and_si256 (_mm256_srli_epi32 (observed_bgr, 8), byte), w, w_new);
   const __m256i b = averageChannel (_mm256_and_si256 (_mm256_srli_epi32 (word, 16), byte),
                                     _mm256_and_si256 (observed_bgr, byte), w, w_new);
-  // The top byte is label_confidence: kept.
+  // The top byte is TsdfVoxel::reserved: kept.
   return _mm256_or_si256 (_mm256_and_si256 (word, _mm256_set1_epi32 (static_cast<int> (0xff000000u))),
                           _mm256_or_si256 (_mm256_or_si256 (r, _mm256_slli_epi32 (g, 8)), _mm256_slli_epi32 (b, 16)));
 }
@@ -293,14 +288,14 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
         continue;
       const __m256 tsdf = _mm256_min_ps (_mm256_div_ps (sdf, truncation), one);  // min(1, x) as std::min
 
-      // The row's eight voxels (128 contiguous bytes) in four loads, deinterleaved into
-      // sdf, weight, colour word and label word. Gathering the three fields instead (24
-      // loads) and writing updated voxels field by field were a third of the kernel's time
-      // (AMD's gathers issue a load per lane).
+      // The row's eight voxels (96 contiguous bytes) in three loads, deinterleaved into
+      // sdf, weight and colour word. Gathering the three fields instead (24 loads) and
+      // writing updated voxels field by field were a third of the kernel's time (AMD's
+      // gathers issue a load per lane).
       TsdfVoxel* voxels = &block.voxels[static_cast<std::size_t> (localVoxelIndex (0, y, z))];
       float* voxel_floats_base = reinterpret_cast<float*> (voxels);
-      __m256 w, old_sdf, word_f, label_f;
-      loadVoxels8 (voxel_floats_base, old_sdf, w, word_f, label_f);
+      __m256 w, old_sdf, word_f;
+      loadVoxels8 (voxel_floats_base, old_sdf, w, word_f);
       const __m256i word = _mm256_castps_si256 (word_f);
       const __m256 w_new = _mm256_add_ps (w, one);
       const __m256 sdf_out = _mm256_div_ps (_mm256_add_ps (_mm256_mul_ps (w, old_sdf), tsdf), w_new);
@@ -320,7 +315,7 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
       }
       // Lanes not updated keep what was loaded; all eight voxels are stored back.
       storeVoxels8 (voxel_floats_base, _mm256_blendv_ps (old_sdf, sdf_out, update), _mm256_blendv_ps (w, weight_out, update),
-                    _mm256_blendv_ps (word_f, _mm256_castsi256_ps (word_out), update), label_f);
+                    _mm256_blendv_ps (word_f, _mm256_castsi256_ps (word_out), update));
       // The row's eight distances; the ninth, the apron's, is not touched (see
       // TSDFVolume::integrate).
       std::int16_t* distances = &block.distances[static_cast<std::size_t> (distanceIndex (0, y, z))];

@@ -139,6 +139,14 @@ blockExit (const Eigen::Vector3f& g, const Eigen::Vector3i& block, const Eigen::
   return t;
 }
 
+/** \brief The voxel nearest a ray's hit: its colour is read after the row, its number goes
+  * to RaycastResult::voxels. */
+struct VoxelHit
+{
+  const TsdfVoxel* voxel = nullptr;
+  VoxelNumber number = kNoVoxel;
+};
+
 /** \brief Marches one ray (§4.1.5). \a origin and \a dir are in voxel units, \a dir the
   * camera-frame ray with z = 1 turned into the world, so the ray parameter is the
   * z-depth. Returns the depth of the first front-facing zero crossing (0 for none), the
@@ -152,7 +160,7 @@ blockExit (const Eigen::Vector3f& g, const Eigen::Vector3i& block, const Eigen::
   */
 inline float
 castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float z_start,
-         float z_end, float truncation_voxels, const TsdfVoxel** hit, Eigen::Vector3f* gradient,
+         float z_end, float truncation_voxels, VoxelHit* hit, Eigen::Vector3f* gradient,
          bool* started_behind = nullptr)
 {
   const float one_voxel = 1.f / dir.norm ();
@@ -209,9 +217,9 @@ castRay (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eig
         }
         else
           gradient->setZero ();
-        *hit = access.get (nearestVoxel (origin + dir * z_hit));
-        if (*hit == nullptr)
-          *hit = access.get (nearestVoxel (g));
+        hit->voxel = access.get (nearestVoxel (origin + dir * z_hit), hit->number);
+        if (hit->voxel == nullptr)
+          hit->voxel = access.get (nearestVoxel (g), hit->number);
         return z_hit;
       }
       if (started_behind != nullptr && !sampled)
@@ -255,7 +263,7 @@ newtonReach (float z, float truncation_voxels, float inv_voxel)
   */
 inline float
 refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float z_hint,
-                float truncation_voxels, float inv_voxel, const TsdfVoxel** hit, Eigen::Vector3f* gradient)
+                float truncation_voxels, float inv_voxel, VoxelHit* hit, Eigen::Vector3f* gradient)
 {
   const float voxels_per_z = dir.norm ();
   const float reach = newtonReach (z_hint, truncation_voxels, inv_voxel);
@@ -279,8 +287,8 @@ refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, co
     // 1 cm voxels), so the step is taken without reading the cell again.
     if (std::abs (dz) * voxels_per_z < 0.25f)
     {
-      *hit = access.get (nearestVoxel (origin + dir * z));
-      return *hit != nullptr ? z : 0.f;
+      hit->voxel = access.get (nearestVoxel (origin + dir * z), hit->number);
+      return hit->voxel != nullptr ? z : 0.f;
     }
   }
   return 0.f;
@@ -427,7 +435,7 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
 /** \brief The per-pixel outputs of eight rays that refineNearHint8 settled (z[i] > 0), as the
   * scalar loop writes them: the vertex (camera ray · z), the normal (the gradient turned
   * into the camera and normalised, facing the camera) and the voxel nearest the hit, whose
-  * colour and label are read after the row. A lane whose nearest voxel is unallocated gets
+  * colour and number are written after the row. A lane whose nearest voxel is unallocated gets
   * z[i] = 0 (the scalar path then marches). Returns the lanes written.
   *
   * The same work per pixel in the scalar loop (three divisions for the normal, a voxel
@@ -436,7 +444,7 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
 CUEFUSION_AVX2 int
 writeSettledRays8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, const float* dir_x, const float* dir_y,
                    const float* dir_z, const float* ray_x, float ray_y, const Eigen::Matrix3f& R_cw, float* z,
-                   const float* grad, float* vertices, float* normals, const TsdfVoxel** hits)
+                   const float* grad, float* vertices, float* normals, VoxelHit* hits)
 {
   const __m256 zero = _mm256_setzero_ps ();
   const __m256 depth = _mm256_loadu_ps (z);
@@ -455,7 +463,8 @@ writeSettledRays8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin,
   for (int m = settled; m != 0; m &= m - 1)
   {
     const int i = __builtin_ctz (static_cast<unsigned> (m));
-    const TsdfVoxel* hit = access.get (Eigen::Vector3i (nx[i], ny[i], nz[i]));
+    VoxelNumber number;
+    const TsdfVoxel* hit = access.get (Eigen::Vector3i (nx[i], ny[i], nz[i]), number);
     if (hit == nullptr)
     {
       settled &= ~(1 << i);
@@ -463,7 +472,7 @@ writeSettledRays8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin,
       continue;
     }
     __builtin_prefetch (hit);
-    hits[i] = hit;
+    hits[i] = {hit, number};
   }
   const __m256 keep = _mm256_castsi256_ps (_mm256_cmpeq_epi32 (
       _mm256_and_si256 (_mm256_set1_epi32 (settled), _mm256_setr_epi32 (1, 2, 4, 8, 16, 32, 64, 128)),
@@ -551,18 +560,18 @@ private:
   /** The per-pixel strategy chooser: the depth of the surface ray \a u of row \a v meets
     * (0: none), with the voxel hit and the TSDF gradient there. \a skipped: a hole searched
     * before and not due again (RaycastHoleSkip). */
-  float castPixel (int u, int v, std::size_t tile, float row_z, const std::uint8_t* skip_row, bool& skipped, const TsdfVoxel** hit,
+  float castPixel (int u, int v, std::size_t tile, float row_z, const std::uint8_t* skip_row, bool& skipped, VoxelHit* hit,
                    Eigen::Vector3f* grad);
 
   detail::VoxelAccessor access_;
   const RayFrame& f_;
   RaycastResult& out_;
   bool vector_hints_ = false;
-  // The voxels hit on a row, read for colour and label after the row: the 16-byte voxels
-  // are mostly out of cache by now (integration streamed ~40 MB of them), and reading
+  // The voxels hit on a row, read for colour after the row: the 12-byte voxels
+  // are mostly out of cache by now (integration streamed tens of MB of them), and reading
   // each right after its ray was a fifth of the row loop's time waiting for memory.
   // Prefetched when found, they arrive while the next rays are cast.
-  std::vector<const TsdfVoxel*> hits_;
+  std::vector<VoxelHit> hits_;
   std::vector<float> hint_z_;                   ///< the eight-ray kernels' results
   std::vector<float> dirs_x_, dirs_y_, dirs_z_;  ///< the row's rays in the world, voxels per metre of z
   std::vector<float> ray_x_;                    ///< camera rays' x at z = 1
@@ -638,7 +647,7 @@ RowCaster::castHintedGroups (int v, float ray_y)
 #endif
 
 float
-RowCaster::castPixel (int u, int v, std::size_t tile, float row_z, const std::uint8_t* skip_row, bool& skipped, const TsdfVoxel** hit,
+RowCaster::castPixel (int u, int v, std::size_t tile, float row_z, const std::uint8_t* skip_row, bool& skipped, VoxelHit* hit,
                       Eigen::Vector3f* grad)
 {
   const RangeTiles& tiles = f_.tiles;
@@ -726,11 +735,11 @@ RowCaster::castRow (int v)
 {
   const int width = f_.camera.width;
   const RangeTiles& tiles = f_.tiles;
-  std::fill (hits_.begin (), hits_.end (), nullptr);
+  std::fill (hits_.begin (), hits_.end (), VoxelHit ());
   // Vertices and normals are cleared to NaN where nothing else writes them first: the
   // eight-ray kernel writes all eight pixels of each group it runs on, so with it only
   // the groups it skips are filled (clearing whole rows first wrote 7 MB a frame twice).
-  // Colours and labels are written for every pixel after the row.
+  // Colours and voxel numbers are written for every pixel after the row.
   if (!vector_hints_)
     clearVertices (v, 0, width);
   std::uint8_t* empty_row = f_.depth_hint.empty () ? nullptr : out_.empty_holes.ptr<std::uint8_t> (v);
@@ -740,7 +749,7 @@ RowCaster::castRow (int v)
   cv::Vec3f* vertex_row = out_.vertices.ptr<cv::Vec3f> (v);
   cv::Vec3f* normal_row = out_.normals.ptr<cv::Vec3f> (v);
   cv::Vec3b* color_row = out_.colors.ptr<cv::Vec3b> (v);
-  std::int32_t* label_row = out_.labels.ptr<std::int32_t> (v);
+  std::int32_t* voxel_row = out_.voxels.ptr<std::int32_t> (v);
   float row_z = 0.f;  // depth of the last surface found on this row
   const float ray_y = (static_cast<float> (v) - f_.cy) * f_.inv_fy;
   // The row's rays in the world, in voxel units per metre of z-depth (read by the
@@ -770,7 +779,7 @@ RowCaster::castRow (int v)
       continue;
     }
 #endif
-    const TsdfVoxel* hit = nullptr;
+    VoxelHit hit;
     Eigen::Vector3f grad;
     bool skipped = false;
     const float z = castPixel (u, v, tile, row_z, skip_row, skipped, &hit, &grad);
@@ -798,23 +807,18 @@ RowCaster::castRow (int v)
         n = -n;
       normal_row[u] = cv::Vec3f (n.x (), n.y (), n.z ());
     }
-    if (hit != nullptr)
+    if (hit.voxel != nullptr)
     {
-      __builtin_prefetch (hit);
+      __builtin_prefetch (hit.voxel);
       hits_[static_cast<std::size_t> (u)] = hit;
     }
   }
   for (int u = 0; u < width; ++u)
-    if (const TsdfVoxel* hit = hits_[static_cast<std::size_t> (u)])
-    {
-      color_row[u] = cv::Vec3b (hit->b, hit->g, hit->r);
-      label_row[u] = static_cast<std::int32_t> (hit->label);
-    }
-    else
-    {
-      color_row[u] = cv::Vec3b (0, 0, 0);
-      label_row[u] = 0;
-    }
+  {
+    const VoxelHit& hit = hits_[static_cast<std::size_t> (u)];
+    color_row[u] = hit.voxel != nullptr ? cv::Vec3b (hit.voxel->b, hit.voxel->g, hit.voxel->r) : cv::Vec3b (0, 0, 0);
+    voxel_row[u] = static_cast<std::int32_t> (hit.number);  // kNoVoxel is −1
+  }
 }
 }  // namespace
 
@@ -857,7 +861,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   out.vertices.create (size, CV_32FC3);
   out.normals.create (size, CV_32FC3);
   out.colors.create (size, CV_8UC3);
-  out.labels.create (size, CV_32S);
+  out.voxels.create (size, CV_32S);
   if (depth_hint.empty ())
     out.empty_holes.release ();
   else

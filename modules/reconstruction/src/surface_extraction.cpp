@@ -27,11 +27,12 @@ struct EdgeSample
 {
   Eigen::Vector3f position;
   std::uint8_t r, g, b;
-  std::uint32_t label;
+  VoxelNumber nearer;  ///< the voxel nearer the sample (a at t < 0.5)
 };
 
 inline EdgeSample
-sampleEdge (const TsdfVoxel& a, const TsdfVoxel& b, const Eigen::Vector3f& pa, const Eigen::Vector3f& pb)
+sampleEdge (const TsdfVoxel& a, const TsdfVoxel& b, const Eigen::Vector3f& pa, const Eigen::Vector3f& pb,
+            VoxelNumber a_number, VoxelNumber b_number)
 {
   const float t = zeroCrossing (a.sdf, b.sdf);
   EdgeSample s;
@@ -39,12 +40,12 @@ sampleEdge (const TsdfVoxel& a, const TsdfVoxel& b, const Eigen::Vector3f& pa, c
   s.r = static_cast<std::uint8_t> (a.r + (b.r - a.r) * t + 0.5f);
   s.g = static_cast<std::uint8_t> (a.g + (b.g - a.g) * t + 0.5f);
   s.b = static_cast<std::uint8_t> (a.b + (b.b - a.b) * t + 0.5f);
-  s.label = t < 0.5f ? a.label : b.label;
+  s.nearer = t < 0.5f ? a_number : b_number;
   return s;
 }
 
 inline pcl::PointXYZRGBL
-toPoint (const EdgeSample& s)
+toPoint (const EdgeSample& s, const TSDFVolume::VoxelLabelFunction& label_of)
 {
   pcl::PointXYZRGBL p;
   p.getVector3fMap () = s.position;
@@ -52,7 +53,7 @@ toPoint (const EdgeSample& s)
   p.g = s.g;
   p.b = s.b;
   p.a = 255;
-  p.label = s.label;
+  p.label = label_of ? label_of (s.nearer) : 0u;
   return p;
 }
 
@@ -92,7 +93,8 @@ edgeAxis (std::uint64_t key)
 }  // namespace
 
 void
-TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::PointCloud<pcl::Normal>* normals) const
+TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::PointCloud<pcl::Normal>* normals,
+                               const VoxelLabelFunction& label_of) const
 {
   const int n = static_cast<int> (blocks_.size ());
   std::vector<pcl::PointCloud<pcl::PointXYZRGBL>> parts (static_cast<std::size_t> (n));
@@ -112,11 +114,14 @@ TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::P
             const Eigen::Vector3i g = block.index * kBlockSide + Eigen::Vector3i (x, y, z);
             for (int axis = 0; axis < 3; ++axis)
             {
-              const TsdfVoxel* b = access.get (g + Eigen::Vector3i::Unit (axis));
+              VoxelNumber b_number;
+              const TsdfVoxel* b = access.get (g + Eigen::Vector3i::Unit (axis), b_number);
               if (!observed (b) || std::abs (b->sdf) >= 1.f || (a.sdf < 0.f) == (b->sdf < 0.f))
                 continue;
-              parts[static_cast<std::size_t> (i)].push_back (
-                toPoint (sampleEdge (a, *b, voxelPosition (g), voxelPosition (g + Eigen::Vector3i::Unit (axis)))));
+              const VoxelNumber a_number = voxelNumber (static_cast<std::size_t> (i), static_cast<std::size_t> (localVoxelIndex (x, y, z)));
+              parts[static_cast<std::size_t> (i)].push_back (toPoint (
+                  sampleEdge (a, *b, voxelPosition (g), voxelPosition (g + Eigen::Vector3i::Unit (axis)), a_number, b_number),
+                  label_of));
               if (normals)
               {
                 // TSDF gradient by central differences at the nearer voxel.
@@ -156,7 +161,7 @@ TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::P
 }
 
 io::TriangleMesh
-TSDFVolume::extractTriangleMesh () const
+TSDFVolume::extractTriangleMesh (const VoxelLabelFunction& label_of) const
 {
   // Pass 1 (parallel over blocks): for every cube with a surface, the keys of its crossed
   // edges in the tables' edge order, and its triangles as edge keys. Pass 2 (serial, in block
@@ -227,7 +232,8 @@ TSDFVolume::extractTriangleMesh () const
   io::TriangleMesh mesh;
   mesh.vertices.reserve (first_met.size ());
   mesh.colors.reserve (first_met.size ());
-  mesh.labels.reserve (first_met.size ());
+  if (label_of)
+    mesh.labels.reserve (first_met.size ());
   {
     detail::VoxelAccessor access (*this);
     for (const std::uint64_t edge : first_met)
@@ -238,10 +244,14 @@ TSDFVolume::extractTriangleMesh () const
       const Eigen::Vector3i lower = edgeLower (key), upper = lower + Eigen::Vector3i::Unit (edgeAxis (key));
       const Eigen::Vector3i& from = (edge & kReversed) ? upper : lower;
       const Eigen::Vector3i& to = (edge & kReversed) ? lower : upper;
-      const EdgeSample sample = sampleEdge (*access.get (from), *access.get (to), voxelPosition (from), voxelPosition (to));
+      VoxelNumber from_number, to_number;
+      const TsdfVoxel& a = *access.get (from, from_number);
+      const TsdfVoxel& b = *access.get (to, to_number);
+      const EdgeSample sample = sampleEdge (a, b, voxelPosition (from), voxelPosition (to), from_number, to_number);
       mesh.vertices.push_back (sample.position);
       mesh.colors.push_back ({sample.r, sample.g, sample.b});
-      mesh.labels.push_back (sample.label);
+      if (label_of)
+        mesh.labels.push_back (label_of (sample.nearer));
     }
   }
   std::vector<std::uint64_t> ().swap (first_met);
@@ -280,9 +290,9 @@ TSDFVolume::extractTriangleMesh () const
 }
 
 pcl::PolygonMesh
-TSDFVolume::extractMesh () const
+TSDFVolume::extractMesh (const VoxelLabelFunction& label_of) const
 {
-  return io::toPolygonMesh (extractTriangleMesh ());
+  return io::toPolygonMesh (extractTriangleMesh (label_of));
 }
 }  // namespace reconstruction
 }  // namespace cuefusion

@@ -108,10 +108,11 @@ std::int32_t
 TSDFVolume::allocateBlock (const Eigen::Vector3i& index)
 {
   const auto id = static_cast<std::int32_t> (blocks_.size ());
-  // SurfaceObservation numbers voxels in 32 bits: 2^23 blocks (70 GiB of voxels).
-  constexpr std::size_t kMaxBlocks = (std::size_t (1) << 32) / kBlockVoxels;
+  // VoxelNumber numbers voxels in 32 bits, the last one kept for kNoVoxel: 2^23 − 1 blocks
+  // (48 GiB of voxels).
+  constexpr std::size_t kMaxBlocks = (std::size_t (1) << 32) / kBlockVoxels - 1;
   if (blocks_.size () >= kMaxBlocks)
-    throw Error ("TSDFVolume", "more than 2^23 voxel blocks: use a larger voxel size or spatial bounds");
+    throw Error ("TSDFVolume", "more than 2^23 - 1 voxel blocks: use a larger voxel size or spatial bounds");
   const auto inserted = hash_.insert (packBlockIndex (index), id);
   if (inserted.second)
   {
@@ -170,10 +171,15 @@ TSDFVolume::findVoxel (const Eigen::Vector3i& v) const
   return &blocks_[static_cast<std::size_t> (id)]->voxels[static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ()))];
 }
 
-TsdfVoxel*
-TSDFVolume::findVoxel (const Eigen::Vector3i& v)
+VoxelNumber
+TSDFVolume::findVoxelNumber (const Eigen::Vector3i& v) const
 {
-  return const_cast<TsdfVoxel*> (static_cast<const TSDFVolume*> (this)->findVoxel (v));
+  const Eigen::Vector3i b = blockOfVoxel (v);
+  const std::int32_t id = findBlock (b);
+  if (id < 0)
+    return kNoVoxel;
+  const Eigen::Vector3i l = v - b * kBlockSide;
+  return voxelNumber (static_cast<std::size_t> (id), static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ())));
 }
 
 void

@@ -15,7 +15,10 @@ namespace reconstruction
 namespace
 {
 constexpr char kMagic[8] = {'C', 'F', 'T', 'S', 'D', 'F', '\r', '\n'};
-constexpr std::uint32_t kVersion = 1;
+// Version 1 (cuefusion 0.1) had 16-byte voxels with the segment label inside; version 2
+// holds the TSDF alone (12-byte voxels), the labels have a file of their own
+// (segmentation::VoxelLabelLayer::save).
+constexpr std::uint32_t kVersion = 2;
 
 #pragma pack(push, 1)
 struct VolumeHeader
@@ -40,7 +43,7 @@ static_assert (sizeof (float) == 4 && sizeof (double) == 8, "volume files assume
 }  // namespace
 
 void
-TSDFVolume::save (const std::string& path, const std::function<std::uint32_t (std::uint32_t)>& label_map) const
+TSDFVolume::save (const std::string& path) const
 {
   const FileContext context (path);
   VolumeHeader header{};
@@ -68,15 +71,7 @@ TSDFVolume::save (const std::string& path, const std::function<std::uint32_t (st
     {
       const std::int32_t index[3] = {block->index.x (), block->index.y (), block->index.z ()};
       out.write (reinterpret_cast<const char*> (index), sizeof index);
-      if (label_map)
-      {
-        std::array<TsdfVoxel, kBlockVoxels> mapped = block->voxels;
-        for (TsdfVoxel& v : mapped)
-          v.label = v.label ? label_map (v.label) : 0u;
-        out.write (reinterpret_cast<const char*> (mapped.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
-      }
-      else
-        out.write (reinterpret_cast<const char*> (block->voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
+      out.write (reinterpret_cast<const char*> (block->voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
     }
     out.close ();
     return static_cast<bool> (out);
@@ -94,6 +89,9 @@ TSDFVolume::load (const std::string& path)
   in.read (reinterpret_cast<char*> (&header), sizeof header);
   if (!in || std::memcmp (header.magic, kMagic, sizeof kMagic) != 0)
     throw Error (path, "not a cuefusion volume file");
+  if (header.version == 1)
+    throw Error (path, "volume file version 1 (cuefusion 0.1, labels inside the voxels); this build reads version 2: "
+                       "save the map again with this version");
   if (header.version != kVersion)
     throw Error (path, "volume file version " + std::to_string (header.version) + " (this build reads version " +
                          std::to_string (kVersion) + ")");

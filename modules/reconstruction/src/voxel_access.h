@@ -27,8 +27,8 @@ public:
     {
       block_index_ = b;
       valid_ = true;
-      const std::int32_t id = volume_.findBlock (b);
-      block_ = id >= 0 ? volume_.blocks ()[static_cast<std::size_t> (id)].get () : nullptr;
+      id_ = volume_.findBlock (b);
+      block_ = id_ >= 0 ? volume_.blocks ()[static_cast<std::size_t> (id_)].get () : nullptr;
     }
     return block_;
   }
@@ -49,6 +49,16 @@ public:
   {
     std::size_t i;
     const VoxelBlock* blk = locate (v, i);
+    return blk != nullptr ? &blk->voxels[i] : nullptr;
+  }
+
+  /** \brief As get (v), with the voxel's number in \a number (kNoVoxel when unallocated). */
+  inline const TsdfVoxel*
+  get (const Eigen::Vector3i& v, VoxelNumber& number)
+  {
+    std::size_t i;
+    const VoxelBlock* blk = locate (v, i);
+    number = blk != nullptr ? voxelNumber (static_cast<std::size_t> (id_), i) : kNoVoxel;
     return blk != nullptr ? &blk->voxels[i] : nullptr;
   }
 
@@ -129,6 +139,7 @@ private:
   const TSDFVolume& volume_;
   Eigen::Vector3i block_index_ = Eigen::Vector3i::Zero ();
   const VoxelBlock* block_ = nullptr;
+  std::int32_t id_ = -1;  ///< block_'s id
   bool valid_ = false;
 };
 }  // namespace detail

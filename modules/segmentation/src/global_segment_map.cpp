@@ -208,7 +208,7 @@ GlobalSegmentMap::merge (std::uint32_t a, std::uint32_t b)
 }
 
 void
-GlobalSegmentMap::refreshStatistics (const reconstruction::TSDFVolume& volume)
+GlobalSegmentMap::refreshStatistics (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels)
 {
   for (auto& [label, record] : records_)
   {
@@ -216,20 +216,20 @@ GlobalSegmentMap::refreshStatistics (const reconstruction::TSDFVolume& volume)
     record.bounds.setEmpty ();
   }
   const auto& blocks = volume.blocks ();
-  for (const auto& block : blocks)
+  for (std::size_t id = 0; id < std::min (blocks.size (), labels.blockCount ()); ++id)
     for (int z = 0; z < reconstruction::kBlockSide; ++z)
       for (int y = 0; y < reconstruction::kBlockSide; ++y)
         for (int x = 0; x < reconstruction::kBlockSide; ++x)
         {
-          const reconstruction::TsdfVoxel& voxel =
-            block->voxels[static_cast<std::size_t> (reconstruction::localVoxelIndex (x, y, z))];
-          if (voxel.weight <= 0.f || voxel.label == 0)
+          const auto local = static_cast<std::size_t> (reconstruction::localVoxelIndex (x, y, z));
+          const std::uint32_t label = labels.block (id).labels[local];
+          if (blocks[id]->voxels[local].weight <= 0.f || label == 0)
             continue;
-          const auto it = records_.find (voxel.label);
+          const auto it = records_.find (label);
           if (it == records_.end ())
             continue;
           ++it->second.voxels;
-          it->second.bounds.extend (volume.voxelPosition (block->index * reconstruction::kBlockSide + Eigen::Vector3i (x, y, z)));
+          it->second.bounds.extend (volume.voxelPosition (blocks[id]->index * reconstruction::kBlockSide + Eigen::Vector3i (x, y, z)));
         }
 }
 
@@ -285,7 +285,7 @@ GlobalSegmentMap::segments (const std::unordered_map<std::uint32_t, std::uint32_
 }
 
 std::unordered_map<std::uint32_t, std::uint32_t>
-GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
+GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels) const
 {
   const auto confirm = static_cast<std::size_t> (evidence_.getConfig ().confirm_confidence);
   std::unordered_map<std::uint32_t, bool> kept;  // object → confirmed or still being seen
@@ -300,15 +300,16 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
       target[object] = object;
   // The fragments' voxels, gathered in one pass over the volume.
   std::vector<std::pair<Eigen::Vector3i, std::uint32_t>> fragment_voxels;  // (voxel, fragment object)
-  for (const auto& block : volume.blocks ())
+  const auto& blocks = volume.blocks ();
+  for (std::size_t id = 0; id < std::min (blocks.size (), labels.blockCount ()); ++id)
     for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
     {
-      const reconstruction::TsdfVoxel& voxel = block->voxels[static_cast<std::size_t> (i)];
-      if (voxel.weight <= 0.f || voxel.label == 0)
+      const std::uint32_t label = labels.block (id).labels[static_cast<std::size_t> (i)];
+      if (blocks[id]->voxels[static_cast<std::size_t> (i)].weight <= 0.f || label == 0)
         continue;
-      const std::uint32_t object = resolve (voxel.label);
+      const std::uint32_t object = resolve (label);
       if (!target.count (object))
-        fragment_voxels.emplace_back (block->index * reconstruction::kBlockSide +
+        fragment_voxels.emplace_back (blocks[id]->index * reconstruction::kBlockSide +
                                         Eigen::Vector3i (i % reconstruction::kBlockSide, (i / reconstruction::kBlockSide) % reconstruction::kBlockSide,
                                                          i / (reconstruction::kBlockSide * reconstruction::kBlockSide)),
                                       object);
@@ -326,10 +327,14 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume) const
         continue;
       for (const Eigen::Vector3i& step : steps)
       {
-        const reconstruction::TsdfVoxel* other = volume.findVoxel (v + step);
-        if (!other || other->weight <= 0.f || other->label == 0)
+        const reconstruction::VoxelNumber other = volume.findVoxelNumber (v + step);
+        if (other == reconstruction::kNoVoxel)
           continue;
-        const auto settled = target.find (resolve (other->label));
+        const std::uint32_t other_label = labels.label (other);
+        if (other_label == 0 ||
+            volume.voxels (other / reconstruction::kBlockVoxels)[other % reconstruction::kBlockVoxels].weight <= 0.f)
+          continue;
+        const auto settled = target.find (resolve (other_label));
         if (settled != target.end () && settled->second != 0)
           ++contacts[object][settled->second];
       }

@@ -514,33 +514,33 @@ namespace
 {
 /** \brief §4.2.4 for one voxel and the label its pixel observed; true when it wrote. */
 inline bool
-updateVoxelLabel (reconstruction::TsdfVoxel& voxel, std::uint32_t label, const GlobalSegmentMap& map,
+updateVoxelLabel (std::uint32_t& voxel_label, std::uint8_t& confidence, std::uint32_t label, const GlobalSegmentMap& map,
                   std::uint8_t max_confidence)
 {
-  if (voxel.label == 0)
+  if (voxel_label == 0)
   {
-    voxel.label = label;
-    voxel.label_confidence = 0;
+    voxel_label = label;
+    confidence = 0;
     return true;
   }
-  if (map.resolve (voxel.label) == map.resolve (label))
+  if (map.resolve (voxel_label) == map.resolve (label))
   {
-    if (voxel.label_confidence >= max_confidence)
+    if (confidence >= max_confidence)
       return false;
-    ++voxel.label_confidence;
+    ++confidence;
     return true;
   }
-  if (voxel.label_confidence > 0)
-    --voxel.label_confidence;
-  if (voxel.label_confidence == 0)
-    voxel.label = label;
+  if (confidence > 0)
+    --confidence;
+  if (confidence == 0)
+    voxel_label = label;
   return true;
 }
 }  // namespace
 
 std::size_t
-updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, const GlobalSegmentMap& map,
-                   const VoxelLabelUpdateConfig& config)
+updateVoxelLabels (const reconstruction::TSDFVolume& volume, VoxelLabelLayer& layer, const cv::Mat& labels,
+                   const GlobalSegmentMap& map, const VoxelLabelUpdateConfig& config)
 {
   config.validate ();
   if (!volume.getRecordObservedSurface ())
@@ -556,6 +556,7 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
   const float band = config.band;
   const auto max_confidence = static_cast<std::uint8_t> (config.max_confidence);
   const std::vector<std::vector<reconstruction::SurfaceObservation>>& lists = volume.lastObservedSurface ();
+  layer.resize (volume.blockCount ());  // before the parallel loop: blocks are not made while it runs
   std::atomic<std::size_t> writes (0);
   constexpr std::size_t kPrefetchAhead = 16;
   parallelForChunks (static_cast<int> (lists.size ()), 8, [&] (int, int begin, int end) {
@@ -568,16 +569,20 @@ updateVoxelLabels (reconstruction::TSDFVolume& volume, const cv::Mat& labels, co
         const reconstruction::SurfaceObservation& seen = list[j];
         if (j + kPrefetchAhead < list.size ())
         {
-          const std::uint32_t ahead = list[j + kPrefetchAhead].voxel;
-          __builtin_prefetch (&volume.voxels (ahead / reconstruction::kBlockVoxels)[ahead % reconstruction::kBlockVoxels], 1);
+          const reconstruction::VoxelNumber ahead = list[j + kPrefetchAhead].voxel;
+          __builtin_prefetch (&volume.voxels (ahead / reconstruction::kBlockVoxels)[ahead % reconstruction::kBlockVoxels]);
+          __builtin_prefetch (&layer.block (ahead / reconstruction::kBlockVoxels).labels[ahead % reconstruction::kBlockVoxels], 1);
         }
         const std::int32_t observed = labels.ptr<std::int32_t> (static_cast<int> (seen.pixel >> 16))[seen.pixel & 0xffffu];
         if (observed <= 0 || !(seen.gap < max_gap))
           continue;
-        reconstruction::TsdfVoxel& voxel =
-            volume.voxels (seen.voxel / reconstruction::kBlockVoxels)[seen.voxel % reconstruction::kBlockVoxels];
-        if (std::abs (voxel.sdf) < band)
-          local_writes += updateVoxelLabel (voxel, static_cast<std::uint32_t> (observed), map, max_confidence);
+        const std::size_t block = seen.voxel / reconstruction::kBlockVoxels, local = seen.voxel % reconstruction::kBlockVoxels;
+        if (std::abs (volume.voxels (block)[local].sdf) < band)
+        {
+          VoxelLabelLayer::Block& labels_of_block = layer.block (block);
+          local_writes += updateVoxelLabel (labels_of_block.labels[local], labels_of_block.confidence[local],
+                                            static_cast<std::uint32_t> (observed), map, max_confidence);
+        }
       }
     }
     writes += local_writes;
