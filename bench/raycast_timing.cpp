@@ -56,7 +56,7 @@ main (int argc, char** argv)
     if (!sequence->hasPoses ())
       throw Error (args[0], "has no reference poses");
     reconstruction::DepthPreprocessorConfig preprocessing;
-    preprocessing.noise_range_sigma = 8.0;  // FusionPipeline's shared smoothing
+    preprocessing.bilateral.noise_range_sigma = 8.0;  // FusionPipeline's shared smoothing
     const reconstruction::DepthPreprocessor preprocessor (preprocessing);
     reconstruction::TSDFVolume volume;
     reconstruction::RaycastResult result;

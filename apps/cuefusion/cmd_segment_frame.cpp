@@ -270,9 +270,9 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
     ("verbose,v", po::bool_switch (&s.verbose), "print per-stage timings per frame")
     ("timings", po::value (&s.timings_path), "write per-frame stage timings (ms) to this JSON file")
     ("normals", po::value (&normals)->default_value ("central"), "normal estimation: central (differences, §4.1.2) or integral (PCL integral image)")
-    ("range-sigma", po::value (&pre.range_sigma)->default_value (pre.range_sigma), "bilateral range sigma in units of the sensor noise sigma_z(z)")
-    ("sigma-space", po::value (&pre.sigma_space)->default_value (pre.sigma_space), "bilateral spatial sigma (px)")
-    ("bilateral-diameter", po::value (&pre.bilateral_diameter)->default_value (pre.bilateral_diameter), "bilateral window (px)")
+    ("range-sigma", po::value (&pre.bilateral.noise_range_sigma)->default_value (pre.bilateral.noise_range_sigma), "bilateral range sigma in units of the sensor noise sigma_z(z)")
+    ("sigma-space", po::value (&pre.bilateral.sigma_space)->default_value (pre.bilateral.sigma_space), "bilateral spatial sigma (px)")
+    ("bilateral-diameter", po::value (&pre.bilateral.diameter)->default_value (pre.bilateral.diameter), "bilateral window (px)")
     ("no-bilateral", "switch the bilateral filter off")
     ("normal-step", po::value (&pre.normal_step)->default_value (pre.normal_step), "central differences over +-N px")
     ("normal-smoothing", po::value (&pre.integral_smoothing)->default_value (pre.integral_smoothing), "integral-image normal smoothing size (px)")
@@ -309,7 +309,7 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
   else
     throw ParameterError ("--convexity-test", "must be divergence or tangent, not '" + convexity + "'");
   if (vm.count ("no-bilateral"))
-    pre.bilateral_filter = false;
+    pre.bilateral.enabled = false;
   if (!(s.depth_scale > 0.0) || !std::isfinite (s.depth_scale))
     throw ParameterError ("--depth-scale", "must be a positive number");
   geo.use_concavity_edges = !no_concavity;

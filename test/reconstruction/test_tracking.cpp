@@ -65,7 +65,7 @@ TEST_P (ICPRecoversMotion, ToSubMillimetre)
   const Eigen::Isometry3d delta = GetParam ();
   const Eigen::Isometry3d source_pose = target_pose * delta;
   DepthPreprocessorConfig pre;
-  pre.bilateral_filter = false;  // exact depth: nothing to smooth
+  pre.bilateral.enabled = false;  // exact depth: nothing to smooth
   const DepthPreprocessor preprocessor (pre);
   FramePyramid source, target;
   preprocessor.compute (renderer.render (camera, source_pose).depth, camera, source);
@@ -458,7 +458,7 @@ TEST (NoiseWeighting, FarPointsPullLessThanNearOnes)
   const io::SceneRenderer renderer (scene);
   const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.4);
   DepthPreprocessorConfig pre;
-  pre.bilateral_filter = false;
+  pre.bilateral.enabled = false;
   const DepthPreprocessor preprocessor (pre);
   const cv::Mat depth = renderer.render (camera, pose).depth;
   cv::Mat biased = depth.clone ();

@@ -377,7 +377,9 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
         {
           EXPECT_TRUE (listed.insert (seen.voxel).second);
           EXPECT_LT (seen.gap, truncation);
-          EXPECT_LT (std::abs (volume->blocks ()[seen.voxel / reconstruction::kBlockVoxels]->voxels[seen.voxel % reconstruction::kBlockVoxels].sdf), 1.f);
+          const float sdf = volume->blocks ()[seen.voxel / reconstruction::kBlockVoxels]->voxels[seen.voxel % reconstruction::kBlockVoxels].sdf;
+          EXPECT_LT (std::abs (sdf), 1.f);
+          EXPECT_EQ (seen.sdf, sdf);  // the fused distance, as the voxel holds it
         }
       VoxelLabelUpdateConfig config;
       config.band = band;

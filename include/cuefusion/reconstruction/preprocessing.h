@@ -4,6 +4,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <string>
 #include <vector>
 
 namespace cuefusion
@@ -11,15 +12,30 @@ namespace cuefusion
 namespace reconstruction
 {
 /** \brief Depth preprocessing for tracking (§4.1.2). */
+/** \brief The edge-preserving depth smoothing of §4.1.2 (bilateralFilterDepth), one config
+  * for tracking's preprocessing (DepthPreprocessorConfig::bilateral: KinectFusion's fixed
+  * range σ of 3 cm) and the geometric segmentation's
+  * (segmentation::SurfacePreprocessingConfig::bilateral: a range σ that follows the sensor
+  * noise). FusionPipeline gives tracking the segmentation's, so one filter serves both.
+  */
+struct BilateralFilterConfig
+{
+  bool enabled = true;
+  int diameter = 5;                  ///< window (pixels)
+  double sigma_space = 4.5;          ///< spatial σ (pixels), KinectFusion's
+  /// > 0: the range σ follows the sensor noise, this many σ_z(z) (noiseAdaptiveBilateral);
+  /// 0: it is range_sigma_metres everywhere
+  double noise_range_sigma = 0.0;
+  double range_sigma_metres = 0.03;  ///< the fixed range σ (metres), when noise_range_sigma is 0
+
+  /** \brief Throws ParameterError naming the field as \a owner + "." + field (e.g.
+    * "DepthPreprocessorConfig::bilateral.diameter"). */
+  void validate (const std::string& owner = "BilateralFilterConfig") const;
+};
+
 struct DepthPreprocessorConfig
 {
-  bool bilateral_filter = true;
-  int bilateral_diameter = 5;        ///< pixels
-  double sigma_depth = 0.03;         ///< range σ of the bilateral filter (metres)
-  /// > 0: the range σ follows the sensor noise instead, this many σ_z(z) (noiseAdaptiveBilateral,
-  /// the geometric segmentation's smoothing); FusionPipeline sets it so one filter serves both
-  double noise_range_sigma = 0.0;
-  double sigma_space = 4.5;          ///< spatial σ (pixels), KinectFusion's values
+  BilateralFilterConfig bilateral;   ///< KinectFusion's filter: range σ 3 cm, spatial σ 4.5 px
   int pyramid_levels = 3;
   double min_depth = 0.1;            ///< measurements outside [min, max] are dropped
   double max_depth = 5.0;
@@ -61,6 +77,14 @@ public:
 private:
   DepthPreprocessorConfig config_;
 };
+
+/** \brief Smooths \a depth (CV_32F metres; 0, negative or NaN invalid) as \a config says:
+  * noiseAdaptiveBilateral when its range σ follows the noise, else OpenCV's bilateral filter
+  * on metres (invalid pixels enter it as 0, whose range kernel gives them no weight next to
+  * a surface). Invalid pixels are 0 in \a filtered, whichever filter runs or none.
+  */
+void
+bilateralFilterDepth (const cv::Mat& depth, const BilateralFilterConfig& config, cv::Mat& filtered);
 
 /** \brief Bilateral filter of a depth map (CV_32F metres, ≤ 0 invalid) whose range σ is
   * \a range_sigma times the axial noise σ_z(z) of kinectAxialNoise at θ = 0: depth is

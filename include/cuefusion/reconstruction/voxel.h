@@ -180,6 +180,7 @@ struct SurfaceObservation
   VoxelNumber voxel = 0;    ///< the voxel's number (block id × kBlockVoxels + its index in the block)
   std::uint32_t pixel = 0;  ///< nearest pixel the voxel projects to: v << 16 | u
   float gap = 0.f;          ///< |z_voxel − D(u)| at that pixel, metres (< truncation)
+  float sdf = 0.f;          ///< the voxel's fused distance after this frame (truncation units, |sdf| < 1)
 };
 
 using ::cuefusion::fastFloor;

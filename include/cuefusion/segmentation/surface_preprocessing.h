@@ -27,15 +27,24 @@ enum class NormalMethod
   */
 struct SurfacePreprocessingConfig
 {
-  bool bilateral_filter = true;
-  int bilateral_diameter = 5;         ///< pixels
-  float range_sigma = 8.f;            ///< range σ in units of the sensor noise σ_z(z) (≈ 1.5 cm at 1 m, 7 cm at 2.5 m)
-  float sigma_space = 4.5f;           ///< spatial σ (pixels)
+  /// The depth smoothing (reconstruction::bilateralFilterDepth), its range σ 8 σ_z(z) of the
+  /// sensor noise (≈ 1.5 cm at 1 m, 7 cm at 2.5 m): here it must follow the noise
+  /// (noise_range_sigma > 0), see SurfacePreprocessing
+  reconstruction::BilateralFilterConfig bilateral = segmentationSmoothing ();
   NormalMethod normal_method = NormalMethod::CentralDifference;
   int normal_step = 4;                ///< central differences span ±normal_step pixels (±1 is too noisy on Kinect data)
   float max_depth_jump = 0.02f;       ///< a neighbour more than this × z away in depth is across an edge
   float integral_smoothing = 10.f;    ///< IntegralImage only: normal smoothing size (pixels)
   void validate () const;
+
+  /** \brief The segmentation's default smoothing: diameter 5, spatial σ 4.5 px, range σ 8 σ_z(z). */
+  static reconstruction::BilateralFilterConfig
+  segmentationSmoothing ()
+  {
+    reconstruction::BilateralFilterConfig c;
+    c.noise_range_sigma = 8.0;
+    return c;
+  }
 };
 
 /** \brief Preprocessing of an organized cloud for the geometric segmentation (§4.1.2):

@@ -59,13 +59,8 @@ reconstruction::DenseReconstructionConfig
 reconstructionConfig (const FusionPipelineConfig& config)
 {
   reconstruction::DenseReconstructionConfig out = config.reconstruction;
-  if (config.share_smoothing && config.preprocessing.bilateral_filter)
-  {
-    out.preprocessing.bilateral_filter = true;
-    out.preprocessing.noise_range_sigma = config.preprocessing.range_sigma;
-    out.preprocessing.bilateral_diameter = config.preprocessing.bilateral_diameter;
-    out.preprocessing.sigma_space = config.preprocessing.sigma_space;
-  }
+  if (config.share_smoothing && config.preprocessing.bilateral.enabled)
+    out.preprocessing.bilateral = config.preprocessing.bilateral;
   return out;
 }
 }  // namespace
@@ -131,12 +126,12 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
 
   // L^G from the frame's depth (§4.2.1.1).
   const PinholeCamera& camera = frame.camera;
-  if (config_.share_smoothing && config_.preprocessing.bilateral_filter)
+  if (config_.share_smoothing && config_.preprocessing.bilateral.enabled)
   {
     // Tracking's level 0 is this frame's depth through the same filter (0 = invalid).
     planes_.assignDepth (reconstruction_.framePyramid ().front ().depth, camera.fx, camera.fy, camera.cx, camera.cy);
     segmentation::SurfacePreprocessingConfig normals_only = config_.preprocessing;
-    normals_only.bilateral_filter = false;
+    normals_only.bilateral.enabled = false;
     segmentation::preprocessPlanes (planes_, normals_only);
   }
   else

@@ -81,7 +81,7 @@ integrateBlockScalar (VoxelBlock& block, const IntegrationFrame& f, std::uint32_
           const float gap = std::abs (p.z () - f.depth[static_cast<std::size_t> (v) * f.depth_step + static_cast<std::size_t> (u)]);
           if (gap < f.truncation && std::abs (block.voxels[i].sdf) < 1.f)
             observed->push_back ({first_voxel + static_cast<std::uint32_t> (i),
-                                  static_cast<std::uint32_t> (v) << 16 | static_cast<std::uint32_t> (u), gap});
+                                  static_cast<std::uint32_t> (v) << 16 | static_cast<std::uint32_t> (u), gap, block.voxels[i].sdf});
         }
       }
     }
@@ -261,6 +261,7 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
 
   alignas (32) std::uint32_t seen_pixel[8];
   alignas (32) float seen_gap[8];
+  alignas (32) float seen_sdf[8];
 
   for (int z = 0; z < kBlockSide; ++z)
     for (int y = 0; y < kBlockSide; ++y)
@@ -336,12 +337,13 @@ integrateBlockAvx2 (VoxelBlock& block, const IntegrationFrame& f, std::uint32_t 
         if (seen_mask != 0)
         {
           _mm256_store_ps (seen_gap, gap);
+          _mm256_store_ps (seen_sdf, sdf_out);
           _mm256_store_si256 (reinterpret_cast<__m256i*> (seen_pixel), _mm256_or_si256 (_mm256_slli_epi32 (v, 16), u));
           const std::uint32_t row_voxel = first_voxel + static_cast<std::uint32_t> (localVoxelIndex (0, y, z));
           for (; seen_mask != 0; seen_mask &= seen_mask - 1)
           {
             const int i = __builtin_ctz (static_cast<unsigned> (seen_mask));
-            observed->push_back ({row_voxel + static_cast<std::uint32_t> (i), seen_pixel[i], seen_gap[i]});
+            observed->push_back ({row_voxel + static_cast<std::uint32_t> (i), seen_pixel[i], seen_gap[i], seen_sdf[i]});
           }
         }
       }

@@ -347,14 +347,48 @@ buildModelPyramid (const cv::Mat& vertices, const cv::Mat& normals, const Pinhol
 }
 
 void
+BilateralFilterConfig::validate (const std::string& owner) const
+{
+  if (!enabled)
+    return;
+  if (!(diameter >= 1 && diameter <= 31))
+    throw ParameterError (owner + ".diameter", "must lie in [1, 31] pixels");
+  if (!(std::isfinite (sigma_space) && sigma_space > 0.0))
+    throw ParameterError (owner + ".sigma_space", "must be positive");
+  if (!(noise_range_sigma >= 0.0 && noise_range_sigma <= 100.0))
+    throw ParameterError (owner + ".noise_range_sigma", "must lie in [0, 100] noise units (0 = fixed range sigma)");
+  if (noise_range_sigma == 0.0 && !(std::isfinite (range_sigma_metres) && range_sigma_metres > 0.0))
+    throw ParameterError (owner + ".range_sigma_metres", "must be positive");
+}
+
+void
+bilateralFilterDepth (const cv::Mat& depth, const BilateralFilterConfig& config, cv::Mat& filtered)
+{
+  CV_Assert (depth.type () == CV_32F);
+  if (config.enabled && config.noise_range_sigma > 0.0)
+  {
+    noiseAdaptiveBilateral (depth, config.diameter, static_cast<float> (config.noise_range_sigma),
+                            static_cast<float> (config.sigma_space), filtered);  // invalid pixels come out 0
+    return;
+  }
+  // 0 for invalid (NaN too): the range kernel then gives them no weight next to a
+  // surface (|0 − z| ≫ σ), and they are masked again after the filter.
+  const cv::Mat valid = depth > 0.f;  // false for NaN
+  cv::Mat clean = cv::Mat::zeros (depth.size (), CV_32F);
+  depth.copyTo (clean, valid);
+  if (!config.enabled)
+  {
+    filtered = clean;
+    return;
+  }
+  cv::bilateralFilter (clean, filtered, config.diameter, config.range_sigma_metres, config.sigma_space);
+  filtered.setTo (0.f, ~valid);
+}
+
+void
 DepthPreprocessorConfig::validate () const
 {
-  if (bilateral_filter && !(bilateral_diameter >= 1 && bilateral_diameter <= 31))
-    throw ParameterError ("DepthPreprocessorConfig::bilateral_diameter", "must lie in [1, 31] pixels");
-  if (bilateral_filter && !(sigma_depth > 0.0 && sigma_space > 0.0))
-    throw ParameterError ("DepthPreprocessorConfig::sigma_depth", "bilateral sigmas must be positive");
-  if (!(noise_range_sigma >= 0.0 && noise_range_sigma <= 100.0))
-    throw ParameterError ("DepthPreprocessorConfig::noise_range_sigma", "must lie in [0, 100] noise units (0 = fixed range sigma)");
+  bilateral.validate ("DepthPreprocessorConfig::bilateral");
   if (!(pyramid_levels >= 1 && pyramid_levels <= 6))
     throw ParameterError ("DepthPreprocessorConfig::pyramid_levels", "must lie in [1, 6]");
   if (!(min_depth >= 0.0 && max_depth > min_depth))
@@ -392,16 +426,7 @@ DepthPreprocessor::compute (const cv::Mat& depth, const PinholeCamera& camera, F
   });
   PyramidLevel& base = pyramid[0];
   base.camera = camera;
-  if (config_.bilateral_filter && config_.noise_range_sigma > 0.0)
-    noiseAdaptiveBilateral (clean, config_.bilateral_diameter, static_cast<float> (config_.noise_range_sigma),
-                            static_cast<float> (config_.sigma_space), base.depth);  // holes stay 0
-  else if (config_.bilateral_filter)
-  {
-    cv::bilateralFilter (clean, base.depth, config_.bilateral_diameter, config_.sigma_depth, config_.sigma_space);
-    base.depth.setTo (0.f, clean == 0.f);
-  }
-  else
-    base.depth = clean;
+  bilateralFilterDepth (clean, config_.bilateral, base.depth);  // holes stay 0
 
   for (std::size_t l = 0; l < pyramid.size (); ++l)
   {

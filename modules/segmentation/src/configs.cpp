@@ -1,5 +1,5 @@
-// Parameter checks of the segmentation configs: one ParameterError naming the parameter by
-// its `cuefusion segment-frame` option.
+// Parameter checks of the segmentation configs: one ParameterError naming the config field
+// (apps/cuefusion/main.cpp maps fields to the options that set them).
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
 #include <cuefusion/segmentation/support_plane_removal.h>
@@ -24,9 +24,9 @@ require (bool ok, const char* parameter, const char* what)
 void
 ConcavityEdgeEstimationConfig::validate () const
 {
-  require (std::isfinite (threshold) && threshold > -1.f && threshold <= 1.f, "--concavity-threshold",
+  require (std::isfinite (threshold) && threshold > -1.f && threshold <= 1.f, "ConcavityEdgeEstimationConfig::threshold",
            "must lie in (-1, 1] (it compares a cosine)");
-  require (neighbour_step >= 1 && neighbour_step <= 16, "--concavity-step", "must be 1..16 pixels");
+  require (neighbour_step >= 1 && neighbour_step <= 16, "ConcavityEdgeEstimationConfig::neighbour_step", "must be 1..16 pixels");
   require (std::isfinite (noise_slope) && noise_slope >= 0.f && noise_slope <= 1000.f, "ConcavityEdgeEstimationConfig::noise_slope",
            "must lie in [0, 1000]");
 }
@@ -34,17 +34,17 @@ ConcavityEdgeEstimationConfig::validate () const
 void
 DepthDiscontinuityEdgeEstimationConfig::validate () const
 {
-  require (std::isfinite (noise_factor) && noise_factor > 0.f, "--noise-factor", "must be positive");
-  require (neighbour_step >= 1 && neighbour_step <= 16, "--depth-edge-step", "must be 1..16 pixels");
+  require (std::isfinite (noise_factor) && noise_factor > 0.f, "DepthDiscontinuityEdgeEstimationConfig::noise_factor", "must be positive");
+  require (neighbour_step >= 1 && neighbour_step <= 16, "DepthDiscontinuityEdgeEstimationConfig::neighbour_step", "must be 1..16 pixels");
 }
 
 void
 EdgeLabelingConfig::validate () const
 {
-  require (closing_iterations >= 0 && closing_iterations <= 16, "--closings", "must be 0..16");
-  require (min_segment_size >= 1, "--min-segment-size", "must be at least 1 pixel");
-  require (edge_assignment_radius >= 0 && edge_assignment_radius <= 64, "--edge-radius", "must be 0..64 pixels");
-  require (std::isfinite (max_depth_jump) && max_depth_jump > 0.f, "--max-depth-jump", "must be positive");
+  require (closing_iterations >= 0 && closing_iterations <= 16, "EdgeLabelingConfig::closing_iterations", "must be 0..16");
+  require (min_segment_size >= 1, "EdgeLabelingConfig::min_segment_size", "must be at least 1 pixel");
+  require (edge_assignment_radius >= 0 && edge_assignment_radius <= 64, "EdgeLabelingConfig::edge_assignment_radius", "must be 0..64 pixels");
+  require (std::isfinite (max_depth_jump) && max_depth_jump > 0.f, "EdgeLabelingConfig::max_depth_jump", "must be positive");
 }
 
 void
@@ -58,24 +58,24 @@ GeometricSegmentationConfig::validate () const
 void
 SurfacePreprocessingConfig::validate () const
 {
-  require (bilateral_diameter >= 1 && bilateral_diameter <= 31, "--bilateral-diameter", "must be 1..31 pixels");
-  require (std::isfinite (range_sigma) && range_sigma > 0.f && range_sigma <= 100.f, "--range-sigma", "must lie in (0, 100] noise units");
-  require (std::isfinite (sigma_space) && sigma_space > 0.f, "--sigma-space", "must be positive");
-  require (normal_step >= 1 && normal_step <= 16, "--normal-step", "must be 1..16 pixels");
-  require (std::isfinite (max_depth_jump) && max_depth_jump > 0.f, "--max-depth-jump", "must be positive");
-  require (std::isfinite (integral_smoothing) && integral_smoothing >= 1.f, "--normal-smoothing", "must be at least 1");
+  bilateral.validate ("SurfacePreprocessingConfig::bilateral");
+  require (!bilateral.enabled || bilateral.noise_range_sigma > 0.0, "SurfacePreprocessingConfig::bilateral.noise_range_sigma",
+           "must lie in (0, 100] noise units: the segmentation's smoothing follows the sensor noise");
+  require (normal_step >= 1 && normal_step <= 16, "SurfacePreprocessingConfig::normal_step", "must be 1..16 pixels");
+  require (std::isfinite (max_depth_jump) && max_depth_jump > 0.f, "SurfacePreprocessingConfig::max_depth_jump", "must be positive");
+  require (std::isfinite (integral_smoothing) && integral_smoothing >= 1.f, "SurfacePreprocessingConfig::integral_smoothing", "must be at least 1");
 }
 
 void
 SupportPlaneRemovalConfig::validate () const
 {
-  require (std::isfinite (distance_threshold) && distance_threshold > 0.f, "--plane-distance", "must be positive");
-  require (max_iterations >= 1, "--plane-iterations", "must be at least 1");
-  require (sample_step >= 1, "--plane-sample-step", "must be at least 1");
-  require (min_plane_fraction >= 0.f && min_plane_fraction <= 1.f, "--min-plane-fraction", "must lie in [0, 1]");
-  require (min_segment_inlier_fraction > 0.f && min_segment_inlier_fraction <= 1.f, "--plane-segment-fraction",
+  require (std::isfinite (distance_threshold) && distance_threshold > 0.f, "SupportPlaneRemovalConfig::distance_threshold", "must be positive");
+  require (max_iterations >= 1, "SupportPlaneRemovalConfig::max_iterations", "must be at least 1");
+  require (sample_step >= 1, "SupportPlaneRemovalConfig::sample_step", "must be at least 1");
+  require (min_plane_fraction >= 0.f && min_plane_fraction <= 1.f, "SupportPlaneRemovalConfig::min_plane_fraction", "must lie in [0, 1]");
+  require (min_segment_inlier_fraction > 0.f && min_segment_inlier_fraction <= 1.f, "SupportPlaneRemovalConfig::min_segment_inlier_fraction",
            "must lie in (0, 1]");
-  require (max_normal_angle_deg >= 0.f && max_normal_angle_deg <= 90.f, "--plane-normal-angle", "must be 0..90 degrees");
+  require (max_normal_angle_deg >= 0.f && max_normal_angle_deg <= 90.f, "SupportPlaneRemovalConfig::max_normal_angle_deg", "must be 0..90 degrees");
 }
 }  // namespace segmentation
 }  // namespace cuefusion

@@ -570,14 +570,16 @@ updateVoxelLabels (const reconstruction::TSDFVolume& volume, VoxelLabelLayer& la
         if (j + kPrefetchAhead < list.size ())
         {
           const reconstruction::VoxelNumber ahead = list[j + kPrefetchAhead].voxel;
-          __builtin_prefetch (&volume.voxels (ahead / reconstruction::kBlockVoxels)[ahead % reconstruction::kBlockVoxels]);
-          __builtin_prefetch (&layer.block (ahead / reconstruction::kBlockVoxels).labels[ahead % reconstruction::kBlockVoxels], 1);
+          VoxelLabelLayer::Block& block = layer.block (ahead / reconstruction::kBlockVoxels);
+          __builtin_prefetch (&block.labels[ahead % reconstruction::kBlockVoxels], 1);
+          __builtin_prefetch (&block.confidence[ahead % reconstruction::kBlockVoxels], 1);
         }
         const std::int32_t observed = labels.ptr<std::int32_t> (static_cast<int> (seen.pixel >> 16))[seen.pixel & 0xffffu];
         if (observed <= 0 || !(seen.gap < max_gap))
           continue;
+        // The fused distance comes with the observation: the TSDF itself is not read.
         const std::size_t block = seen.voxel / reconstruction::kBlockVoxels, local = seen.voxel % reconstruction::kBlockVoxels;
-        if (std::abs (volume.voxels (block)[local].sdf) < band)
+        if (std::abs (seen.sdf) < band)
         {
           VoxelLabelLayer::Block& labels_of_block = layer.block (block);
           local_writes += updateVoxelLabel (labels_of_block.labels[local], labels_of_block.confidence[local],

@@ -19,11 +19,11 @@ preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& confi
   config.validate ();
   const int w = planes.width, h = planes.height;
   pcl::StopWatch watch;
-  if (config.bilateral_filter)
+  if (config.bilateral.enabled)
   {
     const cv::Mat depth (h, w, CV_32F, planes.z.data ());  // NaN = invalid
     cv::Mat filtered;
-    noiseAdaptiveBilateral (depth, config.bilateral_diameter, config.range_sigma, config.sigma_space, filtered);
+    reconstruction::bilateralFilterDepth (depth, config.bilateral, filtered);
     parallelFor (h, [&] (int y) {
       const float* out = filtered.ptr<float> (y);
       for (int x = 0; x < w; ++x)
