@@ -438,9 +438,14 @@ TEST_F (PropagationFixture, LabelLayerKeysTheVolumesVoxelsAndItsFileRoundTrips)
   for (std::size_t i = 0; i < 4; ++i)
     step (i);
   ASSERT_EQ (layer.blockCount (), volume->blockCount ());
-  // L^m: each pixel shows the label of the voxel the raycast reports, 0 where it hit none.
-  const reconstruction::RaycastResult model = volume->raycast (sequence->camera (), sequence->poseAt (3));
+  // L^m: each pixel shows the label of the voxel the raycast reports, 0 where it hit none;
+  // the raycast sampling the layer itself gives the same image.
+  reconstruction::RaycastResult model;
+  volume->raycast (sequence->camera (), sequence->poseAt (3), sequence->frame (3)->depth, reconstruction::RaycastHoleSkip (),
+                   model, &layer.labelValues ());
   const cv::Mat labels = modelLabels (model);
+  ASSERT_EQ (model.values.size (), labels.size ());
+  EXPECT_EQ (cv::countNonZero (model.values != labels), 0);
   int hits = 0, labelled = 0;
   for (int y = 0; y < labels.rows; ++y)
     for (int x = 0; x < labels.cols; ++x)

@@ -157,7 +157,6 @@ private:
   segmentation::VoxelLabelLayer labels_;
   segmentation::SurfacePlanes planes_;
   cv::Mat frame_labels_;
-  cv::Mat model_labels_;  ///< L^m of the last segmented frame: labels_ read through the model's voxels
   /** \brief The output label of \a label (GlobalSegmentMap::settledLabels). Exact for
     * the written outputs; for per-frame views (\a exact false) the table may be up to
     * kViewSettleFrames frames old (it scans the whole volume), and labels made since show

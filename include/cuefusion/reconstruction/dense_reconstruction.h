@@ -98,8 +98,14 @@ public:
   const TSDFVolume& volume () const { return volume_; }
   TSDFVolume& volume () { return volume_; }
 
-  /** \brief Model maps V^m, N^m, L^m rendered at the last good pose. */
+  /** \brief Model maps V^m, N^m (and colours, voxels, sampled values) rendered at the last good pose. */
   const RaycastResult& model () const { return model_; }
+
+  /** \brief A layer beside the volume (VoxelValueLayer) that each frame's model raycast
+    * samples into model ().values, e.g. the segmentation's labels (L^m of §4.2.2.1);
+    * nullptr: none. The layer must outlive its use here.
+    */
+  void setModelValues (const VoxelValueLayer* values) { model_values_ = values; }
 
   /** \brief Filtered vertex/normal pyramid of the last processed frame. */
   const FramePyramid& framePyramid () const { return frame_pyramid_; }
@@ -152,6 +158,7 @@ private:
   TSDFVolume volume_;
   RaycastResult model_;
   RaycastHoleSkip hole_skip_;  ///< the last raycast's empty holes, for the next one
+  const VoxelValueLayer* model_values_ = nullptr;  ///< sampled by the model raycast (setModelValues)
   FramePyramid frame_pyramid_;
   FramePyramid model_pyramid_;
   KeyframeDatabase keyframes_;

@@ -47,7 +47,14 @@ public:
   reset ()
   {
     blocks_.clear ();
+    label_values_.blocks.clear ();
   }
+
+  /** \brief The labels as a layer the volume's raycast samples
+    * (DenseReconstruction::setModelValues): L^m comes out of the raycast itself. Its
+    * address stays while the layer lives; its content follows resize () and reset ().
+    */
+  const reconstruction::VoxelValueLayer& labelValues () const { return label_values_; }
 
   std::size_t blockCount () const { return blocks_.size (); }
 
@@ -100,8 +107,14 @@ public:
   static VoxelLabelLayer
   load (const std::string& path, const reconstruction::TSDFVolume& volume);
 
+  VoxelLabelLayer () = default;
+  VoxelLabelLayer (VoxelLabelLayer&&) = default;
+  /** Keeps this layer's labelValues () address (the raycast may hold it); takes the content. */
+  VoxelLabelLayer& operator= (VoxelLabelLayer&& other) = default;
+
 private:
   std::vector<std::unique_ptr<Block>> blocks_;
+  reconstruction::VoxelValueLayer label_values_;  ///< blocks_[id]->labels.data (), per block
 };
 }  // namespace segmentation
 }  // namespace cuefusion

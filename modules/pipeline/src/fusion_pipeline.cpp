@@ -118,6 +118,9 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
 {
   PipelineFrameReport report;
   ++processed_;
+  // The model raycast samples the labels (L^m); set per frame, as a moved pipeline's layer
+  // lives elsewhere.
+  reconstruction_.setModelValues (&labels_.labelValues ());
   report.reconstruction = reconstruction_.process (frame);
   if (!report.reconstruction.tracked)
     return report;
@@ -161,9 +164,8 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   watch.reset ();
   const reconstruction::PyramidLevel& level = reconstruction_.framePyramid ().front ();
   const reconstruction::RaycastResult& model = reconstruction_.model ();
-  labels_.labelImage (model.voxels, model_labels_);
   segmentation::PropagationResult propagated;
-  propagation_.propagate (level.vertices, level.normals, frame_segments, model.vertices, model.normals, model_labels_, map_,
+  propagation_.propagate (level.vertices, level.normals, frame_segments, model.vertices, model.normals, model.values, map_,
                           frame.index, propagated, info.empty () ? nullptr : &info);
   frame_labels_ = propagated.labels;
   report.fresh_segments = propagated.fresh;
@@ -207,7 +209,7 @@ FusionPipeline::settledLabel (std::uint32_t label, bool exact) const
 cv::Mat
 FusionPipeline::modelLabels () const
 {
-  const cv::Mat& labels = model_labels_;
+  const cv::Mat& labels = reconstruction_.model ().values;
   if (labels.empty ())
     return cv::Mat ();
   refreshSettled (false);

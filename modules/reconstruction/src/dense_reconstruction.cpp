@@ -263,7 +263,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
     hole_skip_.empty_holes.release ();
   hole_skip_.refresh_period = config_.hole_refresh_period;
   ++hole_skip_.phase;
-  volume_.raycast (frame.camera, report.pose, frame_pyramid_[0].depth, hole_skip_, model_);
+  volume_.raycast (frame.camera, report.pose, frame_pyramid_[0].depth, hole_skip_, model_, model_values_);
   buildModelPyramid (model_.vertices, model_.normals, model_.camera, config_.preprocessing.pyramid_levels,
                      static_cast<float> (config_.preprocessing.max_depth_jump), model_pyramid_);
   report.timings.raycast_ms = clock.lap ();

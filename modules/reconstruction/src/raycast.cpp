@@ -539,6 +539,17 @@ struct RayFrame
   float hint_margin, truncation;       ///< metres
   float inv_fx, inv_fy, cx, cy;        ///< ray directions in float (PinholeCamera::backProject is double)
   bool use_avx2;
+  const VoxelValueLayer* values;       ///< sampled into RaycastResult::values, or nullptr
+
+  /** \brief Where the sampled layer keeps voxel \a n's value, or nullptr (reads as 0). */
+  const std::uint32_t*
+  valueOf (VoxelNumber n) const
+  {
+    const std::size_t id = n / kBlockVoxels;
+    return n != kNoVoxel && id < values->blocks.size () && values->blocks[id] != nullptr
+               ? values->blocks[id] + n % kBlockVoxels
+               : nullptr;
+  }
 };
 
 /** \brief Casts the rays of one row after another into \a out; its buffers are reused
@@ -639,6 +650,10 @@ RowCaster::castHintedGroups (int v, float ray_y)
     if (writeSettledRays8 (access_, f_.origin_voxels, dir_x, dir_y, dir_z, &ray_x_[static_cast<std::size_t> (u0)], ray_y, f_.R_cw, z8,
                            grads, &vertex_row[u0][0], &normal_row[u0][0], &hits_[static_cast<std::size_t> (u0)]) == 0)
       clearVertices (v, u0, 8);  // it writes nothing when no ray settled
+    else if (f_.values != nullptr)
+      for (int i = 0; i < 8; ++i)
+        if (const std::uint32_t* value = f_.valueOf (hits_[static_cast<std::size_t> (u0 + i)].number))
+          __builtin_prefetch (value);
   }
   for (int u = width - width % 8; u < width; ++u)
     hint_z_[static_cast<std::size_t> (u)] = -1.f;  // the row's tail: scalar
@@ -810,6 +825,9 @@ RowCaster::castRow (int v)
     if (hit.voxel != nullptr)
     {
       __builtin_prefetch (hit.voxel);
+      if (f_.values != nullptr)
+        if (const std::uint32_t* value = f_.valueOf (hit.number))
+          __builtin_prefetch (value);
       hits_[static_cast<std::size_t> (u)] = hit;
     }
   }
@@ -818,6 +836,15 @@ RowCaster::castRow (int v)
     const VoxelHit& hit = hits_[static_cast<std::size_t> (u)];
     color_row[u] = hit.voxel != nullptr ? cv::Vec3b (hit.voxel->b, hit.voxel->g, hit.voxel->r) : cv::Vec3b (0, 0, 0);
     voxel_row[u] = static_cast<std::int32_t> (hit.number);  // kNoVoxel is −1
+  }
+  if (f_.values != nullptr)
+  {
+    std::int32_t* value_row = out_.values.ptr<std::int32_t> (v);
+    for (int u = 0; u < width; ++u)
+    {
+      const std::uint32_t* value = f_.valueOf (hits_[static_cast<std::size_t> (u)].number);
+      value_row[u] = value != nullptr ? static_cast<std::int32_t> (*value) : 0;
+    }
   }
 }
 }  // namespace
@@ -845,7 +872,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
 
 void
 TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,
-                     const RaycastHoleSkip& skip, RaycastResult& out) const
+                     const RaycastHoleSkip& skip, RaycastResult& out, const VoxelValueLayer* values) const
 {
   camera.validate ("TSDFVolume::raycast");
   if (!depth_hint.empty () && (depth_hint.type () != CV_32F || depth_hint.cols != camera.width || depth_hint.rows != camera.height))
@@ -862,6 +889,10 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   out.normals.create (size, CV_32FC3);
   out.colors.create (size, CV_8UC3);
   out.voxels.create (size, CV_32S);
+  if (values != nullptr)
+    out.values.create (size, CV_32S);
+  else
+    out.values.release ();
   if (depth_hint.empty ())
     out.empty_holes.release ();
   else
@@ -889,7 +920,8 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
                        static_cast<float> (1.0 / camera.fy),
                        static_cast<float> (camera.cx),
                        static_cast<float> (camera.cy),
-                       vectorKernelsEnabled ()};
+                       vectorKernelsEnabled (),
+                       values};
   parallelForChunks (camera.height, 4, [&] (int, int begin, int end) {
     RowCaster rows (*this, frame, out);
     for (int v = begin; v < end; ++v)

@@ -46,8 +46,12 @@ void
 VoxelLabelLayer::resize (std::size_t blocks)
 {
   blocks_.reserve (blocks);
+  label_values_.blocks.reserve (blocks);
   while (blocks_.size () < blocks)
+  {
     blocks_.push_back (std::make_unique<Block> ());
+    label_values_.blocks.push_back (blocks_.back ()->labels.data ());
+  }
 }
 
 void
@@ -59,7 +63,7 @@ VoxelLabelLayer::labelImage (const cv::Mat& voxels, cv::Mat& labels) const
   // The voxels a view hits are scattered over the layer and mostly out of cache: each
   // lookup is prefetched a few pixels ahead (without, this loop waited on memory for
   // 0.8 ms a frame on the real sequences).
-  constexpr int kAhead = 8;
+  constexpr int kAhead = 32;
   parallelForChunks (voxels.rows, 16, [&] (int, int begin, int end) {
     for (int y = begin; y < end; ++y)
     {
