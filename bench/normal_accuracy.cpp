@@ -45,7 +45,7 @@ main (int argc, char** argv)
   {
     Variant v;
     v.name = "central differences ±" + std::to_string (step) + " px";
-    v.config.normal_step = step;
+    v.config.normals.step = step;
     variants.push_back (v);
   }
   Variant integral;

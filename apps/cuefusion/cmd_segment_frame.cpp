@@ -274,9 +274,9 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
     ("sigma-space", po::value (&pre.bilateral.sigma_space)->default_value (pre.bilateral.sigma_space), "bilateral spatial sigma (px)")
     ("bilateral-diameter", po::value (&pre.bilateral.diameter)->default_value (pre.bilateral.diameter), "bilateral window (px)")
     ("no-bilateral", "switch the bilateral filter off")
-    ("normal-step", po::value (&pre.normal_step)->default_value (pre.normal_step), "central differences over +-N px")
+    ("normal-step", po::value (&pre.normals.step)->default_value (pre.normals.step), "central differences over +-N px")
     ("normal-smoothing", po::value (&pre.integral_smoothing)->default_value (pre.integral_smoothing), "integral-image normal smoothing size (px)")
-    ("max-depth-jump", po::value (&pre.max_depth_jump)->default_value (pre.max_depth_jump), "relative depth step treated as an edge by normals and edge assignment")
+    ("max-depth-jump", po::value (&pre.normals.max_depth_jump)->default_value (pre.normals.max_depth_jump), "relative depth step treated as an edge by normals and edge assignment")
     ("concavity-threshold", po::value (&geo.concavity.threshold)->default_value (geo.concavity.threshold), "concave edge where Phi < this")
     ("concavity-noise-slope", po::value (&geo.concavity.noise_slope)->default_value (geo.concavity.noise_slope),
      "the concavity threshold gives way to the normals' noise: cos of this x sigma_z(z)/z where lower (0 = off)")
@@ -314,7 +314,7 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
     throw ParameterError ("--depth-scale", "must be a positive number");
   geo.use_concavity_edges = !no_concavity;
   geo.use_discontinuity_edges = !no_depth_edges;
-  geo.labeling.max_depth_jump = pre.max_depth_jump;
+  geo.labeling.max_depth_jump = pre.normals.max_depth_jump;
   pre.validate ();
   geo.validate ();
   s.plane.validate ();

@@ -59,7 +59,7 @@ nearerVoxelDistance (const TSDFVolume& volume, VoxelNumber v, const Eigen::Vecto
     return std::numeric_limits<float>::infinity ();
   const Eigen::Vector3i offset (static_cast<int> (local % kBlockSide), static_cast<int> ((local / kBlockSide) % kBlockSide),
                                 static_cast<int> (local / (kBlockSide * kBlockSide)));
-  return (volume.voxelPosition (volume.blocks ()[id]->index * kBlockSide + offset) - p).norm ();
+  return (volume.voxelPosition (volume.store ().block (id).index * kBlockSide + offset) - p).norm ();
 }
 }  // namespace
 
@@ -264,22 +264,22 @@ void
 expectDistanceLayersMatchTheVoxels (const TSDFVolume& volume)
 {
   std::size_t mirrored = 0;
-  for (std::size_t id = 0; id < volume.blocks ().size (); ++id)
+  for (std::size_t id = 0; id < volume.store ().size (); ++id)
   {
-    const VoxelBlock& block = *volume.blocks ()[id];
+    const VoxelBlock& block = volume.store ().block (id);
     for (int z = 0; z <= kBlockSide; ++z)
       for (int y = 0; y <= kBlockSide; ++y)
         for (int x = 0; x <= kBlockSide; ++x)
         {
           const Eigen::Vector3i voxel = block.index * kBlockSide + Eigen::Vector3i (x, y, z);
-          const TsdfVoxel* owner = volume.findVoxel (voxel);
+          const TsdfVoxel* owner = volume.store ().findVoxel (voxel);
           const std::int16_t expected = owner != nullptr ? encodeDistance (*owner) : kUnobservedDistance;
           ASSERT_EQ (block.distances[static_cast<std::size_t> (distanceIndex (x, y, z))], expected)
               << "block " << id << ", local voxel " << x << " " << y << " " << z;
           mirrored += (x == kBlockSide || y == kBlockSide || z == kBlockSide) && expected != kUnobservedDistance;
         }
   }
-  EXPECT_GT (mirrored, volume.blocks ().size ());  // a surface's blocks have observed neighbours
+  EXPECT_GT (mirrored, volume.store ().size ());  // a surface's blocks have observed neighbours
 }
 }  // namespace
 
@@ -309,11 +309,12 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
     SCOPED_TRACE ("loaded");
     expectDistanceLayersMatchTheVoxels (loaded);
   }
-  for (const auto& block : volume.blocks ())
+  for (std::size_t b = 0; b < volume.store ().size (); ++b)
   {
-    const std::int32_t id = loaded.findBlock (block->index);
+    const VoxelBlock& block = volume.store ().block (b);
+    const std::int32_t id = loaded.store ().findBlock (block.index);
     ASSERT_GE (id, 0);
-    EXPECT_EQ (std::memcmp (loaded.blocks ()[static_cast<std::size_t> (id)]->voxels.data (), block->voxels.data (),
+    EXPECT_EQ (std::memcmp (loaded.store ().block (static_cast<std::size_t> (id)).voxels.data (), block.voxels.data (),
                             sizeof (TsdfVoxel) * kBlockVoxels), 0);
   }
 
@@ -354,15 +355,59 @@ TEST (TSDFVolume, MemoryFollowsTheSurfaceNotTheViewedVolume)
   EXPECT_GT (static_cast<double> (volume.blockCount ()), 0.9 * band_blocks);
   EXPECT_LT (static_cast<double> (volume.blockCount ()), 2.5 * band_blocks);
   EXPECT_LT (static_cast<double> (volume.blockCount ()), 0.15 * frustum_blocks);
-  for (const auto& b : volume.blocks ())
+  for (const Eigen::Vector3i& index : volume.store ().blockIndices ())
   {
-    const double y_near = b->index.y () * block, y_far = y_near + block;
+    const double y_near = index.y () * block, y_far = y_near + block;
     EXPECT_GT (y_far, 4.0 - volume.getConfig ().truncation () - 1e-9);
     EXPECT_LT (y_near, 4.0 + volume.getConfig ().truncation () + 1e-9);
   }
   EXPECT_GE (volume.memoryUsage (), volume.blockCount () * sizeof (VoxelBlock));
   volume.reset ();
   EXPECT_EQ (volume.blockCount (), 0u);
+}
+
+TEST (VoxelBlockStore, AllocatesOnceFindsVoxelsAndKeepsTheApronsOfWrittenBlocks)
+{
+  VoxelBlockStore store;
+  EXPECT_EQ (store.allocate (Eigen::Vector3i (0, 0, 0)), std::make_pair (0, true));
+  EXPECT_EQ (store.allocate (Eigen::Vector3i (0, 0, 0)), std::make_pair (0, false));  // already there
+  EXPECT_EQ (store.allocate (Eigen::Vector3i (1, 0, 0)), std::make_pair (1, true));
+  ASSERT_EQ (store.size (), 2u);
+  EXPECT_EQ (store.blockIndices ()[1], Eigen::Vector3i (1, 0, 0));
+  EXPECT_EQ (store.findBlock (Eigen::Vector3i (1, 0, 0)), 1);
+  EXPECT_EQ (store.find (packBlockIndex (Eigen::Vector3i (1, 0, 0))), 1);
+  EXPECT_EQ (store.findBlock (Eigen::Vector3i (2, 0, 0)), VoxelBlockHash::kNone);
+
+  // Global voxel (9, 3, 5) is local (1, 3, 5) of block 1.
+  const std::size_t local = static_cast<std::size_t> (localVoxelIndex (1, 3, 5));
+  EXPECT_EQ (store.findVoxelNumber (Eigen::Vector3i (9, 3, 5)), voxelNumber (1, local));
+  EXPECT_EQ (store.findVoxel (Eigen::Vector3i (9, 3, 5)), &store.block (1).voxels[local]);
+  EXPECT_EQ (store.findVoxelNumber (Eigen::Vector3i (16, 3, 5)), kNoVoxel);
+  EXPECT_EQ (store.findVoxel (Eigen::Vector3i (-1, 3, 5)), nullptr);
+
+  // A voxel on block 1's lower x face, written and refreshed: block 1's own distance copy
+  // and block 0's apron (its x = 8 layer) both show it.
+  TsdfVoxel& voxel = store.block (1).voxels[static_cast<std::size_t> (localVoxelIndex (0, 3, 5))];
+  voxel.sdf = -0.25f;
+  voxel.weight = 3.f;
+  EXPECT_EQ (store.block (0).distances[static_cast<std::size_t> (distanceIndex (8, 3, 5))], kUnobservedDistance);
+  store.refreshDistances (1);
+  const std::int16_t encoded = encodeDistance (voxel);
+  EXPECT_NE (encoded, kUnobservedDistance);
+  EXPECT_EQ (store.block (1).distances[static_cast<std::size_t> (distanceIndex (0, 3, 5))], encoded);
+  EXPECT_EQ (store.block (0).distances[static_cast<std::size_t> (distanceIndex (8, 3, 5))], encoded);
+
+  // A block allocated later below block 1 (y − 1) takes its y = 8 apron layer from it.
+  EXPECT_EQ (store.allocate (Eigen::Vector3i (1, -1, 0)), std::make_pair (2, true));
+  store.block (1).voxels[static_cast<std::size_t> (localVoxelIndex (2, 0, 4))] = voxel;
+  store.refreshDistances (1);
+  EXPECT_EQ (store.block (2).distances[static_cast<std::size_t> (distanceIndex (2, 8, 4))], encoded);
+  EXPECT_EQ (store.block (2).distances[static_cast<std::size_t> (distanceIndex (2, 7, 4))], kUnobservedDistance);
+
+  EXPECT_GE (store.memoryUsage (), 3 * sizeof (VoxelBlock));
+  store.clear ();
+  EXPECT_EQ (store.size (), 0u);
+  EXPECT_EQ (store.findBlock (Eigen::Vector3i (0, 0, 0)), VoxelBlockHash::kNone);
 }
 
 TEST (TSDFVolume, BoundsLimitAllocation)
@@ -373,8 +418,8 @@ TEST (TSDFVolume, BoundsLimitAllocation)
   TSDFVolume volume (config);
   test::integrateOrbit (scene, 4, volume);
   ASSERT_GT (volume.blockCount (), 0u);
-  for (const auto& b : volume.blocks ())
-    EXPECT_LE (b->index.x () * config.blockSize (), 0.0 + 1e-9);
+  for (const Eigen::Vector3i& index : volume.store ().blockIndices ())
+    EXPECT_LE (index.x () * config.blockSize (), 0.0 + 1e-9);
 }
 
 TEST (TSDFVolume, RejectsBadInput)

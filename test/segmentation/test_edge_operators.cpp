@@ -1,6 +1,7 @@
 // The §4.2.1.1 operators on analytic geometry, labelEdgeMap, and bad input.
 #include "segmentation_fixtures.h"
 
+#include <cuefusion/reconstruction/vertex_maps.h>
 #include <cuefusion/segmentation/concavity_edge_estimation.h>
 #include <cuefusion/segmentation/depth_discontinuity_edge_estimation.h>
 #include <cuefusion/segmentation/edge_operators.h>
@@ -8,6 +9,9 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <cstring>
 
 using namespace cuefusion;
 using namespace cuefusion::segmentation;
@@ -283,6 +287,42 @@ TEST (SegmentationInput, BadInputIsAClearError)
   EXPECT_THROW (concavity.setConfig (config), ParameterError);
   EXPECT_THROW (discontinuity.setNoiseFactor (-1.f), ParameterError);
   EXPECT_THROW (concavity.setNeighbourStep (0), ParameterError);
+}
+
+TEST (SurfacePlanes, TrackingsNormalMapIsTheSegmentationsToTheBit)
+{
+  // One normal formula and one map per frame: FusionPipeline hands the segmentation
+  // tracking's level-0 normals (reconstruction::computeNormalMap on the vertex map) instead
+  // of computing its own from the same depth; on a noisy view with outlines, holes and the
+  // table both must be the same floats, at the segmentation's span and at tracking's.
+  const io::SyntheticScene scene =
+    io::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + test::kTwoBoxes, "test scene");
+  io::DepthNoiseConfig noise;
+  noise.enabled = true;
+  const io::RenderedView view =
+    io::SceneRenderer (scene).render (scene.camera, test::lookAt (test::kObliqueEye, test::kTableTarget), noise, 3);
+  const PinholeCamera& camera = scene.camera;
+  for (const reconstruction::NormalMapConfig config :
+       {SurfacePreprocessingConfig::segmentationNormals (), reconstruction::NormalMapConfig ()})
+  {
+    SurfacePlanes own;
+    own.assignDepth (view.depth, camera.fx, camera.fy, camera.cx, camera.cy);
+    computeNormalPlanes (own, config);
+    cv::Mat vertices, normals;
+    reconstruction::computeVertexMap (view.depth, camera, vertices);
+    reconstruction::computeNormalMap (vertices, normals, config);
+    SurfacePlanes shared;
+    shared.assignDepth (view.depth, camera.fx, camera.fy, camera.cx, camera.cy);
+    shared.assignNormals (normals);
+    int valid = 0;
+    for (std::size_t i = 0; i < own.nx.size (); ++i)
+    {
+      const float a[3] = {own.nx[i], own.ny[i], own.nz[i]}, b[3] = {shared.nx[i], shared.ny[i], shared.nz[i]};
+      ASSERT_EQ (std::memcmp (a, b, sizeof a), 0) << "pixel " << i << " step " << config.step;
+      valid += std::isnan (a[0]) ? 0 : 1;
+    }
+    EXPECT_GT (valid, 100000) << "step " << config.step;
+  }
 }
 
 TEST (NoiseAdaptiveBilateral, KeepsFlatDepthAndSteps)

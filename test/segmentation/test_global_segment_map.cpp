@@ -317,7 +317,7 @@ TEST_F (PropagationFixture, VectorKernelsLabelTheMapAsTheScalarOnes)
     for (std::size_t id = 0; id < layer.blockCount (); ++id)
       for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
       {
-        const Eigen::Vector3i& index = volume->blocks ()[id]->index;
+        const Eigen::Vector3i& index = volume->store ().block (id).index;
         const std::uint32_t label = layer.block (id).labels[static_cast<std::size_t> (i)];
         if (label != 0)
           labelled[vector][{index.x (), index.y (), index.z (), i}] = {map.resolve (label),
@@ -366,9 +366,9 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
       SetUp ();
       volume->integrate (first->depth, first->color, first->camera, sequence->poseAt (0));
       std::map<std::size_t, float> weight_before;
-      for (std::size_t b = 0; b < volume->blocks ().size (); ++b)
+      for (std::size_t b = 0; b < volume->store ().size (); ++b)
         for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
-          weight_before[b * reconstruction::kBlockVoxels + static_cast<std::size_t> (i)] = volume->blocks ()[b]->voxels[static_cast<std::size_t> (i)].weight;
+          weight_before[b * reconstruction::kBlockVoxels + static_cast<std::size_t> (i)] = volume->store ().block (b).voxels[static_cast<std::size_t> (i)].weight;
       volume->integrate (frame->depth, frame->color, camera, pose);
       // The list integration made: each voxel once, all inside the band.
       std::set<std::uint32_t> listed;
@@ -377,7 +377,7 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
         {
           EXPECT_TRUE (listed.insert (seen.voxel).second);
           EXPECT_LT (seen.gap, truncation);
-          const float sdf = volume->blocks ()[seen.voxel / reconstruction::kBlockVoxels]->voxels[seen.voxel % reconstruction::kBlockVoxels].sdf;
+          const float sdf = volume->store ().block (seen.voxel / reconstruction::kBlockVoxels).voxels[seen.voxel % reconstruction::kBlockVoxels].sdf;
           EXPECT_LT (std::abs (sdf), 1.f);
           EXPECT_EQ (seen.sdf, sdf);  // the fused distance, as the voxel holds it
         }
@@ -389,7 +389,7 @@ TEST_F (PropagationFixture, LabelUpdateTouchesExactlyTheVoxelsTheFrameSawInTheBa
       const Eigen::Isometry3d world_to_camera = pose.inverse ();
       for (const std::int32_t id : volume->lastIntegratedBlocks ())
       {
-        const reconstruction::VoxelBlock& block = *volume->blocks ()[static_cast<std::size_t> (id)];
+        const reconstruction::VoxelBlock& block = volume->store ().block (static_cast<std::size_t> (id));
         for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
         {
           const std::size_t key = static_cast<std::size_t> (id) * reconstruction::kBlockVoxels + static_cast<std::size_t> (i);

@@ -18,6 +18,16 @@
 #define CUEFUSION_HAVE_AVX2_KERNELS 1
 /** Compiles one function for AVX2 + FMA, leaving the rest of the file baseline x86-64. */
 #define CUEFUSION_AVX2 __attribute__ ((target ("avx2,fma")))
+/** Compiles a plain C++ loop twice, for AVX2 (without FMA, so both compute the same bits)
+  * and baseline x86-64; the loader picks the clone for the CPU, whatever
+  * setVectorKernelsEnabled says. target_clones makes an ifunc whose resolver runs while the
+  * program is loaded, before ThreadSanitizer's runtime is ready (a TSan build crashes at
+  * start-up): no clones there. */
+#if defined(__SANITIZE_THREAD__)
+#define CUEFUSION_AVX2_CLONES
+#else
+#define CUEFUSION_AVX2_CLONES __attribute__ ((target_clones ("avx2", "default")))
+#endif
 
 namespace cuefusion
 {
@@ -170,4 +180,8 @@ abs (__m256 x)
 }
 }  // namespace avx2
 }  // namespace cuefusion
+#endif
+
+#ifndef CUEFUSION_AVX2_CLONES
+#define CUEFUSION_AVX2_CLONES
 #endif

@@ -3,10 +3,13 @@
 namespace cuefusion
 {
 /** \brief Whether the hand-vectorised AVX2 + FMA kernels run instead of their scalar
-  * versions. There are seven: TSDF integration (integration.cpp), ICP accumulation
-  * (projective_icp.cpp), the raycast's Newton steps (tsdf_volume.cpp), the normal map and
-  * the pyramid's downsampling (preprocessing.cpp), the noise-adaptive bilateral filter
+  * versions. There are six: TSDF integration (integration.cpp), ICP accumulation
+  * (projective_icp.cpp), the raycast's Newton steps (raycast.cpp), the pyramid's
+  * downsampling (preprocessing.cpp), the noise-adaptive bilateral filter
   * (depth_smoothing.cpp) and the propagation's per-pixel tests (segment_propagation.cpp).
+  * Plain loops the compiler vectorises (the normal map, normal_map.cpp; the edge
+  * operators, edge_maps.cpp) are built twice instead (CUEFUSION_AVX2_CLONES in avx2.h) and
+  * follow the CPU, not this switch.
   *
   * The project is built for baseline x86-64 (SSE2) so that one binary runs on any x86-64
   * machine and its Eigen types keep the layout Debian's PCL was compiled with (-march

@@ -47,12 +47,17 @@ struct FusionPipelineConfig
   segmentation::GlobalSegmentMapConfig merging;
   segmentation::VoxelLabelUpdateConfig update;
   SegmentationMode mode = SegmentationMode::Fused;
-  /** One depth smoothing for tracking and segmentation (as in the reference, where the
-    * segmentation reads the maps KinectFusion's preprocessing made): tracking uses the
-    * segmentation's noise-adaptive bilateral filter (preprocessing's diameter, range and
-    * spatial σ) and the segmentation starts from tracking's filtered depth, skipping its
-    * own filter. Off: each smooths the raw depth its own way (tracking with
-    * reconstruction.preprocessing's fixed range σ), one more filter per frame.
+  /** One depth smoothing and one normal map for tracking and segmentation (as in the
+    * reference, where the segmentation reads the maps KinectFusion's preprocessing made):
+    * tracking uses the segmentation's noise-adaptive bilateral filter (preprocessing's
+    * diameter, range and spatial σ) and its normals (preprocessing.normals: ±4 px, for the
+    * ICP's normal test at level 0 and the propagation), and the segmentation starts from
+    * tracking's filtered depth and level-0 normals, computing neither again (normals only
+    * on images at least 160 × preprocessing.normals.step pixels wide: see
+    * reconstruction::DepthPreprocessorConfig::normals_min_width). Off: each
+    * smooths the raw depth and computes normals its own way (tracking with
+    * reconstruction.preprocessing's fixed range σ and ±1 px normals), one more filter and
+    * one more normal map per frame.
     */
   bool share_smoothing = true;
   void validate () const;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cuefusion/common/pinhole_camera.h>
+#include <cuefusion/reconstruction/vertex_maps.h>
 
 #include <opencv2/core.hpp>
 
@@ -39,7 +40,22 @@ struct DepthPreprocessorConfig
   int pyramid_levels = 3;
   double min_depth = 0.1;            ///< measurements outside [min, max] are dropped
   double max_depth = 5.0;
-  double max_depth_jump = 0.05;      ///< relative depth step that breaks a normal / block average
+  double max_depth_jump = 0.05;      ///< relative depth step that breaks a 2×2 block average and the coarser levels' (±1 px) normals
+  /// level 0's normals (§4.1.2: ±1 pixel); FusionPipeline gives tracking the segmentation's
+  /// (segmentation::SurfacePreprocessingConfig::normals), so one normal map serves both
+  NormalMapConfig normals;
+  /// images narrower than this (pixels) get ±1 px normals at level 0 instead of `normals`
+  /// (0: always `normals`). FusionPipeline sets 160 × normals.step: a span wider than 1/160
+  /// of the image blurs normals across too much of each object for ICP's normal test
+  /// (measured: ±4 px on a 160×120 orbit lost frames that ±1 and ±2 px tracked)
+  int normals_min_width = 0;
+
+  /** \brief The normals level 0 of an image \a width pixels wide gets. */
+  NormalMapConfig
+  levelZeroNormals (int width) const
+  {
+    return width >= normals_min_width ? normals : NormalMapConfig{1, static_cast<float> (max_depth_jump)};
+  }
 
   void validate () const;
 };

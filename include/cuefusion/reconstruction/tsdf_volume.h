@@ -3,7 +3,7 @@
 #include <cuefusion/common/pinhole_camera.h>
 #include <cuefusion/common/rgbd_frame.h>
 #include <cuefusion/reconstruction/voxel.h>
-#include <cuefusion/reconstruction/voxel_block_hash.h>
+#include <cuefusion/reconstruction/voxel_block_store.h>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -107,6 +107,10 @@ struct RaycastHoleSkip
   * keep per voxel by its number (VoxelNumber: block id and index), which the raycast and
   * the extraction report, so the volume knows nothing of them.
   *
+  * The volume holds the algorithms (integrate, raycast, extract, save/load, reset) over a
+  * VoxelBlockStore that holds the blocks; readers reach blocks and voxels through store ()
+  * (read-only: only the volume's own algorithms write voxels).
+  *
   * integrate() and raycast() run their per-block and per-pixel loops in parallel
   * (the project's thread pool, common/parallel.h); the volume is not safe to modify from
   * several threads at once.
@@ -203,7 +207,7 @@ public:
   void
   reset ();
 
-  std::size_t blockCount () const { return blocks_.size (); }
+  std::size_t blockCount () const { return store_.size (); }
 
   /** \brief Bytes held by blocks and the hash table. */
   std::size_t memoryUsage () const;
@@ -227,28 +231,10 @@ public:
   /** \brief Image size of the last integrate() call (0 × 0 before the first). */
   cv::Size lastIntegratedSize () const { return integrated_size_; }
 
-  /** \brief Block storage, indexed by block id (for the segment map and tests). */
-  const std::vector<std::unique_ptr<VoxelBlock>>& blocks () const { return blocks_; }
-
-  /** \brief Block \a id's voxels; the voxel numbered n is voxels (n / kBlockVoxels)[n % kBlockVoxels]. */
-  const std::array<TsdfVoxel, kBlockVoxels>& voxels (std::size_t id) const { return blocks_[id]->voxels; }
-
-  /** \brief Id (position in blocks()) of the block with block coordinates \a index, or
-    * VoxelBlockHash::kNone when it is not allocated.
+  /** \brief The blocks and voxels, read-only: blocks and voxels by id or coordinates
+    * (VoxelBlockStore::block, findBlock, findVoxel, findVoxelNumber).
     */
-  std::int32_t
-  findBlock (const Eigen::Vector3i& index) const
-  {
-    return inBlockRange (index) ? hash_.find (packBlockIndex (index)) : VoxelBlockHash::kNone;
-  }
-
-  /** \brief Voxel with global index \a v, or nullptr when its block is not allocated. */
-  const TsdfVoxel* findVoxel (const Eigen::Vector3i& v) const;
-
-  /** \brief Number of the voxel with global index \a v, or kNoVoxel when its block is not
-    * allocated.
-    */
-  VoxelNumber findVoxelNumber (const Eigen::Vector3i& v) const;
+  const VoxelBlockStore& store () const { return store_; }
 
   /** \brief World position of voxel \a v. */
   Eigen::Vector3f
@@ -262,28 +248,8 @@ private:
   void
   allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, const Eigen::Isometry3d& pose);
 
-  std::int32_t
-  allocateBlock (const Eigen::Vector3i& index);
-
-  /** \brief Rebuilds block \a id's distance copy from its voxels, and the copies of its
-    * first layer in the aprons of the blocks below it (see VoxelBlock).
-    */
-  void refreshDistances (std::size_t id);
-
-  /** \brief Copies block \a id's first layers into the aprons of the blocks below it. */
-  void
-  copyToLowerAprons (std::size_t id);
-
   TSDFVolumeConfig config_;
-  VoxelBlockHash hash_;
-  std::vector<std::unique_ptr<VoxelBlock>> blocks_;
-  std::vector<Eigen::Vector3i> block_indices_;  ///< blocks_[i]->index, packed for the per-frame culling pass
-  /** \brief Per block, the blocks whose aprons mirror part of it: entry j is the block at
-    * index − (j & 1, (j >> 1) & 1, (j >> 2) & 1), nullptr where none is allocated (entry 0
-    * unused). Kept by allocateBlock (), so that integration updates the aprons without
-    * hash lookups.
-    */
-  std::vector<std::array<VoxelBlock*, 8>> lower_neighbours_;
+  VoxelBlockStore store_;
   std::vector<std::int32_t> integrated_blocks_;
   bool record_observed_ = false;
   std::vector<std::vector<SurfaceObservation>> observed_;  ///< one list per integration work item

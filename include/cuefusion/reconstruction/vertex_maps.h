@@ -6,6 +6,8 @@
 #include <opencv2/core.hpp>
 
 #include <cmath>
+#include <cstddef>
+#include <string>
 
 namespace cuefusion
 {
@@ -30,12 +32,39 @@ isValidVertex (const Eigen::Vector3f& v)
 void
 computeVertexMap (const cv::Mat& depth, const PinholeCamera& camera, cv::Mat& vertices);
 
-/** \brief §4.1.2: normals by central differences over the 4-neighbourhood,
-  * n = (V(x+1,y) − V(x−1,y)) × (V(x,y+1) − V(x,y−1)), normalised and turned towards the
-  * camera. A pixel gets NaN when a neighbour is missing or lies further than
-  * \a max_depth_jump × z from it in depth (a depth edge, not a surface).
+/** \brief Where central-difference normals (§4.1.2) look: one setting for every normal map
+  * of a frame. Tracking's pyramid (DepthPreprocessorConfig::normals, level 0) and the
+  * geometric segmentation (segmentation::SurfacePreprocessingConfig::normals) each embed
+  * one; FusionPipeline gives tracking the segmentation's, so one map serves both.
+  */
+struct NormalMapConfig
+{
+  int step = 1;                ///< the differences span ±step pixels (§4.1.2: 1, the 4-neighbourhood)
+  float max_depth_jump = 0.05f;  ///< a neighbour more than this × z away in depth is across an edge
+
+  /** \brief Throws ParameterError naming the field as \a owner + "." + field (e.g.
+    * "SurfacePreprocessingConfig::normals.step"). */
+  void validate (const std::string& owner = "NormalMapConfig") const;
+};
+
+/** \brief §4.1.2: normals by central differences, n = (V(x+s,y) − V(x−s,y)) × (V(x,y+s) −
+  * V(x,y−s)) with s = \a config.step, normalised and turned towards the camera. Where the
+  * neighbour on one side lies further than max_depth_jump × z away in depth (a depth edge,
+  * not the surface) or is missing, the one-sided difference on the other side is used, so
+  * surfaces keep normals up to their outlines; a pixel with no usable neighbour in a
+  * direction, an invalid pixel and the \a config.step-wide border get NaN. The only normal
+  * formula of the project: centralDifferenceNormalRow computes it.
   */
 void
-computeNormalMap (const cv::Mat& vertices, cv::Mat& normals, float max_depth_jump = 0.05f);
+computeNormalMap (const cv::Mat& vertices, cv::Mat& normals, const NormalMapConfig& config = NormalMapConfig ());
+
+/** \brief computeNormalMap on planar coordinates: \a X, \a Y, \a Z are width × height
+  * floats each, row after row (NaN marks a missing point); \a NX, \a NY, \a NZ get the
+  * normals (NaN where none) and must not overlap the input.
+  */
+void
+computeNormalMapPlanar (const float* X, const float* Y, const float* Z, int width, int height,
+                        const NormalMapConfig& config, float* NX, float* NY, float* NZ);
+
 }  // namespace reconstruction
 }  // namespace cuefusion

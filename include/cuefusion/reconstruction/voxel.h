@@ -36,7 +36,7 @@ constexpr int kBlockSide = 8;
 constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
 
 /** \brief A voxel's number in a volume: its block's id (the position in
-  * TSDFVolume::blocks (), which never changes while the block lives) × kBlockVoxels + its
+  * VoxelBlockStore, which never changes while the block lives) × kBlockVoxels + its
   * index in the block (localVoxelIndex). Layers beside the TSDF key their data by it;
   * SurfaceObservation, RaycastResult::voxels and the extraction's label lookups carry it.
   */
@@ -107,8 +107,8 @@ distanceIndex (int x, int y, int z)
   *
   * TSDFVolume keeps all of it in step: integrate() writes the own voxels' distances and
   * copies them into the neighbours' aprons, a new block takes its apron from the
-  * neighbours already there, and load() rebuilds both. Code that writes sdf or weight
-  * directly must call TSDFVolume::refreshDistances().
+  * neighbours already there (VoxelBlockStore::allocate), and load() rebuilds both. Code
+  * that writes sdf or weight directly must call VoxelBlockStore::refreshDistances().
   */
 struct VoxelBlock
 {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cuefusion/reconstruction/vertex_maps.h>
 #include <cuefusion/segmentation/parallel.h>
 
 #include <pcl/point_cloud.h>
@@ -76,6 +77,12 @@ struct SurfacePlanes
     */
   void assignDepth (const cv::Mat& depth, double fx, double fy, double cx, double cy);
 
+  /** \brief Takes the normal planes from a normal map of the same size (CV_32FC3, NaN =
+    * none), e.g. tracking's level 0 (reconstruction::computeNormalMap), which FusionPipeline
+    * shares instead of computing a second map of the same frame.
+    */
+  void assignNormals (const cv::Mat& normals);
+
   /** \brief Copies \a cloud's points and \a normals' normal_x/y/z (same size, organized).
     * A point counts only when x, y and z are all finite and z > 0; a normal only when its point does.
     */
@@ -97,12 +104,12 @@ struct SurfacePlanes
 };
 
 /** \brief Central-difference normals (§4.1.2) into the normal planes, from the point
-  * planes: over ±\a step pixels, one-sided on the near side of a depth edge (a neighbour
-  * more than \a max_depth_jump × z away in depth), NaN where neither side is usable;
-  * oriented towards the sensor.
+  * planes: reconstruction::computeNormalMap's formula (over ±step pixels, one-sided on the
+  * near side of a depth edge, NaN where neither side is usable, oriented towards the
+  * sensor).
   */
 void
-computeNormalPlanes (SurfacePlanes& planes, int step, float max_depth_jump);
+computeNormalPlanes (SurfacePlanes& planes, const reconstruction::NormalMapConfig& config);
 
 /** \brief Φ(u) of §4.2.1.1 for every pixel (CV_32F; NaN where u has no point or normal). */
 void

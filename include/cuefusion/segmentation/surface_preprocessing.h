@@ -32,10 +32,22 @@ struct SurfacePreprocessingConfig
   /// (noise_range_sigma > 0), see SurfacePreprocessing
   reconstruction::BilateralFilterConfig bilateral = segmentationSmoothing ();
   NormalMethod normal_method = NormalMethod::CentralDifference;
-  int normal_step = 4;                ///< central differences span ±normal_step pixels (±1 is too noisy on Kinect data)
-  float max_depth_jump = 0.02f;       ///< a neighbour more than this × z away in depth is across an edge
+  /// CentralDifference's span and depth-edge test (reconstruction::computeNormalMap): ±4
+  /// pixels (±1 is too noisy on Kinect data), a neighbour more than 0.02 × z away in depth
+  /// is across an edge (IntegralImage uses that factor too)
+  reconstruction::NormalMapConfig normals = segmentationNormals ();
   float integral_smoothing = 10.f;    ///< IntegralImage only: normal smoothing size (pixels)
   void validate () const;
+
+  /** \brief The segmentation's default normals: ±4 pixels, depth jumps of 2 %. */
+  static reconstruction::NormalMapConfig
+  segmentationNormals ()
+  {
+    reconstruction::NormalMapConfig c;
+    c.step = 4;
+    c.max_depth_jump = 0.02f;
+    return c;
+  }
 
   /** \brief The segmentation's default smoothing: diameter 5, spatial σ 4.5 px, range σ 8 σ_z(z). */
   static reconstruction::BilateralFilterConfig
@@ -58,7 +70,7 @@ struct SurfacePreprocessingConfig
   * needed. PCL's FastBilateralFilter was not used: it turns NaN depth into finite z with
   * NaN x/y.
   *
-  * Normals by central differences, as §4.1.2 does, over ±normal_step pixels; near a depth
+  * Normals by central differences, as §4.1.2 does, over ±normals.step pixels; near a depth
   * edge the one-sided difference on the near side is used, so objects keep normals up to
   * their boundary. Normals point towards the sensor. IntegralImageNormalEstimation is the
   * alternative (NormalMethod::IntegralImage); the two were measured against exact normals

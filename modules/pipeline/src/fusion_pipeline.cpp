@@ -52,15 +52,34 @@ FusionPipelineConfig::validate () const
 
 namespace
 {
-/** \brief The reconstruction's configuration, with the segmentation's smoothing when it
-  * is shared (FusionPipelineConfig::share_smoothing).
+/** \brief Whether tracking's level 0 serves the segmentation (FusionPipelineConfig::share_smoothing). */
+bool
+sharesSmoothing (const FusionPipelineConfig& config)
+{
+  return config.share_smoothing && config.preprocessing.bilateral.enabled;
+}
+
+/** \brief And its normal map too (the segmentation's normals are central differences). */
+bool
+sharesNormals (const FusionPipelineConfig& config)
+{
+  return sharesSmoothing (config) && config.preprocessing.normal_method == segmentation::NormalMethod::CentralDifference;
+}
+
+/** \brief The reconstruction's configuration, with the segmentation's smoothing and normals
+  * where they are shared.
   */
 reconstruction::DenseReconstructionConfig
 reconstructionConfig (const FusionPipelineConfig& config)
 {
   reconstruction::DenseReconstructionConfig out = config.reconstruction;
-  if (config.share_smoothing && config.preprocessing.bilateral.enabled)
+  if (sharesSmoothing (config))
     out.preprocessing.bilateral = config.preprocessing.bilateral;
+  if (sharesNormals (config))
+  {
+    out.preprocessing.normals = config.preprocessing.normals;
+    out.preprocessing.normals_min_width = 160 * config.preprocessing.normals.step;
+  }
   return out;
 }
 }  // namespace
@@ -129,13 +148,22 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
 
   // L^G from the frame's depth (§4.2.1.1).
   const PinholeCamera& camera = frame.camera;
-  if (config_.share_smoothing && config_.preprocessing.bilateral.enabled)
+  const reconstruction::PyramidLevel& level = reconstruction_.framePyramid ().front ();
+  if (sharesSmoothing (config_))
   {
-    // Tracking's level 0 is this frame's depth through the same filter (0 = invalid).
-    planes_.assignDepth (reconstruction_.framePyramid ().front ().depth, camera.fx, camera.fy, camera.cx, camera.cy);
-    segmentation::SurfacePreprocessingConfig normals_only = config_.preprocessing;
-    normals_only.bilateral.enabled = false;
-    segmentation::preprocessPlanes (planes_, normals_only);
+    // Tracking's level 0 is this frame's depth through the same filter (0 = invalid), and
+    // its normals are the segmentation's (same formula, span and edge test).
+    planes_.assignDepth (level.depth, camera.fx, camera.fy, camera.cx, camera.cy);
+    // (On images too small for tracking to use the segmentation's span, level 0 has ±1 px
+    // normals, and the segmentation computes its own.)
+    if (sharesNormals (config_) && level.depth.cols >= reconstruction_.getConfig ().preprocessing.normals_min_width)
+      planes_.assignNormals (level.normals);
+    else
+    {
+      segmentation::SurfacePreprocessingConfig normals_only = config_.preprocessing;
+      normals_only.bilateral.enabled = false;
+      segmentation::preprocessPlanes (planes_, normals_only);
+    }
   }
   else
   {
@@ -162,7 +190,6 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
 
   // L^p against the model seen from the fused pose (§4.2.2).
   watch.reset ();
-  const reconstruction::PyramidLevel& level = reconstruction_.framePyramid ().front ();
   const reconstruction::RaycastResult& model = reconstruction_.model ();
   segmentation::PropagationResult propagated;
   propagation_.propagate (level.vertices, level.normals, frame_segments, model.vertices, model.normals, model.values, map_,

@@ -20,79 +20,6 @@ namespace
 {
 const float kNaN = std::numeric_limits<float>::quiet_NaN ();
 
-/** \brief Normal from the four neighbours, or false across a gap or depth edge. */
-inline bool
-centralDifferenceNormal (const Eigen::Vector3f& c, const Eigen::Vector3f& l, const Eigen::Vector3f& r,
-                         const Eigen::Vector3f& u, const Eigen::Vector3f& d, float max_jump, Eigen::Vector3f& n)
-{
-  if (!isValidVertex (c) || !isValidVertex (l) || !isValidVertex (r) || !isValidVertex (u) || !isValidVertex (d))
-    return false;
-  const float limit = max_jump * c.z ();
-  if (std::abs (l.z () - c.z ()) > limit || std::abs (r.z () - c.z ()) > limit || std::abs (u.z () - c.z ()) > limit ||
-      std::abs (d.z () - c.z ()) > limit)
-    return false;
-  n = (r - l).cross (d - u);
-  const float norm = n.norm ();
-  if (!(norm > 0.f))
-    return false;
-  n /= norm;
-  if (n.dot (c) > 0.f)
-    n = -n;
-  return true;
-}
-
-#ifdef CUEFUSION_HAVE_AVX2_KERNELS
-/** \brief centralDifferenceNormal for pixels [1, end) of row \a y (end ≤ w − 1), eight
-  * at a time; returns the first pixel it did not do. Same tests and arithmetic per lane.
-  * Measured on icl-livingroom1: preprocessing (three pyramid levels) 7.6 → 6.3 ms a frame.
-  */
-CUEFUSION_AVX2 int
-normalRowAvx2 (const cv::Mat& vertices, int y, float max_jump, cv::Vec3f* out)
-{
-  const int w = vertices.cols;
-  const float* row = vertices.ptr<float> (y);
-  const float* up = vertices.ptr<float> (y - 1);
-  const float* down = vertices.ptr<float> (y + 1);
-  const __m256 jump = _mm256_set1_ps (max_jump), zero = _mm256_setzero_ps (), sign = _mm256_set1_ps (-0.f);
-  const __m256 nan = _mm256_set1_ps (std::numeric_limits<float>::quiet_NaN ());
-  int x = 1;
-  for (; x + 8 <= w - 1; x += 8)
-  {
-    __m256 cx, cy, cz, lx, ly, lz, rx, ry, rz, ux, uy, uz, dx, dy, dz;
-    avx2::loadXyz8 (row + 3 * x, cx, cy, cz);
-    avx2::loadXyz8 (row + 3 * (x - 1), lx, ly, lz);
-    avx2::loadXyz8 (row + 3 * (x + 1), rx, ry, rz);
-    avx2::loadXyz8 (up + 3 * x, ux, uy, uz);
-    avx2::loadXyz8 (down + 3 * x, dx, dy, dz);
-    __m256 ok = _mm256_and_ps (_mm256_cmp_ps (cx, lx, _CMP_ORD_Q), _mm256_cmp_ps (rx, ux, _CMP_ORD_Q));
-    ok = _mm256_and_ps (ok, _mm256_cmp_ps (dx, dx, _CMP_ORD_Q));
-    const __m256 limit = _mm256_mul_ps (jump, cz);
-    const __m256 near_l = _mm256_cmp_ps (avx2::abs (_mm256_sub_ps (lz, cz)), limit, _CMP_LE_OQ);
-    const __m256 near_r = _mm256_cmp_ps (avx2::abs (_mm256_sub_ps (rz, cz)), limit, _CMP_LE_OQ);
-    const __m256 near_u = _mm256_cmp_ps (avx2::abs (_mm256_sub_ps (uz, cz)), limit, _CMP_LE_OQ);
-    const __m256 near_d = _mm256_cmp_ps (avx2::abs (_mm256_sub_ps (dz, cz)), limit, _CMP_LE_OQ);
-    ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_and_ps (near_l, near_r), _mm256_and_ps (near_u, near_d)));
-    const __m256 ax = _mm256_sub_ps (rx, lx), ay = _mm256_sub_ps (ry, ly), az = _mm256_sub_ps (rz, lz);
-    const __m256 bx = _mm256_sub_ps (dx, ux), by = _mm256_sub_ps (dy, uy), bz = _mm256_sub_ps (dz, uz);
-    __m256 n0 = _mm256_sub_ps (_mm256_mul_ps (ay, bz), _mm256_mul_ps (az, by));
-    __m256 n1 = _mm256_sub_ps (_mm256_mul_ps (az, bx), _mm256_mul_ps (ax, bz));
-    __m256 n2 = _mm256_sub_ps (_mm256_mul_ps (ax, by), _mm256_mul_ps (ay, bx));
-    const __m256 norm = _mm256_sqrt_ps (_mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (n0, n0), _mm256_mul_ps (n1, n1)),
-                                                       _mm256_mul_ps (n2, n2)));
-    ok = _mm256_and_ps (ok, _mm256_cmp_ps (norm, zero, _CMP_GT_OQ));
-    n0 = _mm256_div_ps (n0, norm);
-    n1 = _mm256_div_ps (n1, norm);
-    n2 = _mm256_div_ps (n2, norm);
-    // Towards the camera: flip where n·c > 0.
-    const __m256 facing = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (n0, cx), _mm256_mul_ps (n1, cy)), _mm256_mul_ps (n2, cz));
-    const __m256 flip = _mm256_and_ps (_mm256_cmp_ps (facing, zero, _CMP_GT_OQ), sign);
-    avx2::storeXyz8 (out[x].val, _mm256_blendv_ps (nan, _mm256_xor_ps (n0, flip), ok),
-                     _mm256_blendv_ps (nan, _mm256_xor_ps (n1, flip), ok), _mm256_blendv_ps (nan, _mm256_xor_ps (n2, flip), ok));
-  }
-  return x;
-}
-#endif
-
 /** \brief Which of a 2×2 block's samples to average: valid and near the nearest one. */
 inline int
 blockSelection (const float z[4], float max_jump)
@@ -132,38 +59,6 @@ computeVertexMap (const cv::Mat& depth, const PinholeCamera& camera, cv::Mat& ve
         out[3 * u] = valid ? column_factor[static_cast<std::size_t> (u)] * d[u] : kNaN;
         out[3 * u + 1] = valid ? row_factor * d[u] : kNaN;
         out[3 * u + 2] = valid ? d[u] : kNaN;
-      }
-    }
-  });
-}
-
-void
-computeNormalMap (const cv::Mat& vertices, cv::Mat& normals, float max_depth_jump)
-{
-  normals.create (vertices.size (), CV_32FC3);
-  const int w = vertices.cols, h = vertices.rows;
-  const bool use_avx2 = vectorKernelsEnabled ();
-  parallelForChunks (h, 8, [&] (int, int begin, int end) {
-    for (int y = begin; y < end; ++y)
-    {
-      cv::Vec3f* out = normals.ptr<cv::Vec3f> (y);
-      int x = 0;
-#ifdef CUEFUSION_HAVE_AVX2_KERNELS
-      if (use_avx2 && y > 0 && y + 1 < h)
-      {
-        out[0] = cv::Vec3f (kNaN, kNaN, kNaN);
-        x = normalRowAvx2 (vertices, y, max_depth_jump, out);
-      }
-#endif
-      for (; x < w; ++x)
-      {
-        Eigen::Vector3f n;
-        if (x > 0 && y > 0 && x + 1 < w && y + 1 < h &&
-            centralDifferenceNormal (vertexAt (vertices, x, y), vertexAt (vertices, x - 1, y), vertexAt (vertices, x + 1, y),
-                                     vertexAt (vertices, x, y - 1), vertexAt (vertices, x, y + 1), max_depth_jump, n))
-          out[x] = cv::Vec3f (n.x (), n.y (), n.z ());
-        else
-          out[x] = cv::Vec3f (kNaN, kNaN, kNaN);
       }
     }
   });
@@ -395,6 +290,9 @@ DepthPreprocessorConfig::validate () const
     throw ParameterError ("DepthPreprocessorConfig::max_depth", "depth range must satisfy 0 <= min < max");
   if (!(max_depth_jump > 0.0))
     throw ParameterError ("DepthPreprocessorConfig::max_depth_jump", "must be positive");
+  normals.validate ("DepthPreprocessorConfig::normals");
+  if (normals_min_width < 0)
+    throw ParameterError ("DepthPreprocessorConfig::normals_min_width", "must not be negative");
 }
 
 DepthPreprocessor::DepthPreprocessor (const DepthPreprocessorConfig& config) : config_ (config)
@@ -437,7 +335,7 @@ DepthPreprocessor::compute (const cv::Mat& depth, const PinholeCamera& camera, F
       level.camera = pyramid[l - 1].camera.scaled (level.depth.cols, level.depth.rows);
     }
     computeVertexMap (level.depth, level.camera, level.vertices);
-    computeNormalMap (level.vertices, level.normals, jump);
+    computeNormalMap (level.vertices, level.normals, l == 0 ? config_.levelZeroNormals (depth.cols) : NormalMapConfig{1, jump});
   }
 }
 }  // namespace reconstruction

@@ -901,7 +901,7 @@ TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose,
   const float voxel_size = static_cast<float> (config_.voxel_size);
   const Eigen::Isometry3f world_to_camera = pose.inverse ().cast<float> ();
   const float near = static_cast<float> (std::max (config_.min_depth, 0.01));
-  const RangeTiles tiles = blockRanges (block_indices_, camera, world_to_camera, static_cast<float> (config_.blockSize ()), near);
+  const RangeTiles tiles = blockRanges (store_.blockIndices (), camera, world_to_camera, static_cast<float> (config_.blockSize ()), near);
   const Eigen::Matrix3f R = pose.linear ().cast<float> ();
   const float inv_voxel = 1.f / voxel_size;
   const RayFrame frame{camera,

@@ -96,14 +96,14 @@ void
 TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::PointCloud<pcl::Normal>* normals,
                                const VoxelLabelFunction& label_of) const
 {
-  const int n = static_cast<int> (blocks_.size ());
+  const int n = static_cast<int> (store_.size ());
   std::vector<pcl::PointCloud<pcl::PointXYZRGBL>> parts (static_cast<std::size_t> (n));
   std::vector<pcl::PointCloud<pcl::Normal>> normal_parts (normals ? static_cast<std::size_t> (n) : 0);
   parallelForChunks (n, 8, [&] (int, int begin, int end) {
     detail::VoxelAccessor access (*this);
     for (int i = begin; i < end; ++i)
     {
-      const VoxelBlock& block = *blocks_[static_cast<std::size_t> (i)];
+      const VoxelBlock& block = store_.block (static_cast<std::size_t> (i));
       for (int z = 0; z < kBlockSide; ++z)
         for (int y = 0; y < kBlockSide; ++y)
           for (int x = 0; x < kBlockSide; ++x)
@@ -175,13 +175,13 @@ TSDFVolume::extractTriangleMesh (const VoxelLabelFunction& label_of) const
     std::vector<std::uint64_t> corners;  // 3 edge keys per triangle
   };
   constexpr std::uint64_t kReversed = std::uint64_t (1) << 62;
-  const int n = static_cast<int> (blocks_.size ());
+  const int n = static_cast<int> (store_.size ());
   std::vector<BlockTriangles> parts (static_cast<std::size_t> (n));
   parallelForChunks (n, 8, [&] (int, int begin, int end) {
     detail::VoxelAccessor access (*this);
     for (int i = begin; i < end; ++i)
     {
-      const VoxelBlock& block = *blocks_[static_cast<std::size_t> (i)];
+      const VoxelBlock& block = store_.block (static_cast<std::size_t> (i));
       BlockTriangles& out = parts[static_cast<std::size_t> (i)];
       for (int z = 0; z < kBlockSide; ++z)
         for (int y = 0; y < kBlockSide; ++y)

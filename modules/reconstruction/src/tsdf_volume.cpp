@@ -82,13 +82,7 @@ TSDFVolume::TSDFVolume (const TSDFVolumeConfig& config) : config_ (config)
 void
 TSDFVolume::reset ()
 {
-  hash_.clear ();
-  blocks_.clear ();
-  blocks_.shrink_to_fit ();
-  block_indices_.clear ();
-  block_indices_.shrink_to_fit ();
-  lower_neighbours_.clear ();
-  lower_neighbours_.shrink_to_fit ();
+  store_.clear ();
   integrated_blocks_.clear ();
   observed_.clear ();
   integrated_size_ = cv::Size ();
@@ -99,87 +93,7 @@ TSDFVolume::reset ()
 std::size_t
 TSDFVolume::memoryUsage () const
 {
-  return blocks_.size () * (sizeof (VoxelBlock) + sizeof (std::unique_ptr<VoxelBlock>) + sizeof (std::uint32_t) +
-                            sizeof (Eigen::Vector3i) + sizeof (std::array<VoxelBlock*, 8>)) +
-         hash_.memoryBytes ();
-}
-
-std::int32_t
-TSDFVolume::allocateBlock (const Eigen::Vector3i& index)
-{
-  const auto id = static_cast<std::int32_t> (blocks_.size ());
-  // VoxelNumber numbers voxels in 32 bits, the last one kept for kNoVoxel: 2^23 − 1 blocks
-  // (48 GiB of voxels).
-  constexpr std::size_t kMaxBlocks = (std::size_t (1) << 32) / kBlockVoxels - 1;
-  if (blocks_.size () >= kMaxBlocks)
-    throw Error ("TSDFVolume", "more than 2^23 - 1 voxel blocks: use a larger voxel size or spatial bounds");
-  const auto inserted = hash_.insert (packBlockIndex (index), id);
-  if (inserted.second)
-  {
-    blocks_.push_back (std::make_unique<VoxelBlock> ());
-    blocks_.back ()->index = index;
-    block_indices_.push_back (index);
-    block_stamp_.push_back (0);
-    // Link the new block with its allocated neighbours both ways (14 lookups per new
-    // block): it takes its apron from the blocks above it, and becomes the apron's source
-    // for the blocks below it (whose aprons already hold "unobserved" there, as its
-    // distances do).
-    VoxelBlock& block = *blocks_.back ();
-    std::array<VoxelBlock*, 8> lower{};
-    for (int j = 1; j < 8; ++j)
-    {
-      const Eigen::Vector3i offset (j & 1, (j >> 1) & 1, (j >> 2) & 1);
-      const std::int32_t above = findBlock (index + offset);
-      if (above >= 0)
-      {
-        copyApron (*blocks_[static_cast<std::size_t> (above)], block, j);
-        lower_neighbours_[static_cast<std::size_t> (above)][static_cast<std::size_t> (j)] = &block;
-      }
-      const std::int32_t below = findBlock (index - offset);
-      if (below >= 0)
-        lower[static_cast<std::size_t> (j)] = blocks_[static_cast<std::size_t> (below)].get ();
-    }
-    lower_neighbours_.push_back (lower);
-  }
-  return inserted.first;
-}
-
-void
-TSDFVolume::copyToLowerAprons (std::size_t id)
-{
-  const std::array<VoxelBlock*, 8>& lower = lower_neighbours_[id];
-  for (int j = 1; j < 8; ++j)
-    if (lower[static_cast<std::size_t> (j)] != nullptr)
-      copyApron (*blocks_[id], *lower[static_cast<std::size_t> (j)], j);
-}
-
-void
-TSDFVolume::refreshDistances (std::size_t id)
-{
-  blocks_[id]->refreshDistances ();
-  copyToLowerAprons (id);
-}
-
-const TsdfVoxel*
-TSDFVolume::findVoxel (const Eigen::Vector3i& v) const
-{
-  const Eigen::Vector3i b = blockOfVoxel (v);
-  const std::int32_t id = findBlock (b);
-  if (id < 0)
-    return nullptr;
-  const Eigen::Vector3i l = v - b * kBlockSide;
-  return &blocks_[static_cast<std::size_t> (id)]->voxels[static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ()))];
-}
-
-VoxelNumber
-TSDFVolume::findVoxelNumber (const Eigen::Vector3i& v) const
-{
-  const Eigen::Vector3i b = blockOfVoxel (v);
-  const std::int32_t id = findBlock (b);
-  if (id < 0)
-    return kNoVoxel;
-  const Eigen::Vector3i l = v - b * kBlockSide;
-  return voxelNumber (static_cast<std::size_t> (id), static_cast<std::size_t> (localVoxelIndex (l.x (), l.y (), l.z ())));
+  return store_.memoryUsage () + store_.size () * sizeof (std::uint32_t);  // block_stamp_
 }
 
 void
@@ -240,11 +154,12 @@ TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, c
 
   ++stamp_;
   integrated_blocks_.clear ();
+  block_stamp_.resize (store_.size (), 0);  // a loaded volume's blocks have none yet
   const double block_size = config_.blockSize ();
   for (const auto& keys : candidates)
     for (const std::uint64_t key : keys)
     {
-      std::int32_t id = hash_.find (key);
+      std::int32_t id = store_.find (key);
       if (id == VoxelBlockHash::kNone)
       {
         const Eigen::Vector3i index = unpackBlockIndex (key);
@@ -254,7 +169,8 @@ TSDFVolume::allocateBlocks (const cv::Mat& depth, const PinholeCamera& camera, c
           if (!config_.bounds->intersects (box))
             continue;
         }
-        id = allocateBlock (index);
+        id = store_.allocate (index).first;
+        block_stamp_.resize (store_.size (), 0);
       }
       if (block_stamp_[static_cast<std::size_t> (id)] != stamp_)
       {
@@ -315,10 +231,10 @@ TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const Pinhole
     for (int i = begin; i < end; ++i)
     {
       const auto id = static_cast<std::uint32_t> (integrated_blocks_[static_cast<std::size_t> (i)]);
-      kernel (*blocks_[id], frame, id * static_cast<std::uint32_t> (kBlockVoxels), observed);
+      kernel (store_.block (id), frame, id * static_cast<std::uint32_t> (kBlockVoxels), observed);
       // Safe in parallel: each apron entry has one source block, and the kernel writes
       // only a block's own voxels' distances, never its apron.
-      copyToLowerAprons (id);
+      store_.copyToLowerAprons (id);
     }
   });
 }

@@ -63,15 +63,16 @@ TSDFVolume::save (const std::string& path) const
       header.bounds[i] = config_.bounds->min ()[i];
       header.bounds[3 + i] = config_.bounds->max ()[i];
     }
-  header.block_count = blocks_.size ();
+  header.block_count = store_.size ();
   io::writeFileAtomic (path, [&] (const std::string& temporary) {
     std::ofstream out (temporary, std::ios::binary);
     out.write (reinterpret_cast<const char*> (&header), sizeof header);
-    for (const auto& block : blocks_)
+    for (std::size_t id = 0; id < store_.size (); ++id)
     {
-      const std::int32_t index[3] = {block->index.x (), block->index.y (), block->index.z ()};
+      const VoxelBlock& block = store_.block (id);
+      const std::int32_t index[3] = {block.index.x (), block.index.y (), block.index.z ()};
       out.write (reinterpret_cast<const char*> (index), sizeof index);
-      out.write (reinterpret_cast<const char*> (block->voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
+      out.write (reinterpret_cast<const char*> (block.voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
     }
     out.close ();
     return static_cast<bool> (out);
@@ -124,7 +125,7 @@ TSDFVolume::load (const std::string& path)
     throw Error (path, std::string ("volume file holds an invalid configuration: ") + e.what ());
   }
   TSDFVolume volume (config);
-  volume.blocks_.reserve (header.block_count);
+  volume.store_.reserve (header.block_count);
   for (std::uint64_t i = 0; i < header.block_count; ++i)
   {
     std::int32_t index[3];
@@ -132,15 +133,16 @@ TSDFVolume::load (const std::string& path)
     const Eigen::Vector3i b (index[0], index[1], index[2]);
     if (!in || !inBlockRange (b))
       throw Error (path, "volume file has a corrupt block record " + std::to_string (i));
-    if (volume.findBlock (b) != VoxelBlockHash::kNone)
+    const auto [allocated, fresh] = volume.store_.allocate (b);
+    if (!fresh)
       throw Error (path, "volume file lists block " + std::to_string (i) + " twice");
-    const auto id = static_cast<std::size_t> (volume.allocateBlock (b));
-    in.read (reinterpret_cast<char*> (volume.blocks_[id]->voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
+    const auto id = static_cast<std::size_t> (allocated);
+    in.read (reinterpret_cast<char*> (volume.store_.block (id).voxels.data ()), sizeof (TsdfVoxel) * kBlockVoxels);
     if (!in)
       throw Error (path, "volume file is truncated in block " + std::to_string (i));
     // Its distances, and their copies in the aprons of the blocks below it read so far
     // (those read later take theirs from it when allocated).
-    volume.refreshDistances (id);
+    volume.store_.refreshDistances (id);
   }
   return volume;
 }

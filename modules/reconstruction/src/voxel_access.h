@@ -27,8 +27,8 @@ public:
     {
       block_index_ = b;
       valid_ = true;
-      id_ = volume_.findBlock (b);
-      block_ = id_ >= 0 ? volume_.blocks ()[static_cast<std::size_t> (id_)].get () : nullptr;
+      id_ = volume_.store ().findBlock (b);
+      block_ = id_ >= 0 ? &volume_.store ().block (static_cast<std::size_t> (id_)) : nullptr;
     }
     return block_;
   }

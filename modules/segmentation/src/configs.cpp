@@ -61,8 +61,7 @@ SurfacePreprocessingConfig::validate () const
   bilateral.validate ("SurfacePreprocessingConfig::bilateral");
   require (!bilateral.enabled || bilateral.noise_range_sigma > 0.0, "SurfacePreprocessingConfig::bilateral.noise_range_sigma",
            "must lie in (0, 100] noise units: the segmentation's smoothing follows the sensor noise");
-  require (normal_step >= 1 && normal_step <= 16, "SurfacePreprocessingConfig::normal_step", "must be 1..16 pixels");
-  require (std::isfinite (max_depth_jump) && max_depth_jump > 0.f, "SurfacePreprocessingConfig::max_depth_jump", "must be positive");
+  normals.validate ("SurfacePreprocessingConfig::normals");
   require (std::isfinite (integral_smoothing) && integral_smoothing >= 1.f, "SurfacePreprocessingConfig::integral_smoothing", "must be at least 1");
 }
 

@@ -6,6 +6,8 @@
 // for the CPU, whatever setVectorKernelsEnabled says; AVX2 without FMA, so both clones
 // compute the same bits). Measured on icl-livingroom1: geometric segmentation 5.8 → 4.7
 // ms a frame.
+#include <cuefusion/common/avx2.h>
+#include <cuefusion/reconstruction/vertex_maps.h>
 #include <cuefusion/segmentation/parallel.h>
 #include <cuefusion/segmentation/concavity_edge_estimation.h>
 #include <cuefusion/segmentation/edge_operators.h>
@@ -14,14 +16,6 @@
 #include <algorithm>
 #include <array>
 #include <vector>
-
-// target_clones makes an ifunc whose resolver runs while the program is loaded, before
-// ThreadSanitizer's runtime is ready (a TSan build crashes at start-up): no clones there.
-#if defined(__SANITIZE_THREAD__)
-#define CUEFUSION_AVX2_CLONES
-#else
-#define CUEFUSION_AVX2_CLONES __attribute__ ((target_clones ("avx2", "default")))
-#endif
 
 namespace cuefusion
 {
@@ -151,81 +145,13 @@ discontinuityEdgeRow (const SurfacePlanes& planes, int y, const float* gamma, fl
     out[x] = edge ? 1 : 0;
   }
 }
-/** Central-difference normals of row y (see computeNormalPlanes); a function of its own
-  * with everything passed by value, so that GCC vectorises the loop.
-  */
-CUEFUSION_AVX2_CLONES void
-normalRow (const SurfacePlanes& planes, int y, int step, float max_depth_jump, float* __restrict NX, float* __restrict NY,
-           float* __restrict NZ)
-{
-  const int w = planes.width;
-  const std::size_t row = static_cast<std::size_t> (y) * w;
-  const float nan = std::numeric_limits<float>::quiet_NaN ();
-  const float* __restrict X = planes.x.data () + row;
-  const float* __restrict Y = planes.y.data () + row;
-  const float* __restrict Z = planes.z.data () + row;
-  const std::size_t up = row - static_cast<std::size_t> (step) * w, down = row + static_cast<std::size_t> (step) * w;
-  const float* __restrict Xu = planes.x.data () + up;
-  const float* __restrict Yu = planes.y.data () + up;
-  const float* __restrict Zu = planes.z.data () + up;
-  const float* __restrict Xd = planes.x.data () + down;
-  const float* __restrict Yd = planes.y.data () + down;
-  const float* __restrict Zd = planes.z.data () + down;
-    for (int x = step; x + step < w; ++x)
-    {
-      // All loads first, then selects: no branches in the loop.
-      const float px = X[x], py = Y[x], z = Z[x], limit = max_depth_jump * z;
-      const float lx = X[x - step], ly = Y[x - step], lz = Z[x - step];
-      const float rx = X[x + step], ry = Y[x + step], rz = Z[x + step];
-      const float ux = Xu[x], uy = Yu[x], uz = Zu[x];
-      const float dx = Xd[x], dy = Yd[x], dz = Zd[x];
-      // Horizontal difference: central when both sides continue the surface, else one-sided.
-      const bool l = std::abs (lz - z) < limit, r = std::abs (rz - z) < limit;  // NaN: false
-      const float hx = (r ? rx : px) - (l ? lx : px);
-      const float hy = (r ? ry : py) - (l ? ly : py);
-      const float hz = (r ? rz : z) - (l ? lz : z);
-      const bool u = std::abs (uz - z) < limit, d = std::abs (dz - z) < limit;
-      const float vx = (d ? dx : px) - (u ? ux : px);
-      const float vy = (d ? dy : py) - (u ? uy : py);
-      const float vz = (d ? dz : z) - (u ? uz : z);
-      const float cx = hy * vz - hz * vy, cy = hz * vx - hx * vz, cz = hx * vy - hy * vx;
-      const float length = std::sqrt (cx * cx + cy * cy + cz * cz);
-      // Turn towards the sensor (the origin): n·v < 0.
-      const float sign = (cx * px + cy * py + cz * z) > 0.f ? -1.f : 1.f;
-      // No usable side in one direction (or NaN depth): no normal. A zero cross product
-      // gives 0/0 = NaN by itself.
-      const float any_h = r ? 1.f : (l ? 1.f : 0.f), any_v = d ? 1.f : (u ? 1.f : 0.f);
-      const float scale = (any_h * any_v > 0.f) ? sign / length : nan;
-      NX[x] = cx * scale;
-      NY[x] = cy * scale;
-      NZ[x] = cz * scale;
-    }
-}
-
 }  // namespace
 
 void
-computeNormalPlanes (SurfacePlanes& planes, int step, float max_depth_jump)
+computeNormalPlanes (SurfacePlanes& planes, const reconstruction::NormalMapConfig& config)
 {
-  const int w = planes.width, h = planes.height;
-  const float nan = std::numeric_limits<float>::quiet_NaN ();
-  parallelFor (h, [&] (int y) {
-    const std::size_t row = static_cast<std::size_t> (y) * w;
-    const auto clear = [&] (int first, int end) {
-      for (std::vector<float>* plane : {&planes.nx, &planes.ny, &planes.nz})
-        std::fill (plane->data () + row + first, plane->data () + row + end, nan);
-    };
-    // Border rows have no vertical neighbour on one side; normalRow writes columns
-    // [step, w − step) of the others, so only their borders are cleared.
-    if (y >= step && y + step < h && 2 * step < w)
-    {
-      clear (0, step);
-      clear (w - step, w);
-      normalRow (planes, y, step, max_depth_jump, planes.nx.data () + row, planes.ny.data () + row, planes.nz.data () + row);
-    }
-    else
-      clear (0, w);
-  });
+  reconstruction::computeNormalMapPlanar (planes.x.data (), planes.y.data (), planes.z.data (), planes.width, planes.height,
+                                          config, planes.nx.data (), planes.ny.data (), planes.nz.data ());
 }
 
 void

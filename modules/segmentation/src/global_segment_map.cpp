@@ -215,7 +215,7 @@ GlobalSegmentMap::refreshStatistics (const reconstruction::TSDFVolume& volume, c
     record.voxels = 0;
     record.bounds.setEmpty ();
   }
-  const auto& blocks = volume.blocks ();
+  const reconstruction::VoxelBlockStore& blocks = volume.store ();
   for (std::size_t id = 0; id < std::min (blocks.size (), labels.blockCount ()); ++id)
     for (int z = 0; z < reconstruction::kBlockSide; ++z)
       for (int y = 0; y < reconstruction::kBlockSide; ++y)
@@ -223,13 +223,13 @@ GlobalSegmentMap::refreshStatistics (const reconstruction::TSDFVolume& volume, c
         {
           const auto local = static_cast<std::size_t> (reconstruction::localVoxelIndex (x, y, z));
           const std::uint32_t label = labels.block (id).labels[local];
-          if (blocks[id]->voxels[local].weight <= 0.f || label == 0)
+          if (blocks.block (id).voxels[local].weight <= 0.f || label == 0)
             continue;
           const auto it = records_.find (label);
           if (it == records_.end ())
             continue;
           ++it->second.voxels;
-          it->second.bounds.extend (volume.voxelPosition (blocks[id]->index * reconstruction::kBlockSide + Eigen::Vector3i (x, y, z)));
+          it->second.bounds.extend (volume.voxelPosition (blocks.block (id).index * reconstruction::kBlockSide + Eigen::Vector3i (x, y, z)));
         }
 }
 
@@ -300,16 +300,16 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
       target[object] = object;
   // The fragments' voxels, gathered in one pass over the volume.
   std::vector<std::pair<Eigen::Vector3i, std::uint32_t>> fragment_voxels;  // (voxel, fragment object)
-  const auto& blocks = volume.blocks ();
+  const reconstruction::VoxelBlockStore& blocks = volume.store ();
   for (std::size_t id = 0; id < std::min (blocks.size (), labels.blockCount ()); ++id)
     for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
     {
       const std::uint32_t label = labels.block (id).labels[static_cast<std::size_t> (i)];
-      if (blocks[id]->voxels[static_cast<std::size_t> (i)].weight <= 0.f || label == 0)
+      if (blocks.block (id).voxels[static_cast<std::size_t> (i)].weight <= 0.f || label == 0)
         continue;
       const std::uint32_t object = resolve (label);
       if (!target.count (object))
-        fragment_voxels.emplace_back (blocks[id]->index * reconstruction::kBlockSide +
+        fragment_voxels.emplace_back (blocks.block (id).index * reconstruction::kBlockSide +
                                         Eigen::Vector3i (i % reconstruction::kBlockSide, (i / reconstruction::kBlockSide) % reconstruction::kBlockSide,
                                                          i / (reconstruction::kBlockSide * reconstruction::kBlockSide)),
                                       object);
@@ -327,12 +327,12 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
         continue;
       for (const Eigen::Vector3i& step : steps)
       {
-        const reconstruction::VoxelNumber other = volume.findVoxelNumber (v + step);
+        const reconstruction::VoxelNumber other = blocks.findVoxelNumber (v + step);
         if (other == reconstruction::kNoVoxel)
           continue;
         const std::uint32_t other_label = labels.label (other);
         if (other_label == 0 ||
-            volume.voxels (other / reconstruction::kBlockVoxels)[other % reconstruction::kBlockVoxels].weight <= 0.f)
+            blocks.block (other / reconstruction::kBlockVoxels).voxels[other % reconstruction::kBlockVoxels].weight <= 0.f)
           continue;
         const auto settled = target.find (resolve (other_label));
         if (settled != target.end () && settled->second != 0)

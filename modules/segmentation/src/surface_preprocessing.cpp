@@ -44,7 +44,7 @@ preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& confi
 
   watch.reset ();
   if (config.normal_method == NormalMethod::CentralDifference)
-    computeNormalPlanes (planes, config.normal_step, config.max_depth_jump);
+    computeNormalPlanes (planes, config.normals);
   else
   {
     pcl::PointCloud<pcl::PointXYZ>::Ptr points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>> (w, h);
@@ -53,7 +53,7 @@ preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& confi
     pcl::PointCloud<pcl::Normal> normals;
     pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
     estimation.setNormalEstimationMethod (estimation.AVERAGE_3D_GRADIENT);
-    estimation.setMaxDepthChangeFactor (config.max_depth_jump);
+    estimation.setMaxDepthChangeFactor (config.normals.max_depth_jump);
     estimation.setNormalSmoothingSize (config.integral_smoothing);
     // setDepthDependentSmoothing(true) crashes in PCL 1.13.0: left at its default (false).
     estimation.setInputCloud (points);
@@ -105,6 +105,17 @@ SurfacePlanes::assignDepth (const cv::Mat& depth, double fx, double fy, double c
       z[i] = valid ? d[u] : nan;
     }
   });
+}
+
+void
+SurfacePlanes::assignNormals (const cv::Mat& normals)
+{
+  CV_Assert (normals.type () == CV_32FC3 && normals.cols == width && normals.rows == height);
+  for (std::vector<float>* plane : {&nx, &ny, &nz})
+    plane->resize (static_cast<std::size_t> (width) * height);
+  cv::Mat planes[3] = {cv::Mat (height, width, CV_32F, nx.data ()), cv::Mat (height, width, CV_32F, ny.data ()),
+                       cv::Mat (height, width, CV_32F, nz.data ())};
+  cv::split (normals, planes);  // writes into the planes' own buffers: the sizes match
 }
 }  // namespace segmentation
 }  // namespace cuefusion

@@ -106,7 +106,7 @@ VoxelLabelLayer::save (const std::string& path, const reconstruction::TSDFVolume
     std::array<std::uint32_t, kVoxels> mapped;
     for (const std::size_t id : written)
     {
-      const Eigen::Vector3i& b = volume.blocks ()[id]->index;
+      const Eigen::Vector3i& b = volume.store ().block (id).index;
       const std::int32_t index[3] = {b.x (), b.y (), b.z ()};
       out.write (reinterpret_cast<const char*> (index), sizeof index);
       const Block& block = *blocks_[id];
@@ -148,7 +148,7 @@ VoxelLabelLayer::load (const std::string& path, const reconstruction::TSDFVolume
   {
     std::int32_t index[3];
     in.read (reinterpret_cast<char*> (index), sizeof index);
-    const std::int32_t id = in ? volume.findBlock (Eigen::Vector3i (index[0], index[1], index[2])) : -1;
+    const std::int32_t id = in ? volume.store ().findBlock (Eigen::Vector3i (index[0], index[1], index[2])) : -1;
     if (id < 0)
       throw Error (path, "label file lists block " + std::to_string (i) + ", which its volume does not have");
     if (seen[static_cast<std::size_t> (id)])

@@ -23,7 +23,7 @@ computeCentralDifferenceNormals (const pcl::PointCloud<PointT>& cloud, int step,
 {
   SurfacePlanes planes;
   planes.assignPoints (cloud);
-  computeNormalPlanes (planes, step, max_depth_jump);
+  computeNormalPlanes (planes, reconstruction::NormalMapConfig{step, max_depth_jump});
   planes.copyNormalsTo (normals);
 }
 
