@@ -50,11 +50,14 @@ struct DepthPreprocessorConfig
   /// (measured: ±4 px on a 160×120 orbit lost frames that ±1 and ±2 px tracked)
   int normals_min_width = 0;
 
+  /** \brief Whether level 0 of an image \a width pixels wide gets `normals`. */
+  bool levelZeroUsesNormals (int width) const { return width >= normals_min_width; }
+
   /** \brief The normals level 0 of an image \a width pixels wide gets. */
   NormalMapConfig
   levelZeroNormals (int width) const
   {
-    return width >= normals_min_width ? normals : NormalMapConfig{1, static_cast<float> (max_depth_jump)};
+    return levelZeroUsesNormals (width) ? normals : NormalMapConfig{1, static_cast<float> (max_depth_jump)};
   }
 
   void validate () const;

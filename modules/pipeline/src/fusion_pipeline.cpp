@@ -156,7 +156,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
     planes_.assignDepth (level.depth, camera.fx, camera.fy, camera.cx, camera.cy);
     // (On images too small for tracking to use the segmentation's span, level 0 has ±1 px
     // normals, and the segmentation computes its own.)
-    if (sharesNormals (config_) && level.depth.cols >= reconstruction_.getConfig ().preprocessing.normals_min_width)
+    if (sharesNormals (config_) && reconstruction_.getConfig ().preprocessing.levelZeroUsesNormals (level.depth.cols))
       planes_.assignNormals (level.normals);
     else
     {
