@@ -73,18 +73,36 @@ SyntheticSequence::groundTruthCloud () const
   // Contact faces (a mug's base on the table, the table top under it) lie inside a
   // neighbour grown by this margin and are dropped: no camera can see them.
   const double margin = 1e-3;
+  // Every part's bounding sphere grown by twice the margin holds its solid grown by the
+  // margin (√3 · margin at a box's corner). Only the parts whose spheres meet the sampled
+  // part's can hide its points, and a point outside a sphere is not inside its part: the
+  // cheap tests spare the rotation in Primitive::contains for almost every pair (it was
+  // most of the time of writing a small sequence).
+  struct Bound
+  {
+    const Primitive* part;
+    double radius;
+  };
+  std::vector<Bound> bounds;
+  for (const SceneObject& other : scene_.objects)
+    for (const Primitive& part : other.parts)
+      bounds.push_back ({&part, part.boundingRadius () + 2 * margin});
+  std::vector<Bound> near;
   for (const SceneObject& o : scene_.objects)
     for (std::size_t k = 0; k < o.parts.size (); ++k)
     {
+      const Primitive& sampled = o.parts[k];
+      near.clear ();
+      for (const Bound& b : bounds)
+        if (b.part != &sampled && (b.part->center - sampled.center).norm () < b.radius + sampled.boundingRadius () + 2 * margin)
+          near.push_back (b);
       std::vector<Eigen::Vector3d> points;
-      o.parts[k].sampleSurface (config_.gt_cloud_spacing, points);
+      sampled.sampleSurface (config_.gt_cloud_spacing, points);
       for (const Eigen::Vector3d& p : points)
       {
         bool hidden = false;
-        for (const SceneObject& other : scene_.objects)
-          for (std::size_t j = 0; j < other.parts.size () && !hidden; ++j)
-            if (!(&other == &o && j == k) && other.parts[j].contains (p, margin))
-              hidden = true;
+        for (std::size_t b = 0; b < near.size () && !hidden; ++b)
+          hidden = (p - near[b].part->center).squaredNorm () < near[b].radius * near[b].radius && near[b].part->contains (p, margin);
         if (hidden)
           continue;
         pcl::PointXYZRGBL q;
