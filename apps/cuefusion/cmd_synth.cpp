@@ -107,6 +107,8 @@ runSynthViews (const std::vector<std::string>& args)
      "probability of a multi-part object (bottle, L-block, snowman, mug)")
     ("figures", po::value (&config.figure_probability)->default_value (config.figure_probability),
      "share of the multi-part objects drawn as figures (a soft toy: body, head, arms, ears, legs)")
+    ("aligned", po::value (&config.aligned_probability)->default_value (config.aligned_probability),
+     "share of the boxes placed flush against a box that are lined up with it (one side face in one plane)")
     ("table", po::value (&config.table_probability)->default_value (config.table_probability),
      "probability that the objects stand on a table (else on the floor)")
     ("overwrite", "replace OUT if it exists");

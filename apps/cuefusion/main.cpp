@@ -114,6 +114,7 @@ main (int argc, char** argv)
       {"RandomSceneConfig::stacking_probability", "--stacking"},
       {"RandomSceneConfig::multipart_probability", "--multipart"},
       {"RandomSceneConfig::figure_probability", "--figures"},
+      {"RandomSceneConfig::aligned_probability", "--aligned"},
       {"RandomSceneConfig::table_probability", "--table"},
       {"RandomSceneConfig::views_per_scene", "--views-per-scene"},
       {"DetectorErrorConfig::merge_probability", "--mask-merge"},

@@ -166,6 +166,7 @@ TEST (RandomSceneGenerator, FiguresAreOneObjectOfSpheresAndOnlyWhenAskedFor)
   config.multipart_probability = 1.0;
   config.figure_probability = 1.0;
   int with_limbs = 0, objects = 0;
+  double largest_body = 0.0;
   for (std::size_t i = 0; i < 4; ++i)
     for (const io::SceneObject& o : io::RandomSceneGenerator (config, 3).scene (i).objects)
       if (o.detectable)
@@ -178,13 +179,71 @@ TEST (RandomSceneGenerator, FiguresAreOneObjectOfSpheresAndOnlyWhenAskedFor)
         EXPECT_LT ((head.center - body.center).norm (), body.half_size.x () + head.half_size.x ());
         EXPECT_LT (head.half_size.x (), body.half_size.x ());
         with_limbs += o.parts.size () >= 4 ? 1 : 0;
+        // Bodies span a single ball's radii, min_size / 2 to max_size / 3.
+        EXPECT_GE (body.half_size.x (), config.min_size / 2 - 1e-9);
+        EXPECT_LE (body.half_size.x (), config.max_size / 3 + 1e-9);
+        largest_body = std::max (largest_body, body.half_size.x ());
       }
   EXPECT_GE (objects, 4);
   EXPECT_GE (with_limbs, objects / 2);
+  // Some figures are larger than a max_size / 4 body (the radii before 2026-11-25).
+  EXPECT_GT (largest_body, config.max_size / 4);
   // By default no figures: no object of more than two spheres (a snowman has two).
   for (std::size_t i = 0; i < 8; ++i)
     for (const io::SceneObject& o : io::RandomSceneGenerator (io::RandomSceneConfig (), 3).scene (i).objects)
       EXPECT_FALSE (spheres (o) && o.parts.size () > 2) << o.name;
   config.figure_probability = -0.1;
   test::expectError ([&] { io::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::figure_probability", "[0, 1]");
+}
+
+TEST (RandomSceneGenerator, AlignedFlushBoxesShareASideFace)
+{
+  // Pairs of single boxes standing flush face to face (same yaw, touching along one axis,
+  // overlapping along the other: boxes that only meet at an edge are not a pair):
+  // with aligned_probability 1 each placed pair has one side face in one plane, at 0 most
+  // do not.
+  const auto flushPairs = [] (const io::RandomSceneConfig& config, int& aligned) {
+    int pairs = 0;
+    aligned = 0;
+    for (std::size_t i = 0; i < 12; ++i)
+    {
+      std::vector<io::Primitive> boxes;
+      for (const io::SceneObject& o : io::RandomSceneGenerator (config, 5).scene (i).objects)
+        if (o.detectable && o.parts.size () == 1 && o.parts[0].type == io::Primitive::Type::Box)
+          boxes.push_back (o.parts[0]);
+      for (std::size_t a = 0; a < boxes.size (); ++a)
+        for (std::size_t b = a + 1; b < boxes.size (); ++b)
+        {
+          if (std::abs (boxes[a].yaw - boxes[b].yaw) > 1e-9 || std::abs (boxes[a].center.z () - boxes[b].center.z ()) >
+                                                                  boxes[a].half_size.z () + boxes[b].half_size.z ())
+            continue;
+          const Eigen::Vector3d offset = boxes[a].toLocal (boxes[b].center);
+          for (int axis = 0; axis < 2; ++axis)
+          {
+            const int other = 1 - axis;
+            if (std::abs (std::abs (offset[axis]) - (boxes[a].half_size[axis] + boxes[b].half_size[axis])) > 1e-6 ||
+                std::abs (offset[other]) > boxes[a].half_size[other] + boxes[b].half_size[other] - 1e-6)
+              continue;
+            ++pairs;
+            aligned += std::abs (std::abs (offset[other]) - std::abs (boxes[a].half_size[other] - boxes[b].half_size[other])) < 1e-6;
+          }
+        }
+    }
+    return pairs;
+  };
+  io::RandomSceneConfig config;
+  config.touching_probability = 1.0;
+  config.stacking_probability = 0.0;
+  config.multipart_probability = 0.0;
+  config.aligned_probability = 1.0;
+  int aligned = 0;
+  const int pairs = flushPairs (config, aligned);
+  EXPECT_GE (pairs, 5);
+  EXPECT_GE (aligned, pairs * 9 / 10);  // a box flush against two can meet a third by chance
+  config.aligned_probability = 0.0;
+  const int unaligned_pairs = flushPairs (config, aligned);
+  EXPECT_GE (unaligned_pairs, 5);
+  EXPECT_LT (aligned, unaligned_pairs / 2);
+  config.aligned_probability = 2.0;
+  test::expectError ([&] { io::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::aligned_probability", "[0, 1]");
 }

@@ -18,6 +18,7 @@ import time
 import cv2
 import numpy as np
 import onnx
+import onnx.numpy_helper
 import torch
 import torch.nn.functional as F
 
@@ -109,6 +110,7 @@ def loss_fn(logits, fg, bd, boundary_weight=4.0):
 
 
 def validate(net, depth, inst, cams, device):
+    training = net.training
     net.eval()
     ious, counts = [], []
     with torch.no_grad():
@@ -119,7 +121,7 @@ def validate(net, depth, inst, cams, device):
             mean_iou, n = match_iou(labels, inst[i])
             ious.append(mean_iou)
             counts.append(n)
-    net.train()
+    net.train(training)
     return float(np.mean(ious)), float(np.mean(counts))
 
 
@@ -136,7 +138,47 @@ def inline_identities(model):
     return model
 
 
+def load_onnx_weights(net, path):
+    """Starts from a model exported by export(): its Conv nodes, in graph order, are the
+    network's convolutions in definition order, with each BatchNorm folded into the conv
+    before it (the exporter does so in eval mode). The conv takes the folded weight, its
+    BatchNorm becomes the identity plus the folded bias (mean 0, variance 1 - eps, scale 1),
+    so the network computes exactly the exported function as long as BatchNorm stays in
+    eval mode (train with the network in eval mode: main() does)."""
+    model = onnx.load(path)
+    inits = {t.name: onnx.numpy_helper.to_array(t) for t in model.graph.initializer}
+    convs = [n for n in model.graph.node if n.op_type == "Conv"]
+    modules = [m for m in net.modules() if isinstance(m, torch.nn.Conv2d)]
+    norms = {}
+    for seq in [m for m in net.modules() if isinstance(m, torch.nn.Sequential)]:
+        children = list(seq.children())
+        for a, b in zip(children, children[1:]):
+            if isinstance(a, torch.nn.Conv2d) and isinstance(b, torch.nn.BatchNorm2d):
+                norms[a] = b
+    if len(convs) != len(modules):
+        raise SystemExit("%s: %d Conv nodes, the network has %d convolutions" % (path, len(convs), len(modules)))
+    with torch.no_grad():
+        for node, conv in zip(convs, modules):
+            weight = torch.from_numpy(inits[node.input[1]].copy())
+            bias = torch.from_numpy(inits[node.input[2]].copy()) if len(node.input) > 2 else torch.zeros(weight.shape[0])
+            if weight.shape != conv.weight.shape:
+                raise SystemExit("%s: Conv %s has weights %s, the network %s"
+                                 % (path, node.name, tuple(weight.shape), tuple(conv.weight.shape)))
+            conv.weight.copy_(weight)
+            if conv in norms:
+                bn = norms[conv]
+                bn.weight.fill_(1.0)
+                bn.bias.copy_(bias)
+                bn.running_mean.zero_()
+                bn.running_var.fill_(1.0 - bn.eps)
+            else:
+                conv.bias.copy_(bias)
+
+
 def export(net, path, h, w):
+    # Leaves the network in eval mode. main() trains on after a validation and export, so
+    # from the first validation on BatchNorm uses its running statistics (frozen) and only
+    # its scale and shift learn; the shipped model's runs trained so and reproduce so.
     net.eval()
     tmp = path + ".tmp"
     torch.onnx.export(net.cpu(), torch.zeros(1, 3, h, w), tmp, opset_version=11, input_names=["xyz"],
@@ -160,6 +202,8 @@ def main():
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--device", default="cpu")
     p.add_argument("--init", default="", help="start from these weights (a .pt written by an earlier run)")
+    p.add_argument("--init-onnx", default="",
+                   help="start from an exported model's weights (BatchNorm folded: trains with BatchNorm frozen)")
     p.add_argument("--boundary-weight", type=float, default=4.0, help="positive weight of the boundary loss")
     p.add_argument("--log", default="", help="JSON log of the run (default OUT.log.json)")
     a = p.parse_args()
@@ -175,6 +219,9 @@ def main():
     net = XyzInstanceNet()
     if a.init:
         net.load_state_dict(torch.load(a.init, map_location="cpu"))
+    if a.init_onnx:
+        load_onnx_weights(net, a.init_onnx)
+        net.eval()  # BatchNorm frozen as the identity the fold left (see load_onnx_weights)
     net.to(a.device)
     opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=a.lr, total_steps=a.iterations, pct_start=0.05)

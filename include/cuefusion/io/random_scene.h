@@ -24,6 +24,10 @@ struct RandomSceneConfig
     * arms, ears, legs). 0 (the default) draws no random number for it, so scenes of
     * earlier versions render unchanged. */
   double figure_probability = 0.0;
+  /** Share of the boxes placed flush against another box that are lined up with it: one
+    * side face of each in one plane (boxes in a row, products on a shelf), so depth shows
+    * no step along that face. 0 (the default) draws no random number for it. */
+  double aligned_probability = 0.0;
   double min_size = 0.03;                ///< smallest object extent (m)
   double max_size = 0.28;                ///< largest object extent (m)
   double min_distance = 0.45;            ///< camera distance to the point it looks at (m)

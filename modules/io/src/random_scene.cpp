@@ -86,12 +86,15 @@ struct Shape
 
 /** A figure (a soft toy): a body sphere with a smaller head sunk into its top, usually arms
   * at its sides, sometimes ears on the head and legs at the front; one object whose parts
-  * meet at concave creases, like a snowman with limbs. */
+  * meet at concave creases, like a snowman with limbs. Its body is drawn over the radii of
+  * a single ball (min_size / 2 to max_size / 3): soft toys come as large as balls, and a
+  * network that only saw small figures reads a large ball with a head as a ball with
+  * something stacked on it. */
 std::vector<Primitive>
 figureParts (Rng& rng, double lo, double hi)
 {
   std::vector<Primitive> parts;
-  const double body = uniform (rng, lo / 2, hi / 4), head = body * uniform (rng, 0.55, 0.8);
+  const double body = uniform (rng, lo / 2, hi / 3), head = body * uniform (rng, 0.55, 0.8);
   const double head_z = 2 * body + 0.7 * head;
   parts.push_back (sphere (Eigen::Vector3d (0, 0, body), body));
   parts.push_back (sphere (Eigen::Vector3d (0, 0, head_z), head));
@@ -238,6 +241,7 @@ RandomSceneConfig::validate () const
        {std::make_pair (table_probability, "table_probability"), std::make_pair (touching_probability, "touching_probability"),
         std::make_pair (stacking_probability, "stacking_probability"),
         std::make_pair (multipart_probability, "multipart_probability"), std::make_pair (figure_probability, "figure_probability"),
+        std::make_pair (aligned_probability, "aligned_probability"),
         std::make_pair (focal_jitter, "focal_jitter")})
     if (!(value >= 0.0 && value <= 1.0))
       throw ParameterError (std::string ("RandomSceneConfig::") + name, "must lie in [0, 1]");
@@ -357,7 +361,10 @@ RandomSceneGenerator::scene (std::size_t index) const
           Eigen::Vector2d offset;
           offset[axis] = side * (other.shape.box_size[axis] + shape.box_size[axis]) / 2;
           const double slide = std::max (0.0, (other.shape.box_size[1 - axis] + shape.box_size[1 - axis]) / 2 - 0.02);
-          offset[1 - axis] = uniform (rng, -slide, slide) * 0.7;
+          if (c.aligned_probability > 0.0 && chance (rng, c.aligned_probability))
+            offset[1 - axis] = (chance (rng, 0.5) ? 0.5 : -0.5) * (other.shape.box_size[1 - axis] - shape.box_size[1 - axis]);
+          else
+            offset[1 - axis] = uniform (rng, -slide, slide) * 0.7;
           xy = other.xy + rotate2 (offset, other.yaw);
         }
         else
@@ -472,6 +479,7 @@ generatorJson (const RandomSceneGenerator& generator)
           {"stacking_probability", c.stacking_probability},
           {"multipart_probability", c.multipart_probability},
           {"figure_probability", c.figure_probability},
+          {"aligned_probability", c.aligned_probability},
           {"min_size", c.min_size},
           {"max_size", c.max_size},
           {"min_distance", c.min_distance},
