@@ -82,6 +82,7 @@ def main():
     parser.add_argument("--binary", default="build/apps/cuefusion")
     parser.add_argument("--compare-binary", help="another build whose fused mode runs on the same sequences")
     parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--model", default=NETWORK, help="the network of the `network` level (default: the shipped one)")
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--levels", default=",".join(name for name, _ in LEVELS))
@@ -108,7 +109,7 @@ def main():
                         binary = args.compare_binary if "before" in mode else args.binary
                         cmd = [binary, "run", seq, "--out", out, "--mode", mode.split()[0]]
                         if mode != "geometry":
-                            cmd += ["--model", NETWORK] if level == "network" else ["--masks", os.path.join(seq, "detections")]
+                            cmd += ["--model", args.model] if level == "network" else ["--masks", os.path.join(seq, "detections")]
                         run(cmd)
                         scores = evaluate(args.binary, seq, out, out + "-report")
                         if mode == "geometry":
@@ -130,8 +131,9 @@ def main():
     print("Detector levels (`cuefusion synth` options):\n")
     for level, options in levels:
         if level == "network":
-            print("- network: no simulated detector; `cuefusion run --model data/models/xyz_instances.onnx` "
-                  "(cuefusion's own network on each depth frame)")
+            shown = os.path.relpath(os.path.abspath(args.model), os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+            print(f"- network: no simulated detector; `cuefusion run --model {shown}` "
+                  "(cuefusion's own network on each frame)")
         else:
             print(f"- {level}: `{' '.join(options) if options else '(none)'}`")
     for scene in scenes:

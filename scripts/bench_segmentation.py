@@ -85,11 +85,12 @@ def fmt_scores(s):
 NETWORK = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "models", "xyz_instances.onnx")
 
 
-def network_section(binary, osd, evaluator, tmp, repeat):
-    """The shipped network on the real clouds: scores per mode, and per-frame time with and
-    without it (median over clouds, median of `repeat` runs, all in this run)."""
-    print("\n| cuefusion's network (`--model data/models/xyz_instances.onnx`) | mode | O-P | O-R | O-F | B-P | B-R | B-F "
-          "| %75 | ms per frame (segmentation + masks) |")
+def network_section(binary, osd, evaluator, tmp, repeat, model=NETWORK):
+    """The shipped network (or `model`) on the real clouds: scores per mode, and per-frame
+    time with and without it (median over clouds, median of `repeat` runs, all in this run)."""
+    shown = os.path.relpath(os.path.abspath(model), os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+    print("\n| cuefusion's network (`--model %s`) | mode | O-P | O-R | O-F | B-P | B-R | B-F "
+          "| %%75 | ms per frame (segmentation + masks) |" % shown)
     print("|---|---|---|---|---|---|---|---|---|---|")
     totals = {}
     for mode in ("geometry", "masks", "fused"):
@@ -98,7 +99,7 @@ def network_section(binary, osd, evaluator, tmp, repeat):
             pred = os.path.join(tmp, "net_" + mode)
             timings.append(os.path.join(tmp, "net_%s_%d.json" % (mode, r)))
             subprocess.run(["rm", "-rf", pred])
-            extra = [] if mode == "geometry" else ["--model", NETWORK, "--mode", mode]
+            extra = [] if mode == "geometry" else ["--model", model, "--mode", mode]
             run_ours(binary, osd, pred, extra, timings[-1])
         s = score(evaluator, osd, pred, tmp)
         t = medians(timings, ["segmentation_ms", "masks_ms"])
@@ -117,6 +118,7 @@ def main():
     parser.add_argument("--repeat", type=int, default=3, help="timing runs (the median is reported)")
     parser.add_argument("--no-ablations", action="store_true")
     parser.add_argument("--network-only", action="store_true", help="only the shipped network's section")
+    parser.add_argument("--model", default=NETWORK, help="the network of that section (default: the shipped one)")
     args = parser.parse_args()
     binary = os.path.join(args.build, "cuefusion")
     peer = os.path.join(args.build, "cuefusion_pcl_peer_segmentation")
@@ -129,7 +131,7 @@ def main():
           "the table counts against precision)\n" % (args.osd, clouds))
     if args.network_only:
         with tempfile.TemporaryDirectory() as tmp:
-            network_section(binary, args.osd, args.evaluator, tmp, args.repeat)
+            network_section(binary, args.osd, args.evaluator, tmp, args.repeat, args.model)
         return
     with tempfile.TemporaryDirectory() as tmp:
         ours_t, peer_t = [], []
@@ -177,7 +179,7 @@ def main():
                 t = medians([timing], ["segmentation_ms", "masks_ms"])
                 print("| %s | %s | %s | %.1f + %.1f |" % (name if mode == "geometry" else "", mode, fmt_scores(s),
                                                         t["segmentation_ms"], t["masks_ms"]))
-        network_section(binary, args.osd, args.evaluator, tmp, args.repeat)
+        network_section(binary, args.osd, args.evaluator, tmp, args.repeat, args.model)
     scene = os.path.join(os.path.dirname(__file__), "..", "data", "scenes", "tabletop.scene")
     print()
     sys.stdout.flush()

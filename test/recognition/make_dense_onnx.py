@@ -5,12 +5,14 @@ for the OnnxInstanceSegmenter tests.
 usage: make_dense_onnx.py SPEC.json OUT.onnx
 
 SPEC: {"input": S, "channels": 2, "foreground": [[y0, y1, x0, x1, logit], ...],
-       "boundary": [[y0, y1, x0, x1, logit], ...]}
-Input [1, 3, S, S] (xyz), output [1, channels, S/2, S/2] logits: -10 everywhere, and each
-rectangle (inclusive, output pixels) set to its logit in its channel (foreground = 0,
-boundary = 1). The output does not depend on the input: a 1x1 convolution with zero
-weights and stride 2 (a real network OpenCV's importer runs) plus the constant pattern.
-"channels" other than 2 writes a model the decoder must refuse.
+       "boundary": [[y0, y1, x0, x1, logit], ...],
+       "input_channels": 3, "weights": [[output_channel, input_channel, weight], ...]}
+Input [1, input_channels, S, S] (3: xyz; 6: xyz and colour), output [1, channels, S/2, S/2]
+logits: -10 everywhere, and each rectangle (inclusive, output pixels) set to its logit in
+its channel (foreground = 0, boundary = 1), plus a 1x1 convolution with stride 2 of the
+input (a real network OpenCV's importer runs) whose weights are 0 except those listed:
+without "weights" the output does not depend on the input. "channels" other than 2 writes
+a model the decoder must refuse.
 """
 import json
 import sys
@@ -28,12 +30,16 @@ def main():
     for channel, key in ((0, "foreground"), (1, "boundary")):
         for y0, y1, x0, x1, logit in spec.get(key, []):
             pattern[0, channel, y0:y1 + 1, x0:x1 + 1] = logit
-    inits = [numpy_helper.from_array(np.zeros((channels, 3, 1, 1), np.float32), "w"),
+    inputs = spec.get("input_channels", 3)
+    weights = np.zeros((channels, inputs, 1, 1), np.float32)
+    for out, inp, w in spec.get("weights", []):
+        weights[out, inp, 0, 0] = w
+    inits = [numpy_helper.from_array(weights, "w"),
              numpy_helper.from_array(np.zeros(channels, np.float32), "b"),
              numpy_helper.from_array(pattern, "pattern")]
     nodes = [helper.make_node("Conv", ["xyz", "w", "b"], ["zero"], kernel_shape=[1, 1], strides=[2, 2]),
              helper.make_node("Add", ["zero", "pattern"], ["foreground_boundary"])]
-    graph = helper.make_graph(nodes, "dense", [helper.make_tensor_value_info("xyz", TensorProto.FLOAT, [1, 3, s, s])],
+    graph = helper.make_graph(nodes, "dense", [helper.make_tensor_value_info("xyz", TensorProto.FLOAT, [1, inputs, s, s])],
                               [helper.make_tensor_value_info("foreground_boundary", TensorProto.FLOAT,
                                                              [1, channels, s // 2, s // 2])], inits)
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 11)])

@@ -267,6 +267,55 @@ TEST_F (OnnxSegmenter, XyzInputIsTheBackProjectedDepth)
   test::expectError ([&] { OnnxInstanceSegmenter::xyzInput (frame, 64, content); }, "OnnxInstanceSegmenter", "depth");
 }
 
+TEST_F (OnnxSegmenter, XyzRgbLayoutSeesTheColourAsTrained)
+{
+  // Six input channels: the foreground logit is 40 × channel 3, which must be the red
+  // channel scaled as train.py does (R / 255 − 0.5): red 128 on the left half gives logit
+  // +0.078 (p 0.52, foreground), red 127 with blue 255 on the right −0.078 (background;
+  // were blue read as red, the right half would be the object).
+  nlohmann::json spec = {{"input", 64},
+                         {"input_channels", 6},
+                         {"foreground", {{0, 31, 0, 31, 0.0}}},
+                         {"weights", {{0, 3, 40.0}}}};
+  config.dense_width = 64;
+  config.min_mask_pixels = 20;
+  RGBDFrame frame = wallFrame ();
+  frame.color (cv::Rect (0, 0, 32, 64)).setTo (cv::Scalar (0, 0, 128));
+  frame.color (cv::Rect (32, 0, 32, 64)).setTo (cv::Scalar (255, 0, 127));
+  OnnxLayout found;
+  const auto instances = run (makeDenseModel (dir, "rgb", spec), frame, &found);
+  EXPECT_EQ (found, OnnxLayout::XyzRgb);
+  ASSERT_EQ (instances.size (), 1u);
+  EXPECT_EQ (instances[0].box, cv::Rect (0, 0, 32, 64));
+  EXPECT_EQ (cv::countNonZero (instances[0].mask != boxMask (cv::Size (64, 64), cv::Rect (0, 0, 32, 64))), 0);
+  EXPECT_NEAR (instances[0].score, 1.f / (1.f + std::exp (-40.f * (128.f / 255.f - 0.5f))), 1e-5f);
+
+  // The input: xyzInput's three channels, then RGB.
+  cv::Size content, xyz_content;
+  const cv::Mat blob = OnnxInstanceSegmenter::denseInput (frame, 64, OnnxLayout::XyzRgb, content);
+  const cv::Mat xyz = OnnxInstanceSegmenter::xyzInput (frame, 64, xyz_content);
+  EXPECT_EQ (content, xyz_content);
+  ASSERT_EQ (blob.size[1], 6);
+  const std::size_t plane = 64 * 64;
+  EXPECT_TRUE (std::equal (xyz.ptr<float> (), xyz.ptr<float> () + 3 * plane, blob.ptr<float> ()));
+  EXPECT_NEAR (blob.ptr<float> (0, 3)[5 * 64 + 40], 127.f / 255.f - 0.5f, 1e-6f);  // R
+  EXPECT_NEAR (blob.ptr<float> (0, 4)[5 * 64 + 40], -0.5f, 1e-6f);                 // G
+  EXPECT_NEAR (blob.ptr<float> (0, 5)[5 * 64 + 40], 0.5f, 1e-6f);                  // B
+
+  // The layout is named, and needs the colour image.
+  config.model_path = dir / "rgb.onnx";
+  OnnxInstanceSegmenter segmenter (config);
+  EXPECT_NE (segmenter.name ().find ("xyz and colour layout"), std::string::npos) << segmenter.name ();
+  frame.color = cv::Mat ();
+  std::vector<Instance> none;
+  test::expectError ([&] { segmenter.segment (frame, none); }, "OnnxInstanceSegmenter", "colour image");
+
+  // Six input channels and three outputs: no layout, and the message says which it expects.
+  spec["channels"] = 3;
+  config.model_path = makeDenseModel (dir, "rgb3", spec);
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "rgb3.onnx", "6 input channels");
+}
+
 TEST_F (OnnxSegmenter, LetterboxMapsBackToTheFrame)
 {
   // A 128×64 frame is scaled by 0.5 and padded 16 rows top and bottom in the 64×64 input:

@@ -15,7 +15,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from decode import decode, match_iou  # noqa: E402
-from train import back_project, load_views  # noqa: E402
+from train import load_views, model_channels, network_input  # noqa: E402
 
 
 def main():
@@ -26,12 +26,15 @@ def main():
     a = p.parse_args()
     thresholds = [float(t) for t in a.thresholds.split(",")]
     net = cv2.dnn.readNetFromONNX(a.model)
-    depth, inst, cams = load_views(a.val)
+    rgb = None
+    if model_channels(a.model) == 6:
+        depth, inst, cams, rgb = load_views(a.val, color=True)
+    else:
+        depth, inst, cams = load_views(a.val)
     scores = {t: [] for t in thresholds}
     counts = {t: [] for t in thresholds}
     for i in range(len(depth)):
-        xyz = back_project(depth[i], cams[i])[None].astype(np.float32)
-        net.setInput(xyz)
+        net.setInput(network_input(depth[i], cams[i], rgb[i] if rgb is not None else None)[None].astype(np.float32))
         out = net.forward()[0]
         fg, bd = 1 / (1 + np.exp(-out[0])), 1 / (1 + np.exp(-out[1]))
         for t in thresholds:

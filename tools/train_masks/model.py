@@ -1,5 +1,6 @@
 """The network: a compact encoder-decoder on camera-frame xyz (depth back-projected with
-the intrinsics; 0 where depth is missing). Input [1, 3, H, W] (H, W multiples of 16),
+the intrinsics; 0 where depth is missing), optionally followed by the registered colour
+(RGB scaled to [-0.5, 0.5]). Input [1, 3, H, W] or [1, 6, H, W] (H, W multiples of 16),
 output [1, 2, H/2, W/2] logits: channel 0 = foreground (an object, not floor, wall or
 table), channel 1 = instance boundary (an object pixel next to another object). The C++
 decoder (OnnxInstanceSegmenter, "dense layout") recognises the layout by these shapes.
@@ -17,10 +18,11 @@ def block(cin, cout, stride=1, dilation=1):
 
 
 class XyzInstanceNet(nn.Module):
-    def __init__(self, width=(16, 24, 32, 48, 64)):
+    def __init__(self, width=(16, 24, 32, 48, 64), in_channels=3):
         super().__init__()
         c0, c1, c2, c3, c4 = width
-        self.stem = block(3, c0, stride=2)                                 # H/2
+        self.in_channels = in_channels
+        self.stem = block(in_channels, c0, stride=2)                                 # H/2
         self.enc1 = block(c0, c1)                                          # H/2
         self.enc2 = nn.Sequential(block(c1, c2, stride=2), block(c2, c2))  # H/4
         self.enc3 = nn.Sequential(block(c2, c3, stride=2), block(c3, c3))  # H/8

@@ -20,7 +20,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from decode import decode, stability  # noqa: E402
-from train import back_project, load_views  # noqa: E402
+from train import load_views, model_channels, network_input  # noqa: E402
 
 MIN_PIXELS = 25  # output pixels: the 100 frame pixels of the C++ decoder at 640x480 / 320 columns / 2
 
@@ -54,11 +54,15 @@ def main():
     a = p.parse_args()
     deltas = [float(d) for d in a.deltas.split(",")]
     net = cv2.dnn.readNetFromONNX(a.model)
-    depth, inst, cams = load_views(a.val)
+    rgb = None
+    if model_channels(a.model) == 6:
+        depth, inst, cams, rgb = load_views(a.val, color=True)
+    else:
+        depth, inst, cams = load_views(a.val)
     masks, base, stab = [], [], {d: [] for d in deltas}
     truths = 0
     for i in range(len(depth)):
-        net.setInput(back_project(depth[i], cams[i])[None].astype(np.float32))
+        net.setInput(network_input(depth[i], cams[i], rgb[i] if rgb is not None else None)[None].astype(np.float32))
         out = net.forward()[0]
         fg, bd = 1 / (1 + np.exp(-out[0])), 1 / (1 + np.exp(-out[1]))
         labels = decode(fg, bd, boundary_threshold=a.threshold, min_pixels=MIN_PIXELS)

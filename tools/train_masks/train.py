@@ -27,14 +27,36 @@ from model import XyzInstanceNet  # noqa: E402
 from decode import decode, match_iou  # noqa: E402
 
 
-def load_views(folder, limit=0):
+def load_views(folder, limit=0, color=False):
+    """Depth in metres, instance ids and intrinsics of the views in `folder`; with color,
+    also their colour images (RGB, uint8). Several folders may be joined by commas."""
+    if "," in folder:
+        parts = [load_views(f, limit, color) for f in folder.split(",")]
+        return tuple(np.concatenate(x) for x in zip(*parts))
     meta = json.load(open(os.path.join(folder, "views.json")))
     units = float(meta["depth_units_per_metre"])
     views = meta["views"][: limit or None]
     depth = np.stack([cv2.imread(os.path.join(folder, "depth", v["file"]), cv2.IMREAD_UNCHANGED) for v in views])
     inst = np.stack([cv2.imread(os.path.join(folder, "instance", v["file"]), cv2.IMREAD_UNCHANGED) for v in views])
     cams = np.array([[v["camera"][k] for k in ("fx", "fy", "cx", "cy")] for v in views], np.float32)
-    return depth.astype(np.float32) / units, inst, cams
+    if not color:
+        return depth.astype(np.float32) / units, inst, cams
+    rgb = np.stack([cv2.imread(os.path.join(folder, "color", v["file"]), cv2.IMREAD_COLOR)[:, :, ::-1] for v in views])
+    return depth.astype(np.float32) / units, inst, cams, rgb
+
+
+def model_channels(path):
+    """Input channels of an exported model: 3 (xyz) or 6 (xyz and colour)."""
+    return onnx.load(path).graph.input[0].type.tensor_type.shape.dim[1].dim_value
+
+
+def network_input(z, cam, rgb=None):
+    """The network's input for one view, as OnnxInstanceSegmenter::denseInput builds it:
+    xyz [3, H, W], then with a colour image RGB / 255 - 0.5 [3, H, W]."""
+    xyz = back_project(z, cam)
+    if rgb is None:
+        return xyz
+    return np.concatenate([xyz, rgb.transpose(2, 0, 1).astype(np.float32) / 255.0 - 0.5])
 
 
 def back_project(z, cam):
@@ -87,17 +109,87 @@ def augment(z, inst, rng):
     return z, inst, flip
 
 
-def batch(depth, inst, cams, index, rng, train):
+def random_color(rng):
+    return rng.uniform(0.05, 0.95, 3).astype(np.float32)
+
+
+def paint_shapes(img, region, shading, rng, count):
+    """Paints `count` random rectangles, ellipses and stripes (random colours, shaded like
+    the surface under them) over img where `region` is set: printed boxes, labels."""
+    ys, xs = np.nonzero(region)
+    if len(ys) < 20:
+        return
+    y0, y1, x0, x1 = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    for _ in range(count):
+        shape = np.zeros(region.shape, np.uint8)
+        cx, cy = int(rng.integers(x0, x1)), int(rng.integers(y0, y1))
+        ax = int(max(2, rng.uniform(0.1, 0.6) * (x1 - x0)))
+        ay = int(max(2, rng.uniform(0.1, 0.6) * (y1 - y0)))
+        kind = rng.integers(0, 3)
+        if kind == 0:
+            box = ((cx, cy), (2 * ax, 2 * ay), float(rng.uniform(0, 180)))
+            cv2.fillPoly(shape, [cv2.boxPoints(box).astype(np.int32)], 1)
+        elif kind == 1:
+            cv2.ellipse(shape, (cx, cy), (ax, ay), float(rng.uniform(0, 180)), 0, 360, 1, -1)
+        else:  # a band across the whole region
+            if rng.random() < 0.5:
+                shape[max(0, cy - ay // 3): cy + ay // 3 + 1, x0:x1] = 1
+            else:
+                shape[y0:y1, max(0, cx - ax // 3): cx + ax // 3 + 1] = 1
+        m = (shape > 0) & region
+        img[m] = random_color(rng)[None, :] * shading[m][:, None]
+
+
+def augment_color(rgb, inst, rng):
+    """Colour as real scenes have it, which flat-shaded renders lack: printed textures on
+    objects and on the support, objects of one colour side by side (so that colour alone
+    never decides), lighting and white balance, sensor noise, blur, colour-depth
+    misregistration of a pixel, and sometimes no colour at all (grey)."""
+    img = rgb.astype(np.float32) / 255.0
+    lum = img.mean(axis=2)
+    ids = [i for i in np.unique(inst) if i > 0]
+    shading = np.ones_like(lum)
+    for i in ids + [0]:
+        m = inst == i
+        if m.any():
+            shading[m] = lum[m] / max(1e-3, float(np.median(lum[m])))
+    shading = np.clip(shading, 0.2, 1.5)
+    if len(ids) > 1 and rng.random() < 0.2:  # distinct objects in one colour
+        a, b = rng.choice(ids, 2, replace=False)
+        ma, mb = inst == a, inst == b
+        ca, cb = img[ma].mean(axis=0), img[mb].mean(axis=0)
+        img[ma] = np.clip(img[ma] * (cb / np.maximum(ca, 1e-3))[None, :], 0, 1)
+    for i in ids:
+        if rng.random() < 0.2:
+            paint_shapes(img, inst == i, shading, rng, int(rng.integers(1, 4)))
+    if rng.random() < 0.3:
+        paint_shapes(img, inst == 0, shading, rng, int(rng.integers(1, 8)))
+    img = img * rng.uniform(0.75, 1.25, 3)[None, None, :].astype(np.float32) + np.float32(rng.uniform(-0.08, 0.08))
+    img = np.clip(img, 0, 1) ** np.float32(rng.uniform(0.7, 1.4))
+    if rng.random() < 0.3:
+        img = cv2.GaussianBlur(img, (3, 3), 0)
+    img = img + rng.normal(0, rng.uniform(0, 0.04), img.shape).astype(np.float32)
+    if rng.random() < 0.5:
+        img = np.roll(img, (int(rng.integers(-1, 2)), int(rng.integers(-1, 2))), axis=(0, 1))
+    if rng.random() < 0.05:
+        img[:] = img.mean(axis=2, keepdims=True)
+    return (np.clip(img, 0, 1) * 255).astype(np.uint8)
+
+
+def batch(depth, inst, cams, index, rng, train, rgb=None):
     xs, fgs, bds = [], [], []
     for i in index:
         z, ids, flip = augment(depth[i], inst[i], rng) if train else (depth[i], inst[i], False)
-        xyz = back_project(z, cams[i])
+        color = None
+        if rgb is not None:
+            color = augment_color(rgb[i], inst[i], rng) if train else rgb[i]
+        x = network_input(z, cams[i], color)
         if flip:  # a mirrored world: columns reversed, x negated
-            xyz = xyz[:, :, ::-1].copy()
-            xyz[0] = -xyz[0]
+            x = x[:, :, ::-1].copy()
+            x[0] = -x[0]
             ids = ids[:, ::-1]
         fg, bd = targets(ids)
-        xs.append(xyz)
+        xs.append(x)
         fgs.append(fg)
         bds.append(bd)
     return (torch.from_numpy(np.stack(xs)), torch.from_numpy(np.stack(fgs)), torch.from_numpy(np.stack(bds)))
@@ -109,13 +201,13 @@ def loss_fn(logits, fg, bd, boundary_weight=4.0):
     return l_fg + l_bd, l_fg.item(), l_bd.item()
 
 
-def validate(net, depth, inst, cams, device):
+def validate(net, depth, inst, cams, device, rgb=None):
     training = net.training
     net.eval()
     ious, counts = [], []
     with torch.no_grad():
         for i in range(len(depth)):
-            x, _, _ = batch(depth, inst, cams, [i], None, False)
+            x, _, _ = batch(depth, inst, cams, [i], None, False, rgb)
             prob = torch.sigmoid(net(x.to(device)))[0].cpu().numpy()
             labels = decode(prob[0], prob[1], depth[i].shape)
             mean_iou, n = match_iou(labels, inst[i])
@@ -161,6 +253,10 @@ def load_onnx_weights(net, path):
         for node, conv in zip(convs, modules):
             weight = torch.from_numpy(inits[node.input[1]].copy())
             bias = torch.from_numpy(inits[node.input[2]].copy()) if len(node.input) > 2 else torch.zeros(weight.shape[0])
+            if conv is modules[0] and weight.shape[1] == 3 and conv.weight.shape[1] == 6:
+                # An xyz model starts an xyz-and-colour one: colour enters with zero weights,
+                # so training starts from exactly the xyz model's function.
+                weight = torch.cat([weight, torch.zeros_like(weight)], 1)
             if weight.shape != conv.weight.shape:
                 raise SystemExit("%s: Conv %s has weights %s, the network %s"
                                  % (path, node.name, tuple(weight.shape), tuple(conv.weight.shape)))
@@ -181,7 +277,8 @@ def export(net, path, h, w):
     # its scale and shift learn; the shipped model's runs trained so and reproduce so.
     net.eval()
     tmp = path + ".tmp"
-    torch.onnx.export(net.cpu(), torch.zeros(1, 3, h, w), tmp, opset_version=11, input_names=["xyz"],
+    name = "xyz" if net.in_channels == 3 else "xyz_rgb"
+    torch.onnx.export(net.cpu(), torch.zeros(1, net.in_channels, h, w), tmp, opset_version=11, input_names=[name],
                       output_names=["foreground_boundary"], do_constant_folding=True)
     model = inline_identities(onnx.load(tmp))
     onnx.checker.check_model(model)
@@ -205,6 +302,8 @@ def main():
     p.add_argument("--init-onnx", default="",
                    help="start from an exported model's weights (BatchNorm folded: trains with BatchNorm frozen)")
     p.add_argument("--boundary-weight", type=float, default=4.0, help="positive weight of the boundary loss")
+    p.add_argument("--color", action="store_true",
+                   help="the network also sees the colour image (input xyz and RGB, 6 channels)")
     p.add_argument("--log", default="", help="JSON log of the run (default OUT.log.json)")
     a = p.parse_args()
 
@@ -212,11 +311,16 @@ def main():
     torch.set_num_threads(a.threads)
     rng = np.random.default_rng(a.seed)
     t0 = time.time()
-    depth, inst, cams = load_views(a.train)
-    vdepth, vinst, vcams = load_views(a.val)
+    rgb = vrgb = None
+    if a.color:
+        depth, inst, cams, rgb = load_views(a.train, color=True)
+        vdepth, vinst, vcams, vrgb = load_views(a.val, color=True)
+    else:
+        depth, inst, cams = load_views(a.train)
+        vdepth, vinst, vcams = load_views(a.val)
     print("loaded %d training and %d validation views in %.0f s" % (len(depth), len(vdepth), time.time() - t0), flush=True)
 
-    net = XyzInstanceNet()
+    net = XyzInstanceNet(in_channels=6 if a.color else 3)
     if a.init:
         net.load_state_dict(torch.load(a.init, map_location="cpu"))
     if a.init_onnx:
@@ -231,7 +335,7 @@ def main():
     it = 0
     for it in range(1, a.iterations + 1):
         index = rng.integers(0, len(depth), a.batch)
-        x, fg, bd = batch(depth, inst, cams, index, rng, True)
+        x, fg, bd = batch(depth, inst, cams, index, rng, True, rgb)
         logits = net(x.to(a.device))
         loss, l_fg, l_bd = loss_fn(logits, fg.to(a.device), bd.to(a.device), a.boundary_weight)
         opt.zero_grad()
@@ -244,7 +348,7 @@ def main():
         if it % 250 == 0 or it == a.iterations or (a.minutes and minutes > a.minutes):
             entry = {"iteration": it, "minutes": round(minutes, 2), "loss_fg": round(run_fg, 4), "loss_boundary": round(run_bd, 4)}
             if it % 1000 == 0 or it == a.iterations or (a.minutes and minutes > a.minutes):
-                entry["val_mean_iou"], entry["val_instances"] = validate(net, vdepth, vinst, vcams, a.device)
+                entry["val_mean_iou"], entry["val_instances"] = validate(net, vdepth, vinst, vcams, a.device, vrgb)
                 export(net, a.out, depth.shape[1], depth.shape[2])
                 torch.save(net.state_dict(), a.out + ".pt")
                 net.to(a.device)

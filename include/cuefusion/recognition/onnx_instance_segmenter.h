@@ -41,8 +41,9 @@ enum class OnnxLayout
 {
   V5,   ///< YOLOv5-seg: detections [1, N, 4 + 1 + C + K] (box, objectness, class scores, mask coefficients)
   V8,   ///< YOLOv8/11-seg: detections [1, 4 + C + K, N] (box, class scores, mask coefficients)
-  Xyz   ///< cuefusion's class-agnostic network: xyz [1, 3, H, W] in, logits [1, 2, H/2, W/2] out
+  Xyz,  ///< cuefusion's class-agnostic network: xyz [1, 3, H, W] in, logits [1, 2, H/2, W/2] out
         ///< (channel 0 foreground, channel 1 instance boundary), tools/train_masks
+  XyzRgb  ///< the same network also given the colour: xyz and RGB [1, 6, H, W] in, the same out
 };
 
 /** \brief Where a frame sits in the letterboxed network input. */
@@ -59,7 +60,9 @@ struct Letterbox
   *
   * Xyz layout: depth → camera-frame xyz (0 where depth is missing), resampled (nearest) to
   * dense_width columns and padded to multiples of 16 → forward → decodeDense. Needs the
-  * frame's depth and camera; every instance has class "object".
+  * frame's depth and camera; every instance has class "object". XyzRgb layout: the same,
+  * with the colour image (area-resampled, RGB / 255 − 0.5) as three more input channels;
+  * needs the colour image too. The two are told apart by the input the model accepts.
   *
   * YOLO layouts:
   * Colour → letterbox (aspect kept, grey 114 padding) → RGB blob / 255 → forward →
@@ -112,6 +115,13 @@ public:
     * frame inside it (top-left). Throws cuefusion::Error without depth.
     */
   static cv::Mat xyzInput (const RGBDFrame& frame, int dense_width, cv::Size& content);
+
+  /** \brief The dense layouts' input: xyzInput, and for \a layout XyzRgb the colour image
+    * (resized to the depth's size, then area-resampled like xyz) as channels 3–5, RGB
+    * scaled to [−0.5, 0.5] as in tools/train_masks/train.py. Throws cuefusion::Error
+    * without depth, or for XyzRgb without a CV_8UC3 colour image.
+    */
+  static cv::Mat denseInput (const RGBDFrame& frame, int dense_width, OnnxLayout layout, cv::Size& content);
 
 private:
   OnnxInstanceSegmenterConfig config_;

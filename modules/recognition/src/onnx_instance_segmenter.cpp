@@ -3,6 +3,7 @@
 
 #include <boost/filesystem.hpp>
 
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -216,6 +217,41 @@ OnnxInstanceSegmenter::xyzInput (const RGBDFrame& frame, int dense_width, cv::Si
   return cv::dnn::blobFromImage (padded, 1.0, cv::Size (), cv::Scalar (), false, false, CV_32F);
 }
 
+cv::Mat
+OnnxInstanceSegmenter::denseInput (const RGBDFrame& frame, int dense_width, OnnxLayout layout, cv::Size& content)
+{
+  const cv::Mat xyz = xyzInput (frame, dense_width, content);
+  if (layout != OnnxLayout::XyzRgb)
+    return xyz;
+  if (frame.color.empty () || frame.color.type () != CV_8UC3)
+    throw Error ("OnnxInstanceSegmenter", "the xyz and colour layout needs the frame's colour image (CV_8UC3)");
+  cv::Mat color = frame.color;
+  if (color.size () != frame.depth.size ())
+    cv::resize (color, color, frame.depth.size (), 0, 0, cv::INTER_LINEAR);
+  // Area resampling averages the colour a camera integrates over the coarser pixel (the
+  // training views are rendered at this scale); RGB / 255 - 0.5 as train.py's network_input.
+  cv::Mat small;
+  cv::resize (color, small, content, 0, 0, cv::INTER_AREA);
+  cv::Mat rgb;
+  small.convertTo (rgb, CV_32FC3, 1.0 / 255.0, -0.5);
+  const int rows = xyz.size[2], cols = xyz.size[3];
+  const int shape[] = {1, 6, rows, cols};
+  cv::Mat blob (4, shape, CV_32F, cv::Scalar (0.f));
+  for (int c = 0; c < 3; ++c)
+    std::copy (xyz.ptr<float> (0, c), xyz.ptr<float> (0, c) + rows * cols, blob.ptr<float> (0, c));
+  for (int v = 0; v < content.height; ++v)
+  {
+    const cv::Vec3f* in = rgb.ptr<cv::Vec3f> (v);
+    for (int c = 0; c < 3; ++c)
+    {
+      float* out = blob.ptr<float> (0, 3 + c) + v * cols;
+      for (int u = 0; u < content.width; ++u)
+        out[u] = in[u][2 - c];  // BGR → RGB
+    }
+  }
+  return blob;
+}
+
 namespace
 {
 /** The xyz decoder's labels at one boundary threshold: seeds = \a foreground and boundary
@@ -395,27 +431,57 @@ OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxInstanceSegmenterConfig&
   net_.setPreferableBackend (cv::dnn::DNN_BACKEND_OPENCV);
   net_.setPreferableTarget (cv::dnn::DNN_TARGET_CPU);
   output_names_ = net_.getUnconnectedOutLayersNames ();
-  // Dry run on a blank input: the layout is known (or refused) before the first frame.
+  // Dry run on a blank input: the layout is known (or refused) before the first frame. A
+  // model that refuses three input channels is tried with six (xyz and colour).
   std::vector<cv::Mat> outputs;
+  bool six_channels = false;
+  auto oneLine = [] (const cv::Exception& e) {
+    std::string what = e.what ();
+    std::replace (what.begin (), what.end (), '\n', ' ');
+    return what.substr (0, 300);
+  };
   try
   {
+    // OpenCV DNN logs a refused input shape on stderr before it throws: silent while we probe.
+    struct QuietDnn
+    {
+      cv::utils::logging::LogLevel before = cv::utils::logging::setLogLevel (cv::utils::logging::LOG_LEVEL_SILENT);
+      ~QuietDnn () { cv::utils::logging::setLogLevel (before); }
+    } quiet;
     const cv::Mat blank (config_.input_size, config_.input_size, CV_8UC3, cv::Scalar (114, 114, 114));
     net_.setInput (cv::dnn::blobFromImage (blank, 1.0 / 255.0, cv::Size (), cv::Scalar (), true, false));
     net_.forward (outputs, output_names_);
   }
   catch (const cv::Exception& e)
   {
-    std::string what = e.what ();
-    std::replace (what.begin (), what.end (), '\n', ' ');
-    throw Error (config_.model_path, "OpenCV DNN cannot run this model at " + std::to_string (config_.input_size) +
-                                       "x" + std::to_string (config_.input_size) + " (" + what.substr (0, 300) + ")");
+    const std::string three = oneLine (e);
+    try
+    {
+      const int shape[] = {1, 6, config_.input_size, config_.input_size};
+      net_.setInput (cv::Mat (4, shape, CV_32F, cv::Scalar (0.f)));
+      net_.forward (outputs, output_names_);
+      six_channels = true;
+    }
+    catch (const cv::Exception&)
+    {
+      throw Error (config_.model_path, "OpenCV DNN cannot run this model at " + std::to_string (config_.input_size) +
+                                         "x" + std::to_string (config_.input_size) + " (" + three + ")");
+    }
   }
   if (outputs.size () == 1 && outputs[0].dims == 4 && outputs[0].size[0] == 1 && outputs[0].size[1] == 2 &&
       outputs[0].size[2] * 2 == config_.input_size && outputs[0].size[3] * 2 == config_.input_size)
   {
-    layout_ = OnnxLayout::Xyz;
+    layout_ = six_channels ? OnnxLayout::XyzRgb : OnnxLayout::Xyz;
     class_names_ = {"object"};
     return;
+  }
+  if (six_channels)
+  {
+    std::string shapes;
+    for (const cv::Mat& m : outputs)
+      shapes += (shapes.empty () ? "" : " and ") + shapeOf (m);
+    throw Error (config_.model_path, "a model with 6 input channels must have one output [1, 2, H/2, W/2] "
+                                     "(xyz and colour layout), not " + shapes);
   }
   if (config_.classes_path.empty ())
     config_.classes_path = defaultClassNamesPath ();
@@ -435,17 +501,18 @@ OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxInstanceSegmenterConfig&
 std::string
 OnnxInstanceSegmenter::name () const
 {
-  static const char* layouts[] = {" (YOLOv5-seg layout)", " (YOLOv8-seg layout)", " (xyz layout)"};
+  static const char* layouts[] = {" (YOLOv5-seg layout)", " (YOLOv8-seg layout)", " (xyz layout)",
+                                  " (xyz and colour layout)"};
   return "onnx:" + boost::filesystem::path (config_.model_path).filename ().string () + layouts[static_cast<int> (layout_)];
 }
 
 bool
 OnnxInstanceSegmenter::segment (const RGBDFrame& frame, std::vector<Instance>& instances)
 {
-  if (layout_ == OnnxLayout::Xyz)
+  if (layout_ == OnnxLayout::Xyz || layout_ == OnnxLayout::XyzRgb)
   {
     cv::Size content;
-    net_.setInput (xyzInput (frame, config_.dense_width, content));
+    net_.setInput (denseInput (frame, config_.dense_width, layout_, content));
     const cv::Mat output = net_.forward (output_names_.front ());
     instances = decodeDense (output, cv::Size ((content.width + 1) / 2, (content.height + 1) / 2), frame.depth.size (), config_);
     return true;
