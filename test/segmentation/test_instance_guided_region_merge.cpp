@@ -262,6 +262,94 @@ TEST (InstanceGuidedRegionMerge, AMaskIsCutBetweenTheColoursOfTheSegmentsItClaim
   EXPECT_THROW (InstanceGuidedRegionMerge bad (off), ParameterError);
 }
 
+TEST (InstanceGuidedRegionMerge, ASegmentOfTwoUniformColoursSideBySideIsDividedUnderAMask)
+{
+  // One segment of L^G, 20×100: columns 0–59 orange, 60–99 teal (coplanar faces of two
+  // boxes flush), every other row at half the brightness (shading: the same chromaticity).
+  // One mask over it all, as a depth network reports such a pair.
+  const cv::Mat geometric (20, 100, CV_32S, cv::Scalar (1));
+  const cv::Vec3b orange (40, 110, 210), teal (190, 170, 30);
+  auto paint = [] (cv::Vec3b left, cv::Vec3b right, int split = 60) {
+    cv::Mat color (20, 100, CV_8UC3);
+    for (int y = 0; y < 20; ++y)
+      for (int x = 0; x < 100; ++x)
+        color.at<cv::Vec3b> (y, x) = (x < split ? left : right) / (y % 2 ? 2 : 1);
+    return color;
+  };
+  Instance all;
+  all.mask = cv::Mat (20, 100, CV_8U, cv::Scalar (255));
+  all.class_name = "object";
+  all.score = 0.9f;
+  InstanceGuidedRegionMerge merge;
+  const cv::Mat color = paint (orange, teal);
+  const std::vector<Instance> divided = merge.divideByColor (geometric, {all}, color);
+  ASSERT_EQ (divided.size (), 2u);
+  EXPECT_EQ (divided[0].box, cv::Rect (0, 0, 60, 20));
+  EXPECT_EQ (divided[1].box, cv::Rect (60, 0, 40, 20));
+  EXPECT_EQ (cv::countNonZero (divided[1].mask), 20 * 40);
+  cv::Mat fused;
+  merge.merge (geometric, {all}, fused, nullptr, nullptr, color);
+  EXPECT_NE (fused.at<std::int32_t> (10, 10), fused.at<std::int32_t> (10, 90));
+  EXPECT_EQ (cv::countNonZero (fused == fused.at<std::int32_t> (10, 90)), 20 * 40);
+  cv::Mat pieces;
+  merge.split (geometric, {all}, pieces, nullptr, nullptr, color);
+  EXPECT_NE (pieces.at<std::int32_t> (10, 10), pieces.at<std::int32_t> (10, 90));
+
+  // Left whole: without a mask claiming the segment (one over 40 % of it), without the
+  // colour, in one colour, with hues closer than color_split_distance (orange and an
+  // orange-red, 0.08 apart), with the second colour under a fifth of it, with the colours
+  // in a checkerboard of 4-pixel cells (print: no region of its own), or where one side
+  // is noise (texture: not one uniform colour).
+  Instance part = all;
+  part.mask = cv::Mat (20, 100, CV_8U, cv::Scalar (0));
+  part.mask.colRange (0, 40).setTo (255);
+  merge.merge (geometric, {part}, fused, nullptr, nullptr, color);
+  EXPECT_EQ (fused.at<std::int32_t> (10, 10), fused.at<std::int32_t> (10, 90));
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, cv::Mat ()).size (), 1u);
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, paint (orange, orange)).size (), 1u);
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, paint (orange, cv::Vec3b (30, 70, 220))).size (), 1u);
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, paint (orange, teal, 85)).size (), 1u);
+  cv::Mat checker = paint (orange, orange);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 100; ++x)
+      if ((x / 4 + y / 4) % 2)
+        checker.at<cv::Vec3b> (y, x) = teal;
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, checker).size (), 1u);
+  cv::Mat noisy = color.clone ();
+  cv::RNG rng (7);
+  cv::Mat texture (20, 40, CV_8UC3);
+  rng.fill (texture, cv::RNG::UNIFORM, cv::Scalar::all (40), cv::Scalar::all (250));
+  texture.copyTo (noisy.colRange (60, 100));
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, noisy).size (), 1u);
+}
+
+TEST (InstanceGuidedRegionMerge, FlushBoxesOfDifferentColoursGeometrySeesAsOneAreCutUnderAMergedMask)
+{
+  // The tabletop's cereal boxes: side by side, front faces in one plane, so the front is
+  // one segment of L^G. A mask over both, with the view's colour: each box its own segment.
+  const std::string flush = kTable +
+                            "object box_a class=box color=220,120,30\n"
+                            "  box center=-0.07,0,0.84 size=0.14,0.06,0.20\n"
+                            "object box_b class=box color=30,170,190\n"
+                            "  box center=0.07,0,0.81 size=0.14,0.06,0.14\n";
+  const Eigen::Vector3d eye (0.1, -0.9, 1.1);
+  io::DetectorErrorConfig merging;
+  merging.merge_probability = 1.0;
+  const auto view = segmentScene (flush, eye, kTarget, false);
+  ASSERT_EQ (scoreObject (view, 2).best_label, scoreObject (view, 3).best_label);  // geometry: one segment
+  const auto instances = test::simulatedInstances (flush, view, merging);
+  ASSERT_EQ (instances.size (), 1u);
+  cv::Mat fused;
+  InstanceGuidedRegionMerge ().merge (view.labels, instances, fused, nullptr, nullptr, view.view.color);
+  test::SegmentedView result = view;
+  result.labels = fused;
+  EXPECT_NE (scoreObject (result, 2).best_label, scoreObject (result, 3).best_label);
+  EXPECT_GE (scoreObject (result, 2).best_iou, 0.8);
+  EXPECT_GE (scoreObject (result, 3).best_iou, 0.8);
+  // Without the colour the mask unites them.
+  EXPECT_EQ (scoreObject (fuse (view, instances), 2).best_label, scoreObject (fuse (view, instances), 3).best_label);
+}
+
 TEST (InstanceGuidedRegionMerge, ARenderedMaskOverTwoBoxesOfDifferentColoursIsCut)
 {
   // The merged mask of AMaskOverTwoObjectsMergesThem, now with the view's colour: the boxes

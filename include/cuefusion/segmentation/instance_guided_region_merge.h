@@ -43,6 +43,9 @@ struct InstanceGuidedRegionMergeConfig
     * stay together. 0 = off. At 0.2 only clearly different hues cut (orange and teal lie
     * 0.5 apart, green and violet 0.25); a real white-and-red object of osd-learn measured
     * 0.14–0.16 between its parts and was cut in two at 0.1 and 0.15 (docs/benchmarks.md).
+    * A claimed segment that is itself made of two such colours side by side, each uniform
+    * (the coplanar fronts of two boxes flush, one segment of L^G), is divided first
+    * (divideByColor).
     */
   float color_split_distance = 0.2f;
   /** ... and only when at least two such colour groups each hold this share of the
@@ -164,6 +167,15 @@ public:
   /** \brief The instances with every mask that claims geometric segments of clearly
     * different colours cut into one mask per colour (color_split_distance,
     * color_split_share); merge() and split() do this first when given the colour.
+    *
+    * First, each segment of L^G a mask claims is divided where it is two uniform colours
+    * side by side: two-means of its pixels' rg chromaticity (pixels darker than a mean of
+    * 20 of 255 left out), divided when the means lie at least color_split_distance apart,
+    * each part holds color_split_share of the pixels, 80 % of each part lies within a
+    * quarter of that distance of its mean (one flat colour, not print or texture) and 80 %
+    * of each part is one 4-connected region after a 3×3 opening; the smaller part's region
+    * becomes a segment of its own. Geometry cannot see a seam between coplanar faces of
+    * two objects; their colours can.
     *
     * A mask claims a segment of L^G when more than half of the segment lies in the pixels
     * it owns (the higher score where masks overlap). Each claimed segment's colour is the

@@ -212,6 +212,165 @@ colorDivisionApplies (const InstanceGuidedRegionMergeConfig& config, const cv::M
   return true;
 }
 
+/** A claimed segment's pixels of one colour (divideSegmentsByColor): rg chromaticity. */
+struct Chroma
+{
+  int index = 0;  ///< pixel index y · cols + x
+  float r = 0.f, g = 0.f;
+};
+
+/** Two-means of \a pixels' chromaticity, started deterministically (the pixel farthest from
+  * the mean, then the one farthest from it); \a side[i] is pixel i's cluster, \a centre the
+  * clusters' centres. */
+void
+twoMeans (const std::vector<Chroma>& pixels, std::vector<std::uint8_t>& side, cv::Point2f (&centre)[2])
+{
+  const auto farthest = [&] (cv::Point2f from) {
+    cv::Point2f best = from;
+    float d_best = -1.f;
+    for (const Chroma& c : pixels)
+    {
+      const float d = (c.r - from.x) * (c.r - from.x) + (c.g - from.y) * (c.g - from.y);
+      if (d > d_best)
+      {
+        d_best = d;
+        best = cv::Point2f (c.r, c.g);
+      }
+    }
+    return best;
+  };
+  cv::Point2f mean (0.f, 0.f);
+  for (const Chroma& c : pixels)
+    mean += cv::Point2f (c.r, c.g);
+  mean *= 1.f / static_cast<float> (pixels.size ());
+  centre[1] = farthest (mean);
+  centre[0] = farthest (centre[1]);
+  side.assign (pixels.size (), 0);
+  for (int iteration = 0; iteration < 10; ++iteration)
+  {
+    cv::Point2f sum[2] = {{0.f, 0.f}, {0.f, 0.f}};
+    int count[2] = {0, 0};
+    for (std::size_t i = 0; i < pixels.size (); ++i)
+    {
+      const cv::Point2f p (pixels[i].r, pixels[i].g);
+      const cv::Point2f d0 = p - centre[0], d1 = p - centre[1];
+      side[i] = d1.dot (d1) < d0.dot (d0) ? 1 : 0;
+      sum[side[i]] += p;
+      ++count[side[i]];
+    }
+    if (!count[0] || !count[1])
+      return;
+    const cv::Point2f next[2] = {sum[0] * (1.f / static_cast<float> (count[0])), sum[1] * (1.f / static_cast<float> (count[1]))};
+    const bool settled = next[0] == centre[0] && next[1] == centre[1];
+    centre[0] = next[0];
+    centre[1] = next[1];
+    if (settled)
+      return;
+  }
+}
+
+/** Share of a colour part's pixels within color_split_distance / 4 of its mean chromaticity
+  * for the part to count as one uniform colour, and share of them its largest connected
+  * region (after a 3×3 opening) must hold: a box's face or an object's side, not print,
+  * texture or shading. */
+constexpr double kUniformShare = 0.8;
+constexpr double kCoherentShare = 0.8;
+
+/** \a geometric with each segment a mask claims (more than half of it under the mask's
+  * own pixels, \a ids) divided where it is made of two uniform, clearly different colours
+  * side by side: two objects of different colours whose faces geometry saw as one plane
+  * (two boxes flush, front faces coplanar). The segment's bright-enough pixels are split
+  * by two-means of their rg chromaticity; it is divided when the two means lie at least
+  * color_split_distance apart, each part holds color_split_share of them, at least
+  * kUniformShare of each part lies within a quarter of that distance of its mean, and each
+  * part is one region (kCoherentShare). The smaller part's region takes a new label; the
+  * rest keeps the segment's. Print, texture and shading (rg chromaticity ignores it) fail
+  * the uniformity test and leave the segment whole. */
+cv::Mat
+divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const cv::Mat& ids,
+                       const cv::Mat& color)
+{
+  const OverlapTable<int> owned = countOverlaps (geometric, ids);
+  std::vector<std::int8_t> claimed (owned.labels (), 0);
+  for (std::size_t l = 1; l < owned.labels (); ++l)
+    claimed[l] = owned.size[l] >= 2 * config.split_min_pixels && 2 * owned.best (l).second > owned.size[l];
+  std::vector<std::vector<Chroma>> pixels (owned.labels ());
+  std::vector<cv::Rect> box (owned.labels ());
+  const int cols = geometric.cols;
+  for (int y = 0; y < geometric.rows; ++y)
+  {
+    const std::int32_t* g = geometric.ptr<std::int32_t> (y);
+    const cv::Vec3b* bgr = color.ptr<cv::Vec3b> (y);
+    for (int x = 0; x < cols; ++x)
+    {
+      if (g[x] <= 0 || !claimed[static_cast<std::size_t> (g[x])])
+        continue;
+      const auto l = static_cast<std::size_t> (g[x]);
+      box[l] = box[l].empty () ? cv::Rect (x, y, 1, 1) : box[l] | cv::Rect (x, y, 1, 1);
+      const float total = static_cast<float> (bgr[x][0]) + bgr[x][1] + bgr[x][2];
+      if (total < 3.f * static_cast<float> (kMinMeanBrightness))
+        continue;
+      pixels[l].push_back ({y * cols + x, bgr[x][2] / total, bgr[x][1] / total});
+    }
+  }
+  cv::Mat out = geometric.clone ();
+  double max_label = 0.0;
+  cv::minMaxLoc (geometric, nullptr, &max_label);
+  auto next = static_cast<std::int32_t> (max_label);
+  const float distance = config.color_split_distance, radius = distance / 4.f;
+  for (std::size_t l = 1; l < pixels.size (); ++l)
+  {
+    const std::vector<Chroma>& list = pixels[l];
+    if (static_cast<int> (list.size ()) < 2 * config.split_min_pixels)
+      continue;
+    std::vector<std::uint8_t> side;
+    cv::Point2f centre[2];
+    twoMeans (list, side, centre);
+    const cv::Point2f gap = centre[0] - centre[1];
+    if (std::sqrt (gap.dot (gap)) < distance)
+      continue;
+    int count[2] = {0, 0}, near[2] = {0, 0};
+    for (std::size_t i = 0; i < list.size (); ++i)
+    {
+      const cv::Point2f d = cv::Point2f (list[i].r, list[i].g) - centre[side[i]];
+      ++count[side[i]];
+      near[side[i]] += d.dot (d) <= radius * radius ? 1 : 0;
+    }
+    const auto n = static_cast<double> (list.size ());
+    bool divide = true;
+    for (int k = 0; k < 2; ++k)
+      divide = divide && count[k] >= config.color_split_share * n && near[k] >= kUniformShare * count[k];
+    if (!divide)
+      continue;
+    // Each part one region: the largest 4-connected component of its opened pixels.
+    cv::Mat region[2];
+    for (int k = 0; k < 2; ++k)
+    {
+      cv::Mat part (box[l].size (), CV_8U, cv::Scalar (0)), labels, stats, centroids;
+      for (std::size_t i = 0; i < list.size (); ++i)
+        if (side[i] == k)
+          part.at<std::uint8_t> (list[i].index / cols - box[l].y, list[i].index % cols - box[l].x) = 1;
+      cv::morphologyEx (part, part, cv::MORPH_OPEN, cv::Mat::ones (3, 3, CV_8U));
+      const int found = cv::connectedComponentsWithStats (part, labels, stats, centroids, 4, CV_32S);
+      int largest = 0;
+      for (int c = 1; c < found; ++c)
+        if (!largest || stats.at<int> (c, cv::CC_STAT_AREA) > stats.at<int> (largest, cv::CC_STAT_AREA))
+          largest = c;
+      if (!largest || stats.at<int> (largest, cv::CC_STAT_AREA) < kCoherentShare * count[k])
+      {
+        divide = false;
+        break;
+      }
+      region[k] = labels == largest;
+    }
+    if (!divide)
+      continue;
+    const int smaller = count[1] < count[0] ? 1 : 0;
+    out (box[l]).setTo (cv::Scalar (++next), region[smaller]);
+  }
+  return out;
+}
+
 /** divideByColor on counts already made: \a owned and \a sums from countOverlaps of L^G
   * against \a ids (the instances' id image) with the colour. */
 std::vector<Instance>
@@ -286,17 +445,19 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
 }
 
 std::vector<Instance>
-InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric, const std::vector<Instance>& given, cv::Mat& pieces,
+InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, const std::vector<Instance>& given, cv::Mat& pieces,
                                             std::vector<SegmentInstance>* segments, const SurfacePlanes* planes,
                                             const cv::Mat& color) const
 {
-  checkInputs (geometric, given);
-  if (planes && (planes->width != geometric.cols || planes->height != geometric.rows))
+  checkInputs (geometric_given, given);
+  if (planes && (planes->width != geometric_given.cols || planes->height != geometric_given.rows))
     throw Error ("InstanceGuidedRegionMerge", "the surface planes must be of L^G's size");
   // One id image and one count serve the colour division and the cut, unless masks were
   // divided (then the divided ones are counted again).
-  const bool by_color = colorDivisionApplies (config_, geometric, given, color);
-  cv::Mat ids = instancesToIdImage (given, geometric.size ());  // id = index + 1, higher score on top
+  const bool by_color = colorDivisionApplies (config_, geometric_given, given, color);
+  cv::Mat ids = instancesToIdImage (given, geometric_given.size ());  // id = index + 1, higher score on top
+  // With the colour, claimed segments of two colours side by side are divided first.
+  const cv::Mat geometric = by_color ? divideSegmentsByColor (config_, geometric_given, ids, color) : geometric_given;
   std::vector<std::vector<cv::Vec3d>> sums;
   OverlapTable<int> overlaps = countOverlaps (geometric, ids, by_color ? color : cv::Mat (), &sums);
   std::vector<Instance> instances = by_color ? divideOwned (config_, geometric, given, ids, overlaps, sums) : given;
@@ -584,9 +745,10 @@ InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::v
   if (!colorDivisionApplies (config_, geometric, instances, color))
     return instances;
   const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
+  const cv::Mat divided = divideSegmentsByColor (config_, geometric, ids, color);
   std::vector<std::vector<cv::Vec3d>> sums;
-  const OverlapTable<int> owned = countOverlaps (geometric, ids, color, &sums);
-  return divideOwned (config_, geometric, instances, ids, owned, sums);
+  const OverlapTable<int> owned = countOverlaps (divided, ids, color, &sums);
+  return divideOwned (config_, divided, instances, ids, owned, sums);
 }
 
 void
