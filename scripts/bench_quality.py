@@ -45,7 +45,9 @@ MODES = ["geometry", "masks", "fused"]
 
 
 def run(cmd):
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if done.returncode != 0:
+        sys.exit("bench_quality: %s failed (exit %d): %s" % (" ".join(cmd), done.returncode, done.stderr.strip()[-2000:]))
 
 
 def evaluate(binary, seq, run_dir, report_dir):

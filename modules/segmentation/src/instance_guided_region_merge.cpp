@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <iterator>
 #include <map>
@@ -212,36 +213,30 @@ colorDivisionApplies (const InstanceGuidedRegionMergeConfig& config, const cv::M
   return true;
 }
 
-/** A claimed segment's pixels of one colour (divideSegmentsByColor): rg chromaticity. */
-struct Chroma
-{
-  int index = 0;  ///< pixel index y · cols + x
-  float r = 0.f, g = 0.f;
-};
 
 /** Two-means of \a pixels' chromaticity, started deterministically (the pixel farthest from
   * the mean, then the one farthest from it); \a side[i] is pixel i's cluster, \a centre the
   * clusters' centres. */
 void
-twoMeans (const std::vector<Chroma>& pixels, std::vector<std::uint8_t>& side, cv::Point2f (&centre)[2])
+twoMeans (const std::vector<cv::Point2f>& pixels, std::vector<std::uint8_t>& side, cv::Point2f (&centre)[2])
 {
   const auto farthest = [&] (cv::Point2f from) {
     cv::Point2f best = from;
     float d_best = -1.f;
-    for (const Chroma& c : pixels)
+    for (const cv::Point2f& c : pixels)
     {
-      const float d = (c.r - from.x) * (c.r - from.x) + (c.g - from.y) * (c.g - from.y);
-      if (d > d_best)
+      const cv::Point2f d = c - from;
+      if (d.dot (d) > d_best)
       {
-        d_best = d;
-        best = cv::Point2f (c.r, c.g);
+        d_best = d.dot (d);
+        best = c;
       }
     }
     return best;
   };
   cv::Point2f mean (0.f, 0.f);
-  for (const Chroma& c : pixels)
-    mean += cv::Point2f (c.r, c.g);
+  for (const cv::Point2f& c : pixels)
+    mean += c;
   mean *= 1.f / static_cast<float> (pixels.size ());
   centre[1] = farthest (mean);
   centre[0] = farthest (centre[1]);
@@ -252,7 +247,7 @@ twoMeans (const std::vector<Chroma>& pixels, std::vector<std::uint8_t>& side, cv
     int count[2] = {0, 0};
     for (std::size_t i = 0; i < pixels.size (); ++i)
     {
-      const cv::Point2f p (pixels[i].r, pixels[i].g);
+      const cv::Point2f& p = pixels[i];
       const cv::Point2f d0 = p - centre[0], d1 = p - centre[1];
       side[i] = d1.dot (d1) < d0.dot (d0) ? 1 : 0;
       sum[side[i]] += p;
@@ -275,53 +270,64 @@ twoMeans (const std::vector<Chroma>& pixels, std::vector<std::uint8_t>& side, cv
   * texture or shading. */
 constexpr double kUniformShare = 0.8;
 constexpr double kCoherentShare = 0.8;
+/** Pixels of a segment the colour test looks at, at most (evenly spaced). */
+constexpr std::size_t kSample = 2048;
 
-/** \a geometric with each segment a mask claims (more than half of it under the mask's
-  * own pixels, \a ids) divided where it is made of two uniform, clearly different colours
-  * side by side: two objects of different colours whose faces geometry saw as one plane
-  * (two boxes flush, front faces coplanar). The segment's bright-enough pixels are split
-  * by two-means of their rg chromaticity; it is divided when the two means lie at least
+/** Whether any segment a mask claims (more than half of it under one instance's own
+  * pixels, by \a owned: countOverlaps of \a geometric and the id image) is made of two
+  * uniform, clearly different colours side by side; then \a divided is \a geometric with
+  * each such segment divided: two objects of different colours whose faces geometry saw
+  * as one plane (two boxes flush, front faces coplanar). The segment's bright-enough
+  * pixels (a sample of at most kSample) are split by two-means of their rg chromaticity; it is divided when the two means lie at least
   * color_split_distance apart, each part holds color_split_share of them, at least
   * kUniformShare of each part lies within a quarter of that distance of its mean, and each
   * part is one region (kCoherentShare). The smaller part's region takes a new label; the
   * rest keeps the segment's. Print, texture and shading (rg chromaticity ignores it) fail
   * the uniformity test and leave the segment whole. */
-cv::Mat
-divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const cv::Mat& ids,
-                       const cv::Mat& color)
+bool
+divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const cv::Mat& color,
+                       const OverlapTable<int>& owned, cv::Mat& divided)
 {
-  const OverlapTable<int> owned = countOverlaps (geometric, ids);
-  std::vector<std::int8_t> claimed (owned.labels (), 0);
+  // The colour statistics look at most kSample pixels of a segment, evenly spaced in
+  // raster order: a segment of one colour (nearly all of them) costs one pass over them.
+  std::vector<std::size_t> stride (owned.labels (), 0), seen (owned.labels (), 0);  // stride 0: not claimed
   for (std::size_t l = 1; l < owned.labels (); ++l)
-    claimed[l] = owned.size[l] >= 2 * config.split_min_pixels && 2 * owned.best (l).second > owned.size[l];
-  std::vector<std::vector<Chroma>> pixels (owned.labels ());
-  std::vector<cv::Rect> box (owned.labels ());
-  const int cols = geometric.cols;
+    if (owned.size[l] >= 2 * config.split_min_pixels && 2 * owned.best (l).second > owned.size[l])
+      stride[l] = (static_cast<std::size_t> (owned.size[l]) + kSample - 1) / kSample;
+  std::vector<std::vector<cv::Point2f>> sample (owned.labels ());
+  std::vector<cv::Vec4i> bounds (owned.labels (), cv::Vec4i (INT_MAX, INT_MAX, -1, -1));  // x0, y0, x1, y1
+  const auto chroma = [] (const cv::Vec3b& bgr, cv::Point2f& rg) {
+    const float total = static_cast<float> (bgr[0]) + bgr[1] + bgr[2];
+    if (total < 3.f * static_cast<float> (kMinMeanBrightness))
+      return false;
+    rg = cv::Point2f (bgr[2] / total, bgr[1] / total);
+    return true;
+  };
   for (int y = 0; y < geometric.rows; ++y)
   {
     const std::int32_t* g = geometric.ptr<std::int32_t> (y);
     const cv::Vec3b* bgr = color.ptr<cv::Vec3b> (y);
-    for (int x = 0; x < cols; ++x)
+    for (int x = 0; x < geometric.cols; ++x)
     {
-      if (g[x] <= 0 || !claimed[static_cast<std::size_t> (g[x])])
+      if (g[x] <= 0 || !stride[static_cast<std::size_t> (g[x])])
         continue;
       const auto l = static_cast<std::size_t> (g[x]);
-      box[l] = box[l].empty () ? cv::Rect (x, y, 1, 1) : box[l] | cv::Rect (x, y, 1, 1);
-      const float total = static_cast<float> (bgr[x][0]) + bgr[x][1] + bgr[x][2];
-      if (total < 3.f * static_cast<float> (kMinMeanBrightness))
-        continue;
-      pixels[l].push_back ({y * cols + x, bgr[x][2] / total, bgr[x][1] / total});
+      cv::Vec4i& b = bounds[l];
+      b = cv::Vec4i (std::min (b[0], x), std::min (b[1], y), std::max (b[2], x), std::max (b[3], y));
+      cv::Point2f rg;
+      if (seen[l]++ % stride[l] == 0 && chroma (bgr[x], rg))
+        sample[l].push_back (rg);
     }
   }
-  cv::Mat out = geometric.clone ();
+  bool any = false;
   double max_label = 0.0;
   cv::minMaxLoc (geometric, nullptr, &max_label);
   auto next = static_cast<std::int32_t> (max_label);
   const float distance = config.color_split_distance, radius = distance / 4.f;
-  for (std::size_t l = 1; l < pixels.size (); ++l)
+  for (std::size_t l = 1; l < sample.size (); ++l)
   {
-    const std::vector<Chroma>& list = pixels[l];
-    if (static_cast<int> (list.size ()) < 2 * config.split_min_pixels)
+    const std::vector<cv::Point2f>& list = sample[l];
+    if (!stride[l] || static_cast<int> (list.size () * stride[l]) < 2 * config.split_min_pixels)
       continue;
     std::vector<std::uint8_t> side;
     cv::Point2f centre[2];
@@ -332,43 +338,56 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
     int count[2] = {0, 0}, near[2] = {0, 0};
     for (std::size_t i = 0; i < list.size (); ++i)
     {
-      const cv::Point2f d = cv::Point2f (list[i].r, list[i].g) - centre[side[i]];
+      const cv::Point2f d = list[i] - centre[side[i]];
       ++count[side[i]];
       near[side[i]] += d.dot (d) <= radius * radius ? 1 : 0;
     }
-    const auto n = static_cast<double> (list.size ());
     bool divide = true;
     for (int k = 0; k < 2; ++k)
-      divide = divide && count[k] >= config.color_split_share * n && near[k] >= kUniformShare * count[k];
+      divide = divide && count[k] >= config.color_split_share * static_cast<double> (list.size ()) &&
+               near[k] >= kUniformShare * count[k];
     if (!divide)
       continue;
-    // Each part one region: the largest 4-connected component of its opened pixels.
+    // Every bright pixel of the segment to its nearer mean; each part must be one region:
+    // the largest 4-connected component of its opened pixels.
+    const cv::Vec4i& b = bounds[l];
+    const cv::Rect box (b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1);
+    cv::Mat part[2] = {cv::Mat (box.size (), CV_8U, cv::Scalar (0)), cv::Mat (box.size (), CV_8U, cv::Scalar (0))};
+    int pixels[2] = {0, 0};
+    for (int y = 0; y < box.height; ++y)
+      for (int x = 0; x < box.width; ++x)
+      {
+        cv::Point2f rg;
+        if (geometric.at<std::int32_t> (box.y + y, box.x + x) != static_cast<std::int32_t> (l) ||
+            !chroma (color.at<cv::Vec3b> (box.y + y, box.x + x), rg))
+          continue;
+        const cv::Point2f d0 = rg - centre[0], d1 = rg - centre[1];
+        const int k = d1.dot (d1) < d0.dot (d0) ? 1 : 0;
+        part[k].at<std::uint8_t> (y, x) = 1;
+        ++pixels[k];
+      }
     cv::Mat region[2];
-    for (int k = 0; k < 2; ++k)
+    for (int k = 0; k < 2 && divide; ++k)
     {
-      cv::Mat part (box[l].size (), CV_8U, cv::Scalar (0)), labels, stats, centroids;
-      for (std::size_t i = 0; i < list.size (); ++i)
-        if (side[i] == k)
-          part.at<std::uint8_t> (list[i].index / cols - box[l].y, list[i].index % cols - box[l].x) = 1;
-      cv::morphologyEx (part, part, cv::MORPH_OPEN, cv::Mat::ones (3, 3, CV_8U));
-      const int found = cv::connectedComponentsWithStats (part, labels, stats, centroids, 4, CV_32S);
+      cv::Mat labels, stats, centroids;
+      cv::morphologyEx (part[k], part[k], cv::MORPH_OPEN, cv::Mat::ones (3, 3, CV_8U));
+      const int found = cv::connectedComponentsWithStats (part[k], labels, stats, centroids, 4, CV_32S);
       int largest = 0;
       for (int c = 1; c < found; ++c)
         if (!largest || stats.at<int> (c, cv::CC_STAT_AREA) > stats.at<int> (largest, cv::CC_STAT_AREA))
           largest = c;
-      if (!largest || stats.at<int> (largest, cv::CC_STAT_AREA) < kCoherentShare * count[k])
-      {
-        divide = false;
-        break;
-      }
-      region[k] = labels == largest;
+      divide = largest && stats.at<int> (largest, cv::CC_STAT_AREA) >= kCoherentShare * pixels[k];
+      if (divide)
+        region[k] = labels == largest;
     }
     if (!divide)
       continue;
-    const int smaller = count[1] < count[0] ? 1 : 0;
-    out (box[l]).setTo (cv::Scalar (++next), region[smaller]);
+    if (!any)
+      divided = geometric.clone ();
+    any = true;
+    divided (box).setTo (cv::Scalar (++next), region[pixels[1] < pixels[0] ? 1 : 0]);
   }
-  return out;
+  return any;
 }
 
 /** divideByColor on counts already made: \a owned and \a sums from countOverlaps of L^G
@@ -456,10 +475,15 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
   // divided (then the divided ones are counted again).
   const bool by_color = colorDivisionApplies (config_, geometric_given, given, color);
   cv::Mat ids = instancesToIdImage (given, geometric_given.size ());  // id = index + 1, higher score on top
-  // With the colour, claimed segments of two colours side by side are divided first.
-  const cv::Mat geometric = by_color ? divideSegmentsByColor (config_, geometric_given, ids, color) : geometric_given;
   std::vector<std::vector<cv::Vec3d>> sums;
-  OverlapTable<int> overlaps = countOverlaps (geometric, ids, by_color ? color : cv::Mat (), &sums);
+  OverlapTable<int> overlaps = countOverlaps (geometric_given, ids, by_color ? color : cv::Mat (), &sums);
+  // With the colour, claimed segments of two colours side by side are divided first.
+  cv::Mat geometric = geometric_given, divided;
+  if (by_color && divideSegmentsByColor (config_, geometric_given, color, overlaps, divided))
+  {
+    geometric = divided;
+    overlaps = countOverlaps (geometric, ids, color, &sums);
+  }
   std::vector<Instance> instances = by_color ? divideOwned (config_, geometric, given, ids, overlaps, sums) : given;
   if (instances.size () != given.size ())
   {
@@ -745,9 +769,12 @@ InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::v
   if (!colorDivisionApplies (config_, geometric, instances, color))
     return instances;
   const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
-  const cv::Mat divided = divideSegmentsByColor (config_, geometric, ids, color);
   std::vector<std::vector<cv::Vec3d>> sums;
-  const OverlapTable<int> owned = countOverlaps (divided, ids, color, &sums);
+  OverlapTable<int> owned = countOverlaps (geometric, ids, color, &sums);
+  cv::Mat divided;
+  if (!divideSegmentsByColor (config_, geometric, color, owned, divided))
+    return divideOwned (config_, geometric, instances, ids, owned, sums);
+  owned = countOverlaps (divided, ids, color, &sums);
   return divideOwned (config_, divided, instances, ids, owned, sums);
 }
 
