@@ -262,6 +262,29 @@ TEST (InstanceGuidedRegionMerge, AMaskIsCutBetweenTheColoursOfTheSegmentsItClaim
   EXPECT_THROW (InstanceGuidedRegionMerge bad (off), ParameterError);
 }
 
+namespace
+{
+/** One mask over boxes 2 and 3 of \a scene (the simulated detector merging them), fused
+  * with \a view's colour: each box in a segment of its own, IoU ≥ 0.8. */
+void
+expectMergedBoxesCutByColour (const std::string& scene, const test::SegmentedView& view)
+{
+  io::DetectorErrorConfig merging;
+  merging.merge_probability = 1.0;
+  const auto instances = test::simulatedInstances (scene, view, merging);
+  ASSERT_EQ (instances.size (), 1u);
+  cv::Mat fused;
+  InstanceGuidedRegionMerge ().merge (view.labels, instances, fused, nullptr, nullptr, view.view.color);
+  test::SegmentedView result = view;
+  result.labels = fused;
+  EXPECT_NE (scoreObject (result, 2).best_label, scoreObject (result, 3).best_label);
+  EXPECT_GE (scoreObject (result, 2).best_iou, 0.8);
+  EXPECT_GE (scoreObject (result, 3).best_iou, 0.8);
+  // Without the colour the mask unites them.
+  EXPECT_EQ (scoreObject (fuse (view, instances), 2).best_label, scoreObject (fuse (view, instances), 3).best_label);
+}
+}  // namespace
+
 TEST (InstanceGuidedRegionMerge, ASegmentOfTwoUniformColoursSideBySideIsDividedUnderAMask)
 {
   // One segment of L^G, 20×100: columns 0–59 orange, 60–99 teal (coplanar faces of two
@@ -332,45 +355,22 @@ TEST (InstanceGuidedRegionMerge, FlushBoxesOfDifferentColoursGeometrySeesAsOneAr
                             "  box center=-0.07,0,0.84 size=0.14,0.06,0.20\n"
                             "object box_b class=box color=30,170,190\n"
                             "  box center=0.07,0,0.81 size=0.14,0.06,0.14\n";
-  const Eigen::Vector3d eye (0.1, -0.9, 1.1);
-  io::DetectorErrorConfig merging;
-  merging.merge_probability = 1.0;
-  const auto view = segmentScene (flush, eye, kTarget, false);
+  const auto view = segmentScene (flush, Eigen::Vector3d (0.1, -0.9, 1.1), kTarget, false);
   ASSERT_EQ (scoreObject (view, 2).best_label, scoreObject (view, 3).best_label);  // geometry: one segment
-  const auto instances = test::simulatedInstances (flush, view, merging);
-  ASSERT_EQ (instances.size (), 1u);
-  cv::Mat fused;
-  InstanceGuidedRegionMerge ().merge (view.labels, instances, fused, nullptr, nullptr, view.view.color);
-  test::SegmentedView result = view;
-  result.labels = fused;
-  EXPECT_NE (scoreObject (result, 2).best_label, scoreObject (result, 3).best_label);
-  EXPECT_GE (scoreObject (result, 2).best_iou, 0.8);
-  EXPECT_GE (scoreObject (result, 3).best_iou, 0.8);
-  // Without the colour the mask unites them.
-  EXPECT_EQ (scoreObject (fuse (view, instances), 2).best_label, scoreObject (fuse (view, instances), 3).best_label);
+  expectMergedBoxesCutByColour (flush, view);
 }
 
 TEST (InstanceGuidedRegionMerge, ARenderedMaskOverTwoBoxesOfDifferentColoursIsCut)
 {
   // The merged mask of AMaskOverTwoObjectsMergesThem, now with the view's colour: the boxes
   // (orange, teal) stay apart; the L (one colour, split by geometry) stays whole.
-  io::DetectorErrorConfig merging;
-  merging.merge_probability = 1.0;
-  const auto view = segmentScene (kTwoBoxes, kEye, kTarget, false);
-  const auto instances = test::simulatedInstances (kTwoBoxes, view, merging);
-  ASSERT_EQ (instances.size (), 1u);
-  cv::Mat fused;
-  InstanceGuidedRegionMerge ().merge (view.labels, instances, fused, nullptr, nullptr, view.view.color);
-  test::SegmentedView result = view;
-  result.labels = fused;
-  EXPECT_NE (scoreObject (result, 2).best_label, scoreObject (result, 3).best_label);
-  EXPECT_GE (scoreObject (result, 2).best_iou, 0.8);
-  EXPECT_GE (scoreObject (result, 3).best_iou, 0.8);
+  expectMergedBoxesCutByColour (kTwoBoxes, segmentScene (kTwoBoxes, kEye, kTarget, false));
 
+  cv::Mat fused;
   const auto l_view = segmentScene (kSteppedL, kEye, kTarget, false);
   InstanceGuidedRegionMerge ().merge (l_view.labels, test::simulatedInstances (kSteppedL, l_view, io::DetectorErrorConfig ()), fused,
                                       nullptr, nullptr, l_view.view.color);
-  result = l_view;
+  test::SegmentedView result = l_view;
   result.labels = fused;
   EXPECT_EQ (scoreObject (result, 2).segments, 1);
   EXPECT_GE (scoreObject (result, 2).best_iou, 0.85);
