@@ -440,32 +440,36 @@ OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxInstanceSegmenterConfig&
     std::replace (what.begin (), what.end (), '\n', ' ');
     return what.substr (0, 300);
   };
-  try
+  // OpenCV DNN logs a refused input shape on stderr before it throws: silent while we
+  // probe (the error that matters comes back as one line).
+  struct QuietDnn
   {
-    // OpenCV DNN logs a refused input shape on stderr before it throws: silent while we probe.
-    struct QuietDnn
-    {
-      cv::utils::logging::LogLevel before = cv::utils::logging::setLogLevel (cv::utils::logging::LOG_LEVEL_SILENT);
-      ~QuietDnn () { cv::utils::logging::setLogLevel (before); }
-    } quiet;
-    const cv::Mat blank (config_.input_size, config_.input_size, CV_8UC3, cv::Scalar (114, 114, 114));
-    net_.setInput (cv::dnn::blobFromImage (blank, 1.0 / 255.0, cv::Size (), cv::Scalar (), true, false));
-    net_.forward (outputs, output_names_);
-  }
-  catch (const cv::Exception& e)
+    cv::utils::logging::LogLevel before = cv::utils::logging::setLogLevel (cv::utils::logging::LOG_LEVEL_SILENT);
+    ~QuietDnn () { cv::utils::logging::setLogLevel (before); }
+  };
   {
-    const std::string three = oneLine (e);
+    const QuietDnn quiet;
     try
     {
-      const int shape[] = {1, 6, config_.input_size, config_.input_size};
-      net_.setInput (cv::Mat (4, shape, CV_32F, cv::Scalar (0.f)));
+      const cv::Mat blank (config_.input_size, config_.input_size, CV_8UC3, cv::Scalar (114, 114, 114));
+      net_.setInput (cv::dnn::blobFromImage (blank, 1.0 / 255.0, cv::Size (), cv::Scalar (), true, false));
       net_.forward (outputs, output_names_);
-      six_channels = true;
     }
-    catch (const cv::Exception&)
+    catch (const cv::Exception& e)
     {
-      throw Error (config_.model_path, "OpenCV DNN cannot run this model at " + std::to_string (config_.input_size) +
-                                         "x" + std::to_string (config_.input_size) + " (" + three + ")");
+      const std::string three = oneLine (e);
+      try
+      {
+        const int shape[] = {1, 6, config_.input_size, config_.input_size};
+        net_.setInput (cv::Mat (4, shape, CV_32F, cv::Scalar (0.f)));
+        net_.forward (outputs, output_names_);
+        six_channels = true;
+      }
+      catch (const cv::Exception&)
+      {
+        throw Error (config_.model_path, "OpenCV DNN cannot run this model at " + std::to_string (config_.input_size) +
+                                           "x" + std::to_string (config_.input_size) + " (" + three + ")");
+      }
     }
   }
   if (outputs.size () == 1 && outputs[0].dims == 4 && outputs[0].size[0] == 1 && outputs[0].size[1] == 2 &&
