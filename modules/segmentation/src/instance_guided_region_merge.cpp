@@ -278,12 +278,13 @@ constexpr std::size_t kSample = 2048;
   * uniform, clearly different colours side by side; then \a divided is \a geometric with
   * each such segment divided: two objects of different colours whose faces geometry saw
   * as one plane (two boxes flush, front faces coplanar). The segment's bright-enough
-  * pixels (a sample of at most kSample) are split by two-means of their rg chromaticity; it is divided when the two means lie at least
-  * color_split_distance apart, each part holds color_split_share of them, at least
-  * kUniformShare of each part lies within a quarter of that distance of its mean, and each
-  * part is one region (kCoherentShare). The smaller part's region takes a new label; the
-  * rest keeps the segment's. Print, texture and shading (rg chromaticity ignores it) fail
-  * the uniformity test and leave the segment whole. */
+  * pixels (a sample of at most kSample) are split by two-means of their rg chromaticity;
+  * it is divided when the two means lie at least color_split_distance apart, each part
+  * holds color_split_share of them, at least kUniformShare of each part lies within a
+  * quarter of that distance of its mean, and each part is one region (kCoherentShare).
+  * The smaller part's region takes a new label; the rest keeps the segment's. Print and
+  * texture fail the uniformity test and leave the segment whole; shading does not count
+  * (rg chromaticity ignores it). */
 bool
 divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const cv::Mat& color,
                        const OverlapTable<int>& owned, cv::Mat& divided)
