@@ -391,6 +391,21 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
   return any;
 }
 
+/** countOverlaps of \a geometric against \a ids with the colour; where a claimed segment is
+  * two colours side by side (divideSegmentsByColor), \a geometric becomes the divided label
+  * image, counted again. */
+OverlapTable<int>
+countDividingByColor (const InstanceGuidedRegionMergeConfig& config, cv::Mat& geometric, const cv::Mat& ids, const cv::Mat& color,
+                      std::vector<std::vector<cv::Vec3d>>& sums)
+{
+  OverlapTable<int> owned = countOverlaps (geometric, ids, color, &sums);
+  cv::Mat divided;
+  if (!divideSegmentsByColor (config, geometric, color, owned, divided))
+    return owned;
+  geometric = divided;
+  return countOverlaps (geometric, ids, color, &sums);
+}
+
 /** divideByColor on counts already made: \a owned and \a sums from countOverlaps of L^G
   * against \a ids (the instances' id image) with the colour. */
 std::vector<Instance>
@@ -476,15 +491,10 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
   // divided (then the divided ones are counted again).
   const bool by_color = colorDivisionApplies (config_, geometric_given, given, color);
   cv::Mat ids = instancesToIdImage (given, geometric_given.size ());  // id = index + 1, higher score on top
-  std::vector<std::vector<cv::Vec3d>> sums;
-  OverlapTable<int> overlaps = countOverlaps (geometric_given, ids, by_color ? color : cv::Mat (), &sums);
   // With the colour, claimed segments of two colours side by side are divided first.
-  cv::Mat geometric = geometric_given, divided;
-  if (by_color && divideSegmentsByColor (config_, geometric_given, color, overlaps, divided))
-  {
-    geometric = divided;
-    overlaps = countOverlaps (geometric, ids, color, &sums);
-  }
+  cv::Mat geometric = geometric_given;
+  std::vector<std::vector<cv::Vec3d>> sums;
+  OverlapTable<int> overlaps = by_color ? countDividingByColor (config_, geometric, ids, color, sums) : countOverlaps (geometric, ids);
   std::vector<Instance> instances = by_color ? divideOwned (config_, geometric, given, ids, overlaps, sums) : given;
   if (instances.size () != given.size ())
   {
@@ -770,12 +780,9 @@ InstanceGuidedRegionMerge::divideByColor (const cv::Mat& geometric, const std::v
   if (!colorDivisionApplies (config_, geometric, instances, color))
     return instances;
   const cv::Mat ids = instancesToIdImage (instances, geometric.size ());  // id = index + 1, higher score on top
+  cv::Mat divided = geometric;
   std::vector<std::vector<cv::Vec3d>> sums;
-  OverlapTable<int> owned = countOverlaps (geometric, ids, color, &sums);
-  cv::Mat divided;
-  if (!divideSegmentsByColor (config_, geometric, color, owned, divided))
-    return divideOwned (config_, geometric, instances, ids, owned, sums);
-  owned = countOverlaps (divided, ids, color, &sums);
+  const OverlapTable<int> owned = countDividingByColor (config_, divided, ids, color, sums);
   return divideOwned (config_, divided, instances, ids, owned, sums);
 }
 
