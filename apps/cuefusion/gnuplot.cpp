@@ -15,18 +15,57 @@ namespace cuefusion
 {
 namespace cli
 {
-namespace
-{
-/** gnuplot single-quoted string: only ' needs escaping (doubled). */
 std::string
-quoted (const std::string& s)
+gnuplotString (const std::string& text)
 {
+  // In a single-quoted gnuplot string nothing is special but the quote itself (doubled)
+  // and the end of the line, which ends the string and the command: the next line would
+  // run as gnuplot, and gnuplot's `system` runs shell commands. Every control character
+  // (newline, carriage return, form feed, ...) and DEL is shown as a space. Backquotes
+  // are not substituted inside single quotes.
   std::string out = "'";
-  for (const char c : s)
-    out += c == '\'' ? std::string ("''") : std::string (1, c);
+  for (const char c : text)
+  {
+    const auto u = static_cast<unsigned char> (c);
+    if (u < 0x20 || u == 0x7f)
+      out += ' ';
+    else if (c == '\'')
+      out += "''";
+    else
+      out += c;
+  }
   return out + "'";
 }
-}  // namespace
+
+std::string
+gnuplotScript (const PlotSpec& spec, const std::string& output_name)
+{
+  // Only gnuplotString carries text from the spec into the script; the rest is the
+  // project's own (numbers, the styles and ranges of the charts cuefusion draws).
+  std::ostringstream gp;
+  gp << "# written by cuefusion; to redraw, run gnuplot on this file in its folder\n"
+     << "set terminal pngcairo size 1000,640 enhanced font 'sans,11'\n"
+     << "set output " << gnuplotString (output_name) << "\n"
+     << "set title " << gnuplotString (spec.title) << " noenhanced\n"
+     << "set xlabel " << gnuplotString (spec.xlabel) << " noenhanced\nset ylabel " << gnuplotString (spec.ylabel) << " noenhanced\n"
+     << "set grid\nset key outside right top noenhanced\n";
+  if (!spec.yrange.empty ())
+    gp << "set yrange " << spec.yrange << "\n";
+  if (spec.equal_axes)
+    gp << "set size ratio -1\n";
+  if (std::any_of (spec.series.begin (), spec.series.end (), [] (const PlotSeries& s) { return s.xtic_column > 0; }))
+    gp << "set xtics rotate by 30 right noenhanced\nset offsets 0.5, 0.5, 0, 0\n";  // names on the axis
+  gp << "plot ";
+  for (std::size_t i = 0; i < spec.series.size (); ++i)
+  {
+    const PlotSeries& s = spec.series[i];
+    gp << (i ? ", \\\n     " : "") << gnuplotString (fs::path (s.data_file).filename ().string ()) << " using " << s.x_column << ":"
+       << s.y_column << (s.xtic_column > 0 ? ":xtic(" + std::to_string (s.xtic_column) + ")" : std::string ()) << " with " << s.style
+       << " lw 2 title " << gnuplotString (s.title);
+  }
+  gp << "\n";
+  return gp.str ();
+}
 
 std::string
 findGnuplot ()
@@ -41,35 +80,11 @@ renderPlot (const std::string& gnuplot, const PlotSpec& spec)
   const fs::path temporary = png.parent_path () / fs::unique_path ("." + png.stem ().string () + ".tmp-%%%%%%.png");
   const fs::path script = fs::path (png).replace_extension (".gp");
   const fs::path log = png.parent_path () / fs::unique_path ("." + png.stem ().string () + ".log-%%%%%%");
-  std::ostringstream gp;
-  gp << "# " << spec.title << " — written by cuefusion; run `gnuplot " << script.filename ().string ()
-     << "` here to redraw\n"
-     << "set terminal pngcairo size 1000,640 enhanced font 'sans,11'\n"
-     << "set output " << quoted (png.filename ().string ()) << "\n"
-     << "set title " << quoted (spec.title) << " noenhanced\n"
-     << "set xlabel " << quoted (spec.xlabel) << "\nset ylabel " << quoted (spec.ylabel) << "\n"
-     << "set grid\nset key outside right top noenhanced\n";
-  if (!spec.yrange.empty ())
-    gp << "set yrange " << spec.yrange << "\n";
-  if (spec.equal_axes)
-    gp << "set size ratio -1\n";
-  if (std::any_of (spec.series.begin (), spec.series.end (), [] (const PlotSeries& s) { return s.xtic_column > 0; }))
-    gp << "set xtics rotate by 30 right noenhanced\nset offsets 0.5, 0.5, 0, 0\n";  // names on the axis
-  gp << "plot ";
-  for (std::size_t i = 0; i < spec.series.size (); ++i)
-  {
-    const PlotSeries& s = spec.series[i];
-    gp << (i ? ", \\\n     " : "") << quoted (fs::path (s.data_file).filename ().string ()) << " using " << s.x_column << ":"
-       << s.y_column << (s.xtic_column > 0 ? ":xtic(" + std::to_string (s.xtic_column) + ")" : std::string ()) << " with " << s.style << " lw 2 title " << quoted (s.title);
-  }
-  gp << "\n";
-  io::writeTextAtomic (script.string (), gp.str ());
+  io::writeTextAtomic (script.string (), gnuplotScript (spec, png.filename ().string ()));
 
   // Run in the plot's folder (the script names files relative to it), output to the
   // temporary name, so a failure leaves no broken PNG.
-  std::string text = gp.str ();
-  const std::string target_line = "set output " + quoted (png.filename ().string ());
-  text.replace (text.find (target_line), target_line.size (), "set output " + quoted (temporary.filename ().string ()));
+  const std::string text = gnuplotScript (spec, temporary.filename ().string ());
   const fs::path run_script = png.parent_path () / fs::unique_path (".plot-%%%%%%.gp");
   io::writeTextAtomic (run_script.string (), text);
 

@@ -27,6 +27,17 @@ struct PlotSpec
   std::vector<PlotSeries> series;
 };
 
+/** \a text as a gnuplot single-quoted string literal that nothing can leave: quotes
+  * doubled, control characters (a newline would end the command) shown as spaces. The
+  * one way text from files and options enters a gnuplot script. */
+std::string
+gnuplotString (const std::string& text);
+
+/** The gnuplot script that draws \a spec into \a output_name (relative to the script's
+  * folder). Every text of the spec goes through gnuplotString. */
+std::string
+gnuplotScript (const PlotSpec& spec, const std::string& output_name);
+
 /** gnuplot on PATH, or "" when it is not installed. */
 std::string
 findGnuplot ();

@@ -180,7 +180,7 @@ qualityPlot (const std::string& gnuplot, const fs::path& plot_dir, const std::ve
       {
         std::string label = r.name;
         for (char& c : label)
-          c = c == '"' || c == '\n' ? '_' : c;
+          c = c == '"' || c == '\\' || static_cast<unsigned char> (c) < 0x20 || c == 0x7f ? '_' : c;  // one quoted data field
         const auto cell = [&r] (const char* key) {
           const double v = numberAt (r.values, key);
           return std::isfinite (v) ? csvNumber (v) : std::string ("NaN");

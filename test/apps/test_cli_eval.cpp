@@ -276,3 +276,35 @@ TEST_F (EvalCli, AsyncMasksRunTheSourceOnItsOwnThread)
   EXPECT_EQ (tracking["segmentation"]["mask_source"].get<std::string> ().rfind ("async:", 0), 0u) << tracking.dump ();
   EXPECT_EQ (tracking["frames"].get<int> (), 10);
 }
+
+TEST_F (EvalCli, DatasetTextNeverRunsAsCode)
+{
+  // Class names come from the dataset and run names from the command line; both reach
+  // the gnuplot scripts of the plots. A newline there would end gnuplot's string and
+  // command, and `system` on the next line runs a shell command.
+  const std::string seq_dir = dir / "seq";
+  auto r = run ("synth --scene tabletop --frames 3 --size 80x60 --out " + seq_dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  const std::string class_marker = dir / "class_ran", run_marker = dir / "run_name_ran";
+  nlohmann::json scene = json (seq_dir + "/scene.json");
+  for (nlohmann::json& instance : scene.at ("instances"))
+    instance["class_name"] = "mug'\nsystem 'touch " + class_marker + "'\r\nprint '\\";
+  test::writeFile (seq_dir + "/scene.json", scene.dump ());
+  r = run ("run " + seq_dir + " --use-gt-poses --mode masks --masks " + seq_dir + "/detections --out " + (dir / "run"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  r = run ("eval --min-pixels 1 --run 'x\nsystem \"touch " + run_marker + "\"\n#=" + (dir / "run") + "' --gt " + seq_dir + " --out " + (dir / "report"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_FALSE (fs::exists (class_marker));
+  EXPECT_FALSE (fs::exists (run_marker));
+  // The texts did reach the scripts, inside their quotes.
+  int scripts_with_class = 0;
+  for (fs::directory_iterator it (dir / "report/plots"), end; it != end; ++it)
+    if (it->path ().extension () == ".gp")
+    {
+      const std::string gp = test::readFile (it->path ().string ());
+      scripts_with_class += gp.find ("system ''touch " + class_marker) != std::string::npos ? 1 : 0;
+      EXPECT_EQ (gp.find ("\nsystem"), std::string::npos) << it->path ();
+      EXPECT_EQ (gp.find ('\r'), std::string::npos) << it->path ();
+    }
+  EXPECT_GT (scripts_with_class, 0);
+}
