@@ -372,7 +372,7 @@ TEST_F (OnnxSegmenter, BadModelsAreClearErrors)
 
   config.model_path = makeModel (dir, "v5", spec ("v5"));
   config.classes_path = dir / "none.names";
-  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "none.names", "cannot read");
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "none.names", "no such file");
   config.input_size = 100;
   EXPECT_THROW (OnnxInstanceSegmenter s (config), ParameterError);
 }

@@ -487,7 +487,7 @@ TEST_F (PropagationFixture, LabelLayerKeysTheVolumesVoxelsAndItsFileRoundTrips)
   test::writeFile (path + ".txt", "not a label file, only text long enough for a header");
   test::expectError ([&] { VoxelLabelLayer::load (path + ".txt", *volume); }, path + ".txt", "not a cuefusion label file");
   test::expectError ([&] { VoxelLabelLayer::load (path, reconstruction::TSDFVolume ()); }, path, "does not have");
-  test::expectError ([&] { VoxelLabelLayer::load (dir / "missing.labels", *volume); }, "missing.labels", "cannot open");
+  test::expectError ([&] { VoxelLabelLayer::load (dir / "missing.labels", *volume); }, "missing.labels", "no such file");
 }
 
 TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)

@@ -3,6 +3,7 @@
 #include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -11,6 +12,14 @@ namespace cuefusion
 {
 namespace io
 {
+/** \brief Throws cuefusion::Error naming \a path unless it is a regular file (or a link
+  * to one): a folder, a device (/dev/zero, /dev/stdin), a FIFO or a socket is refused
+  * before it is opened, so no reader blocks on it or reads it without end. Returns the
+  * file's size in bytes. Every reader of cuefusion calls it (or readTextFile, which does).
+  */
+std::uint64_t
+requireRegularFile (const std::string& path);
+
 /** \brief Reads and decodes an image; throws cuefusion::Error naming the file when it is
   * missing, unreadable, truncated or not an image. \a flags as for cv::imread.
   */

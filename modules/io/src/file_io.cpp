@@ -22,6 +22,7 @@
 
 #include <fcntl.h>
 #include <pthread.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace fs = boost::filesystem;
@@ -36,14 +37,15 @@ std::vector<uchar>
 readBytes (const std::string& path)
 {
   const FileContext context (path);
-  if (!fs::exists (path))
-    throw Error (path, "no such file");
-  if (fs::is_directory (path))
-    throw Error (path, "is a folder, expected a file");
+  const std::uint64_t size = requireRegularFile (path);
   std::ifstream in (path, std::ios::binary);
   if (!in)
     throw Error (path, std::string ("cannot open: ") + std::strerror (errno));
-  return std::vector<uchar> ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
+  // The size stat() gave, and no more: a file that grows while it is read is cut there.
+  std::vector<uchar> bytes (static_cast<std::size_t> (size));
+  in.read (reinterpret_cast<char*> (bytes.data ()), static_cast<std::streamsize> (size));
+  bytes.resize (static_cast<std::size_t> (in.gcount ()));
+  return bytes;
 }
 
 // libpng decodes a PNG cut short after its first rows without an error and fills
@@ -70,6 +72,27 @@ isTruncatedJpeg (const std::vector<uchar>& bytes)
   return !(bytes[end - 2] == 0xff && bytes[end - 1] == 0xd9);
 }
 }  // namespace
+
+std::uint64_t
+requireRegularFile (const std::string& path)
+{
+  struct stat info;
+  if (::stat (path.c_str (), &info) != 0)
+  {
+    if (errno == ENOENT || errno == ENOTDIR)
+      throw Error (path, "no such file");
+    throw Error (path, std::string ("cannot open: ") + std::strerror (errno));
+  }
+  if (S_ISDIR (info.st_mode))
+    throw Error (path, "is a folder, expected a file");
+  if (S_ISFIFO (info.st_mode))
+    throw Error (path, "is a pipe (FIFO), expected a regular file");
+  if (S_ISCHR (info.st_mode) || S_ISBLK (info.st_mode))
+    throw Error (path, "is a device, expected a regular file");
+  if (!S_ISREG (info.st_mode))
+    throw Error (path, "is not a regular file");
+  return static_cast<std::uint64_t> (info.st_size);
+}
 
 cv::Mat
 readImage (const std::string& path, int flags)

@@ -51,6 +51,7 @@ struct PCDHeader
 PCDHeader
 checkPCDHeader (const std::string& path)
 {
+  requireRegularFile (path);
   std::ifstream in (path, std::ios::binary);
   if (!in)
     throw Error (path, "cannot open PCD file");

@@ -320,6 +320,7 @@ TriangleMesh
 readMeshPLY (const std::string& path)
 {
   const FileContext context (path);
+  requireRegularFile (path);
   PlyInput ply{path, std::ifstream (path, std::ios::binary)};
   if (!ply.in)
     throw Error (path, "cannot open mesh");

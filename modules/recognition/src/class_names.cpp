@@ -1,3 +1,4 @@
+#include <cuefusion/io/file_io.h>
 #include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/recognition/instance_segmenter.h>
@@ -15,6 +16,7 @@ std::vector<std::string>
 readClassNames (const std::string& path)
 {
   const FileContext context (path);
+  io::requireRegularFile (path);
   std::ifstream in (path);
   if (!in)
     throw Error (path, "cannot read class names");

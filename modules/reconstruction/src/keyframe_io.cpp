@@ -85,6 +85,7 @@ KeyframeDatabase
 KeyframeDatabase::load (const std::string& path)
 {
   const FileContext context (path);
+  io::requireRegularFile (path);
   std::ifstream in (path, std::ios::binary);
   if (!in)
     throw Error (path, "cannot open keyframe file");

@@ -83,6 +83,7 @@ TSDFVolume
 TSDFVolume::load (const std::string& path)
 {
   const FileContext context (path);
+  io::requireRegularFile (path);
   std::ifstream in (path, std::ios::binary);
   if (!in)
     throw Error (path, "cannot open volume file");

@@ -124,6 +124,7 @@ VoxelLabelLayer
 VoxelLabelLayer::load (const std::string& path, const reconstruction::TSDFVolume& volume)
 {
   const FileContext context (path);
+  io::requireRegularFile (path);
   std::ifstream in (path, std::ios::binary);
   if (!in)
     throw Error (path, "cannot open label file");
