@@ -14,6 +14,33 @@ namespace cuefusion
 {
 namespace cli
 {
+namespace
+{
+/** Boost reads "-5" into an unsigned option as 2^64 - 5 (lexical_cast wraps): every
+  * option stored as an unsigned count is refused here when its text is negative. */
+void
+refuseNegativeCounts (const po::parsed_options& given, const po::variables_map& vm)
+{
+  for (const po::option& o : given.options)
+  {
+    if (o.string_key.empty () || !vm.count (o.string_key))
+      continue;
+    const boost::any& value = vm[o.string_key].value ();
+    const bool is_unsigned = value.type () == typeid (unsigned) || value.type () == typeid (unsigned long) ||
+                             value.type () == typeid (unsigned long long) || value.type () == typeid (unsigned short) ||
+                             value.type () == typeid (unsigned char);
+    if (!is_unsigned)
+      continue;
+    for (const std::string& text : o.value)
+    {
+      const auto first = text.find_first_not_of (" \t");
+      if (first != std::string::npos && text[first] == '-')
+        throw ParameterError ("--" + o.string_key, "must not be negative (got " + text + ")");
+    }
+  }
+}
+}  // namespace
+
 bool
 parseCommandLine (const std::string& command, const std::string& synopsis, const std::vector<std::string>& args,
                   po::options_description& options, const po::positional_options_description& positional,
@@ -24,6 +51,7 @@ parseCommandLine (const std::string& command, const std::string& synopsis, const
   {
     const po::parsed_options given_options = po::command_line_parser (args).options (options).positional (positional).run ();
     po::store (given_options, vm);
+    refuseNegativeCounts (given_options, vm);
     if (parsed)
       *parsed = given_options.options;
     if (vm.count ("help"))

@@ -186,9 +186,13 @@ runAggregate (const std::vector<std::string>& dirs, std::string out, bool no_plo
 {
   std::vector<SequenceResult> rows;
   std::vector<std::string> batches;
+  std::set<std::string> seen;  // one folder named twice (or by two paths) would count twice
   for (const std::string& dir : dirs)
   {
     boost::system::error_code ec;
+    const fs::path canonical = fs::canonical (dir, ec);
+    if (!ec && !seen.insert (canonical.string ()).second)
+      throw UsageError ("--aggregate: " + dir + " is named twice");
     std::vector<SequenceResult> found;
     if (fs::is_regular_file (fs::path (dir) / "batch.json", ec))
     {

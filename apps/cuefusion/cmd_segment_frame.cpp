@@ -451,6 +451,10 @@ FrameSegmenter::segment (const std::string& path, std::size_t index, double& seg
     t.normals_ms = preprocessor_.getNormalTime ();
     segmenter_.segment (planes_);
   }
+  catch (const ParameterError&)
+  {
+    throw;  // an option that does not suit this frame: main names the option
+  }
   catch (const Error& e)
   {
     throw Error (path, e.what ());

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 using namespace cuefusion;
@@ -313,6 +314,38 @@ TEST_F (BadInputCli, EveryCaseIsOneLineNamingTheCulpritAndWritesNothing)
     {"synth-views --views 0", nothing, "synth-views --views 0 --out {D}/o", 2, "--views"},
     {"synth-views --touching 2", nothing, "synth-views --views 2 --out {D}/o --touching 2", 2, "--touching"},
     {"synth-views --size 1x1", nothing, "synth-views --views 2 --out {D}/o --size 1x1", 2, "--size"},
+    // --- inputs that are not regular files: read without end or blocking forever before
+    {"depth png is a FIFO", [&] (const std::string& d) { ASSERT_EQ (mkfifo ((d + "/f.png").c_str (), 0600), 0); write (d + "/k.txt", "52.5 52.5 31.5 23.5 64 48\n"); },
+     "segment-frame {D}/f.png --intrinsics {D}/k.txt --out {D}/o.pcd", 1, "f.png"},
+    {"intrinsics is a FIFO", [&] (const std::string& d) { ASSERT_EQ (mkfifo ((d + "/k.txt").c_str (), 0600), 0); },
+     "run {S} --intrinsics {D}/k.txt --out {D}/o", 1, "k.txt"},
+    {"intrinsics link to /dev/zero", [&] (const std::string& d) { fs::create_symlink ("/dev/zero", d + "/k.txt"); },
+     "run {S} --intrinsics {D}/k.txt --out {D}/o", 1, "k.txt"},
+    {"segments.json is a FIFO", [&] (const std::string& d) {
+       copyTree (R, d + "/run");
+       fs::remove (d + "/run/segments.json");
+       ASSERT_EQ (mkfifo ((d + "/run/segments.json").c_str (), 0600), 0);
+     },
+     "eval --run {D}/run --gt {S} --out {D}/rep --no-plots", 1, "segments.json"},
+    {"@list is /dev/zero", [&] (const std::string& d) { fs::create_symlink ("/dev/zero", d + "/list.txt"); },
+     "batch @{D}/list.txt --out {D}/o", 1, "list.txt"},
+    {"mask png link to /dev/zero", seqCopy ([&] (const std::string& seq) {
+       const std::string png = first (seq + "/detections", ".png");
+       fs::remove (png);
+       fs::create_symlink ("/dev/zero", png);
+     }),
+     "run {D}/seq --masks {D}/seq/detections --out {D}/o", 1, ".png"},
+    // --- numbers out of range that wrapped or crashed
+    {"eval --min-pixels -1", nothing, "eval --run {R} --gt {S} --out {D}/rep --min-pixels=-1", 2, "--min-pixels"},
+    {"eval --min-region -5", nothing, "eval --run {R} --gt {S} --out {D}/rep --min-region=-5", 2, "--min-region"},
+    {"eval --every -3", nothing, "eval --run {R} --gt {S} --out {D}/rep --every=-3", 2, "--every"},
+    {"segment-frame --normal-smoothing 200 on 64x48", [&] (const std::string& d) { fs::copy_file (first (S + "/depth", ".png"), d + "/d.png"); write (d + "/k.txt", "52.5 52.5 31.5 23.5 64 48\n"); },
+     "segment-frame {D}/d.png --intrinsics {D}/k.txt --normals integral --normal-smoothing 200 --out {D}/o.pcd", 2, "--normal-smoothing"},
+    {"intrinsics principal point 10^6 px", file ("k.txt", "52.5 52.5 1000000 23.5 64 48\n"), "run {S} --intrinsics {D}/k.txt --out {D}/o", 1, "k.txt"},
+    {"eval --aggregate of one folder twice", [&] (const std::string& d) {
+       ASSERT_EQ (std::system ((std::string (CUEFUSION_BINARY) + " eval --run " + R + " --gt " + S + " --out " + d + "/rep --no-plots >/dev/null 2>&1").c_str ()), 0);
+     },
+     "eval --aggregate {D}/rep {D}/rep/ --out {D}/sum --no-plots", 2, "rep"},
   };
   ASSERT_GE (cases.size (), 60u);
   const std::map<std::string, std::string> fixtures_before = snapshot (fixtures->str ());
@@ -325,7 +358,8 @@ TEST_F (BadInputCli, EveryCaseIsOneLineNamingTheCulpritAndWritesNothing)
     c.prepare (D);
     const std::map<std::string, std::string> before = snapshot (D);
     const std::string args = substitute (c.args, S, R, D);
-    const std::string command = std::string (CUEFUSION_BINARY) + " " + args + " >" + (d / "out.txt") + " 2>" + (d / "err.txt") + " </dev/null";
+    // (a bound, so a case that blocks fails instead of hanging the suite)
+    const std::string command = "timeout -s KILL 120 " + std::string (CUEFUSION_BINARY) + " " + args + " >" + (d / "out.txt") + " 2>" + (d / "err.txt") + " </dev/null";
     const int status = std::system (command.c_str ());
     ASSERT_TRUE (WIFEXITED (status)) << args << ": killed by a signal";
     const std::string err = test::readFile (d / "err.txt");

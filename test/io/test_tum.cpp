@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 using namespace cuefusion;
 
@@ -116,4 +117,32 @@ TEST (TumFileLists, UnsortedOrDuplicateTimestampsAreErrors)
   test::writeFile (dir / "a/depth.txt", "1.000 depth/1.000.png\n1.100 depth/1.100.png\n");
   test::writeFile (dir / "a/groundtruth.txt", "1.0 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n");
   EXPECT_THROW (io::TumGrabber (dir / "a"), Error);
+}
+
+TEST (TumAssociation, ManyStampsWithinTheToleranceAreAssociatedInLinearTime)
+{
+  // 20,000 colour and 20,000 depth stamps, all within 10 ms: every pair is within the
+  // tolerance, so weighing every pair (400 million) runs out of memory. Each depth image
+  // follows its colour image by 0.1 µs and precedes the next by 0.4 µs: nearest pairs are
+  // (i, i).
+  test::TempDir dir;
+  boost::filesystem::create_directories (dir / "a");
+  std::string rgb_txt, depth_txt;
+  char line[96];
+  const int n = 20000;
+  for (int i = 0; i < n; ++i)
+  {
+    std::snprintf (line, sizeof line, "%.7f rgb/%d.png\n", 100.0 + 5e-7 * i, i);
+    rgb_txt += line;
+    std::snprintf (line, sizeof line, "%.7f depth/%d.png\n", 100.0 + 5e-7 * i + 1e-7, i);
+    depth_txt += line;
+  }
+  test::writeFile (dir / "a/rgb.txt", rgb_txt);
+  test::writeFile (dir / "a/depth.txt", depth_txt);
+  test::writeFile (dir / "a/intrinsics.txt", "2 2 0.5 0.5 2 2\n");
+  const io::TumGrabber g (dir / "a");
+  const std::vector<std::string> pairs = pairsOf (g);
+  ASSERT_EQ (pairs.size (), static_cast<std::size_t> (n));
+  for (int i = 0; i < n; i += 997)
+    EXPECT_EQ (pairs[static_cast<std::size_t> (i)], std::to_string (i) + "|" + std::to_string (i));
 }

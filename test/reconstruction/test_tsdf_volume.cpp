@@ -331,7 +331,7 @@ TEST (TSDFVolume, SaveLoadRoundTripIsExact)
   test::expectError ([&] { TSDFVolume::load (path + ".v1"); }, path + ".v1", "version 1");
   test::writeFile (path + ".txt", "not a volume at all, just some text that is long enough to hold a header.........");
   test::expectError ([&] { TSDFVolume::load (path + ".txt"); }, path + ".txt", "not a cuefusion volume");
-  test::expectError ([&] { TSDFVolume::load (dir.str () + "/missing.tsdf"); }, "missing.tsdf", "cannot open");
+  test::expectError ([&] { TSDFVolume::load (dir.str () + "/missing.tsdf"); }, "missing.tsdf", "no such file");
 }
 
 TEST (TSDFVolume, MemoryFollowsTheSurfaceNotTheViewedVolume)
@@ -433,6 +433,44 @@ TEST (TSDFVolume, RejectsBadInput)
                      "integrate", "CV_32F");
   test::expectError ([&] { volume.integrate (cv::Mat (60, 100, CV_32F, cv::Scalar (1)), cv::Mat (), camera, Eigen::Isometry3d::Identity ()); },
                      "integrate", "size");
+}
+
+TEST (TSDFVolume, TheAddressableRangeIsOneLimitForAllocationExtractionAndCameras)
+{
+  // A wall 1 m in front of a camera near the edge of the addressable range (±2^19 voxels
+  // on every axis: ±5,242.88 m at 1 cm) is fused and extracted where it is; a camera
+  // beyond the range is refused instead of wrapping the surface extraction's keys.
+  const PinholeCamera camera (60, 60, 31.5, 23.5, 64, 48);
+  const cv::Mat depth (48, 64, CV_32F, cv::Scalar (1.f));
+  TSDFVolumeConfig config;
+  const double limit = kVoxelCoordinateLimit * config.voxel_size;
+  ASSERT_NEAR (limit, 5242.88, 1e-9);
+  for (const Eigen::Vector3d& at : {Eigen::Vector3d (limit - 6.0, -(limit - 6.0), limit - 7.5), Eigen::Vector3d (-(limit - 6.0), limit - 6.0, -(limit - 6.0))})
+  {
+    TSDFVolume volume (config);
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
+    pose.translation () = at;
+    volume.integrate (depth, cv::Mat (), camera, pose);
+    for (const Eigen::Vector3i& index : volume.store ().blockIndices ())
+      ASSERT_TRUE (inBlockRange (index));
+    pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+    volume.extractPointCloud (cloud);
+    ASSERT_GT (cloud.size (), 100u);
+    for (const auto& p : cloud)
+    {
+      ASSERT_NEAR (p.z, at.z () + 1.0, 0.02);
+      ASSERT_LE (std::abs (p.x - at.x ()), 0.6);
+      ASSERT_LE (std::abs (p.y - at.y ()), 0.45);
+    }
+  }
+  for (const double x : {limit, 6000.0, 1e5, 1e300})
+  {
+    TSDFVolume volume (config);
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
+    pose.translation ().x () = x;
+    test::expectError ([&] { volume.integrate (depth, cv::Mat (), camera, pose); }, "integrate", "addressable range");
+    EXPECT_EQ (volume.blockCount (), 0u);
+  }
 }
 
 TEST (TSDFVolume, DepthHintedRaycastMatchesTheFullRaycast)

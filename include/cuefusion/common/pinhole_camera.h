@@ -65,8 +65,8 @@ struct PinholeCamera
   Eigen::Matrix3d
   matrix () const;
 
-  /** \brief Focal lengths in [1, 10^6] pixels, principal point within ±10^6 pixels, image
-    * size in [1, 65536] each way. */
+  /** \brief Focal lengths in [1, 10^6] pixels, image size in [1, 65536] each way, principal
+    * point within four image widths (heights) of the image's corner. */
   bool
   isValid () const;
 

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cuefusion/reconstruction/voxel.h>
+
 #include <Eigen/Core>
 
 #include <cstddef>
@@ -10,16 +12,29 @@ namespace cuefusion
 {
 namespace reconstruction
 {
-/** \brief Block coordinates packed into one 64-bit key, 21 bits per axis (±2^20 blocks,
-  * i.e. ±84 km at 8 cm blocks). inBlockRange() tells whether a block can be packed.
+/** \brief The volume's addressable range, one constant for the block hash, the surface
+  * extraction and the volume loader: every voxel coordinate (a block's apron included)
+  * lies in [-2^19, 2^19), the 20 bits per axis that the surface extraction packs into an
+  * edge key. At 1 cm voxels that is ±5.2 km from the origin. Blocks outside are never
+  * allocated, a volume file naming one is refused, and TSDFVolume::integrate refuses a
+  * camera outside (addressableRadius()).
+  */
+constexpr int kVoxelCoordinateBits = 20;
+constexpr std::int32_t kVoxelCoordinateLimit = 1 << (kVoxelCoordinateBits - 1);
+constexpr std::int32_t kMinBlockCoordinate = -kVoxelCoordinateLimit / kBlockSide;
+constexpr std::int32_t kMaxBlockCoordinate = (kVoxelCoordinateLimit - kBlockSide - 1) / kBlockSide;
+
+/** \brief Block coordinates packed into one 64-bit key, 21 bits per axis: more than the
+  * addressable range needs, so every block inBlockRange() accepts has its own key.
   */
 constexpr int kBlockKeyBits = 21;
 constexpr std::int32_t kBlockKeyOffset = 1 << (kBlockKeyBits - 1);
+static_assert (kMaxBlockCoordinate < kBlockKeyOffset && -kMinBlockCoordinate <= kBlockKeyOffset, "block keys must cover the range");
 
 inline bool
 inBlockRange (const Eigen::Vector3i& b)
 {
-  return (b.array () >= -kBlockKeyOffset).all () && (b.array () < kBlockKeyOffset).all ();
+  return (b.array () >= kMinBlockCoordinate).all () && (b.array () <= kMaxBlockCoordinate).all ();
 }
 
 inline std::uint64_t

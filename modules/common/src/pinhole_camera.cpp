@@ -27,12 +27,14 @@ bool
 PinholeCamera::isValid () const
 {
   // Bounds, not just signs: a focal length of 1e-300 loses every frame silently, and a
-  // principal point of 1e30 overflows the integer pixel arithmetic downstream.
-  constexpr double max_focal = 1e6, max_centre = 1e6;
+  // principal point far outside the image (10^6 px on a 640-px frame) sends every ray of
+  // the raycast past the volume, where it marches for hours. Real cameras have theirs
+  // inside the image; four image sizes either way leave room for crops and odd rigs.
+  constexpr double max_focal = 1e6, max_centre_in_sizes = 4.0;
   constexpr int max_size = 65536;
   return std::isfinite (fx) && std::isfinite (fy) && std::isfinite (cx) && std::isfinite (cy) && fx >= 1.0 &&
-         fy >= 1.0 && fx <= max_focal && fy <= max_focal && std::abs (cx) <= max_centre && std::abs (cy) <= max_centre &&
-         width > 0 && height > 0 && width <= max_size && height <= max_size;
+         fy >= 1.0 && fx <= max_focal && fy <= max_focal && width > 0 && height > 0 && width <= max_size &&
+         height <= max_size && std::abs (cx) <= max_centre_in_sizes * width && std::abs (cy) <= max_centre_in_sizes * height;
 }
 
 void

@@ -78,7 +78,7 @@ readIntrinsics (const std::string& path)
   }
   PinholeCamera check = camera;
   if (check.width == 0 && check.height == 0)
-    check.width = check.height = 1;  // size comes later from the images
+    check.width = check.height = 65536;  // size comes later from the images (checked again then)
   check.validate (path);
   return camera;
 }

@@ -63,31 +63,33 @@ observed (const TsdfVoxel* v)
   return v != nullptr && v->weight > 0.f;
 }
 
-/** \brief Edge key: lower voxel corner (20 bits per axis) and the edge's axis. */
+/** \brief Edge key: lower voxel corner (kVoxelCoordinateBits per axis; every voxel of an
+  * allocated block fits, voxel_block_hash.h) and the edge's axis. */
 inline std::uint64_t
 edgeKey (const Eigen::Vector3i& lower, int axis)
 {
-  constexpr std::uint64_t mask = (1u << 20) - 1;
-  constexpr int offset = 1 << 19;
+  constexpr std::uint64_t mask = (std::uint64_t{1} << kVoxelCoordinateBits) - 1;
+  constexpr int offset = kVoxelCoordinateLimit;
   return (static_cast<std::uint64_t> (lower.x () + offset) & mask) |
-         ((static_cast<std::uint64_t> (lower.y () + offset) & mask) << 20) |
-         ((static_cast<std::uint64_t> (lower.z () + offset) & mask) << 40) | (static_cast<std::uint64_t> (axis) << 60);
+         ((static_cast<std::uint64_t> (lower.y () + offset) & mask) << kVoxelCoordinateBits) |
+         ((static_cast<std::uint64_t> (lower.z () + offset) & mask) << (2 * kVoxelCoordinateBits)) |
+         (static_cast<std::uint64_t> (axis) << (3 * kVoxelCoordinateBits));
 }
 
 /** \brief The lower voxel and the axis of an edge key. */
 inline Eigen::Vector3i
 edgeLower (std::uint64_t key)
 {
-  constexpr std::uint64_t mask = (1u << 20) - 1;
-  constexpr int offset = 1 << 19;
-  return Eigen::Vector3i (static_cast<int> (key & mask) - offset, static_cast<int> ((key >> 20) & mask) - offset,
-                          static_cast<int> ((key >> 40) & mask) - offset);
+  constexpr std::uint64_t mask = (std::uint64_t{1} << kVoxelCoordinateBits) - 1;
+  constexpr int offset = kVoxelCoordinateLimit;
+  return Eigen::Vector3i (static_cast<int> (key & mask) - offset, static_cast<int> ((key >> kVoxelCoordinateBits) & mask) - offset,
+                          static_cast<int> ((key >> (2 * kVoxelCoordinateBits)) & mask) - offset);
 }
 
 inline int
 edgeAxis (std::uint64_t key)
 {
-  return static_cast<int> ((key >> 60) & 3u);
+  return static_cast<int> ((key >> (3 * kVoxelCoordinateBits)) & 3u);
 }
 
 }  // namespace

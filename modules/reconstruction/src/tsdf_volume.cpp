@@ -8,6 +8,7 @@
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <algorithm>
+#include <sstream>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -192,6 +193,17 @@ TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const Pinhole
     throw Error ("TSDFVolume::integrate", "colour must be CV_8UC3 of the depth's size (or empty)");
   if (!pose.matrix ().allFinite ())
     throw Error ("TSDFVolume::integrate", "pose is not finite");
+  // A camera whose whole depth range lies inside the addressable range (voxel_block_hash.h);
+  // farther out its frame would be dropped block by block, leaving an empty map unsaid.
+  const double reach = kVoxelCoordinateLimit * config_.voxel_size - config_.max_depth - config_.truncation ();
+  if (!(pose.translation ().cwiseAbs ().maxCoeff () <= reach))
+  {
+    std::ostringstream msg;
+    msg << "the camera at (" << pose.translation ().x () << ", " << pose.translation ().y () << ", " << pose.translation ().z ()
+        << ") m is outside the volume's addressable range (±" << std::max (0.0, reach) << " m from the origin at "
+        << config_.voxel_size << " m voxels)";
+    throw Error ("TSDFVolume::integrate", msg.str ());
+  }
 
   allocateBlocks (depth, camera, pose);
 

@@ -1,4 +1,5 @@
 // preprocessPlanes: the work of SurfacePreprocessing on SurfacePlanes.
+#include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/edge_operators.h>
 #include <cuefusion/segmentation/parallel.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
@@ -6,7 +7,9 @@
 #include <pcl/common/time.h>
 #include <pcl/features/integral_image_normal.h>
 
+#include <algorithm>
 #include <limits>
+#include <string>
 #include <vector>
 
 namespace cuefusion
@@ -47,6 +50,11 @@ preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& confi
     computeNormalPlanes (planes, config.normals);
   else
   {
+    // PCL's integral images read a window of the smoothing size around every pixel and
+    // overrun a frame that is not larger than twice that (PCL 1.13 crashes).
+    if (!(2.f * config.integral_smoothing < static_cast<float> (std::min (w, h))))
+      throw ParameterError ("SurfacePreprocessingConfig::integral_smoothing",
+                            "must be less than half the frame's smaller side (" + std::to_string (std::min (w, h)) + " px)");
     pcl::PointCloud<pcl::PointXYZ>::Ptr points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>> (w, h);
     for (std::size_t i = 0; i < points->size (); ++i)
       (*points)[i] = pcl::PointXYZ (planes.x[i], planes.y[i], planes.z[i]);
