@@ -4,10 +4,15 @@
 
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <fstream>
+#include <functional>
+#include <stdexcept>
 #include <string>
 
 namespace cuefusion
@@ -82,6 +87,47 @@ runCuefusion (const std::string& args, const TempDir& dir)
                           (dir / "err.txt") + " </dev/null";
   const int status = std::system (cmd.c_str ());
   return {WIFEXITED (status) ? WEXITSTATUS (status) : -1, readFile (dir / "out.txt"), readFile (dir / "err.txt")};
+}
+
+/** \brief A folder of generated inputs made once per build and read by every test
+  * process that asks for it (ctest runs each test in its own process, so a suite's
+  * SetUpTestSuite would make it again for every test).
+  *
+  * \a make fills the folder it is given (throwing or leaving a gtest failure when it
+  * cannot). The folder lives in the build tree (test-fixtures/NAME-STAMP), STAMP being
+  * the cuefusion binary's modification time, so a rebuilt generator makes it anew; a
+  * lock keeps tests running in parallel from making it twice. Tests only read it.
+  */
+inline std::string
+sharedFixture (const std::string& name, const std::function<void (const std::string& folder)>& make)
+{
+  namespace fs = boost::filesystem;
+  const fs::path root (CUEFUSION_TEST_FIXTURE_DIR);
+  fs::create_directories (root);
+  const std::string key = name + "-" + std::to_string (fs::last_write_time (CUEFUSION_BINARY));
+  const fs::path folder = root / key, done = folder / ".complete";
+  if (fs::exists (done))
+    return folder.string ();
+  const int lock = ::open ((root / (name + ".lock")).c_str (), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+  if (lock < 0 || ::flock (lock, LOCK_EX) != 0)
+    throw std::runtime_error ("cannot lock the test fixture " + name);
+  struct Unlock
+  {
+    int fd;
+    ~Unlock () { ::close (fd); }
+  } unlock{lock};
+  if (!fs::exists (done))
+  {
+    for (fs::directory_iterator it (root), end; it != end; ++it)  // older stamps, a half-made one
+      if (it->path ().filename ().string ().rfind (name + "-", 0) == 0)
+        fs::remove_all (it->path ());
+    fs::create_directories (folder);
+    make (folder.string ());
+    if (::testing::Test::HasFailure ())
+      throw std::runtime_error ("making the test fixture " + name + " failed");
+    writeFile (done.string (), "");
+  }
+  return folder.string ();
 }
 
 inline std::string

@@ -135,5 +135,25 @@ listInputs (const std::string& path, const std::vector<std::string>& extensions)
   std::sort (files.begin (), files.end ());
   return files;
 }
+void
+refuseOutputsOverInputs (const std::vector<std::pair<std::string, std::string>>& outputs,
+                         const std::vector<std::pair<std::string, std::string>>& inputs)
+{
+  namespace fs = boost::filesystem;
+  const auto resolved = [] (const std::string& path) {
+    boost::system::error_code ec;
+    const fs::path p = fs::weakly_canonical (fs::absolute (path), ec);
+    return ec ? fs::absolute (path).lexically_normal () : p;
+  };
+  for (const auto& [out_option, out_path] : outputs)
+  {
+    if (out_path.empty ())
+      continue;
+    const fs::path out = resolved (out_path);
+    for (const auto& [in_option, in_path] : inputs)
+      if (!in_path.empty () && resolved (in_path) == out)
+        throw UsageError (out_option + ": " + out_path + " is the input of " + in_option + "; cuefusion never writes over its inputs");
+  }
+}
 }  // namespace cli
 }  // namespace cuefusion

@@ -9,6 +9,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace cuefusion
@@ -97,6 +98,13 @@ checkRunSettings (const RunSettings& s);
 /** The pipeline's configuration for run's settings (the segmentation mode chosen). */
 pipeline::FusionPipelineConfig
 runPipelineConfig (const RunSettings& s);
+
+/** Throws UsageError when an output path (option, path) is one of the inputs: cuefusion
+  * never writes over what it reads. Paths are compared after resolving links and "..";
+  * empty paths are skipped. */
+void
+refuseOutputsOverInputs (const std::vector<std::pair<std::string, std::string>>& outputs,
+                         const std::vector<std::pair<std::string, std::string>>& inputs);
 
 int runSynth (const std::vector<std::string>& args);
 int runSynthViews (const std::vector<std::string>& args);

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <csignal>
 #include <ctime>
 #include <fstream>
 #include <iostream>
@@ -420,10 +421,13 @@ runBatchTask (const std::vector<std::string>& args)
   nlohmann::json status = {{"name", name}, {"sequence", sequence}, {"index", k},         {"host", hostName ()},
                            {"status", "ok"}, {"stage", nullptr},     {"error", nullptr}, {"run_seconds", nullptr},
                            {"eval_seconds", nullptr}};
+  int interrupted = 0;  // SIGINT or SIGTERM passed on to a stage: no later stage starts
   const auto stage = [&] (const std::string& what, std::vector<std::string> argv) {
     const auto t0 = std::chrono::steady_clock::now ();
     argv.insert (argv.begin (), {plan.program, what});
-    const ProcessResult r = runProcess (argv, {log.string (), true}, {log.string (), true});
+    const ProcessResult r = runProcess (argv, {log.string (), true}, {log.string (), true}, std::string (), true);
+    if (r.forwarded)
+      interrupted = r.forwarded;
     status[what + "_seconds"] = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
     if (r.ok ())
       return true;
@@ -441,6 +445,12 @@ runBatchTask (const std::vector<std::string>& args)
       argv.insert (argv.end (), {"--masks", fs::path (plan.masks).is_absolute () ? plan.masks : (fs::path (sequence) / plan.masks).string ()});
     ok = stage ("run", argv);
     ran = ok;
+  }
+  if (interrupted)
+  {
+    ok = false;
+    status["status"] = "failed";
+    status["error"] = std::string ("stopped by ") + (interrupted == SIGINT ? "SIGINT" : "SIGTERM");
   }
   if (ok && plan.eval && (ran || redo || !evalComplete (result)))
   {
@@ -505,7 +515,12 @@ runTasks (const BatchPlan& plan, const std::vector<std::size_t>& pending, unsign
   argv.push_back (":::");
   for (const std::size_t k : pending)
     argv.push_back (std::to_string (k));
-  const ProcessResult r = runProcess (argv);
+  // A signal to batch goes on to parallel (which stops starting tasks and passes it on to
+  // theirs); batch waits for them all and keeps its folder locked until then.
+  const ProcessResult r = runProcess (argv, Redirect (), Redirect (), std::string (), true);
+  if (r.forwarded)
+    throw Error (plan.folder, std::string ("stopped by ") + (r.forwarded == SIGINT ? "SIGINT" : "SIGTERM") +
+                                " after its running sequences ended; run the same batch again to finish the rest");
   // parallel's exit status counts the failed tasks; the summary tells which.
   if (!r.started || r.signal)
     throw Error ("parallel", r.describe ());

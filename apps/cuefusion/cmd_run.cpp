@@ -273,6 +273,8 @@ checkRunSettings (const RunSettings& s)
     throw ParameterError ("--save-every", "must not be negative (0 = never), got " + std::to_string (s.save_every));
   if (!s.screenshot.empty () && !s.view)
     throw UsageError ("--view-screenshot needs --view");
+  if (!s.load_volume.empty () && !s.save_volume)  // the new set, without a volume, would remove the loaded one
+    refuseOutputsOverInputs ({{"--out", s.out}}, {{"--load-volume (add --save-volume to replace it)", boost::filesystem::absolute (s.load_volume).parent_path ().string ()}});
   io::parseSequenceFormat (s.format);
   // The library's own checks, named by field (main() translates them into the options).
   runPipelineConfig (s).validate ();

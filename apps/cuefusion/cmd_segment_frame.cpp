@@ -513,6 +513,10 @@ runSegmentFrame (const std::vector<std::string>& args)
   SegmentFrameSettings s;
   if (!parseSegmentFrameSettings (args, s))
     return 0;
+  // (in folder mode the output folders would hold files of the inputs' names)
+  refuseOutputsOverInputs ({{"--out", s.out}, {"--png", s.png}, {"--edges-png", s.edges_png}, {"--timings", s.timings_path}},
+                           {{"INPUT", s.input}, {"--rgb", s.rgb}, {"--masks", s.masks}, {"--intrinsics", s.intrinsics_path},
+                            {"--model", s.onnx.model_path}});
   boost::system::error_code ec;
   const bool folder = fs::is_directory (s.input, ec);
   const std::vector<std::string> inputs = listInputs (s.input, {".pcd", ".png"});

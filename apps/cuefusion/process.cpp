@@ -2,6 +2,8 @@
 
 #include <boost/filesystem.hpp>
 
+#include <atomic>
+
 #include <cerrno>
 #include <csignal>
 #include <cstdlib>
@@ -55,8 +57,55 @@ selfExecutable ()
   return ec ? std::string () : self.string ();
 }
 
+namespace
+{
+std::atomic<pid_t> g_child{0};
+std::atomic<int> g_forwarded{0};
+
+extern "C" void
+forwardSignal (int signal)
+{
+  g_forwarded = signal;
+  const pid_t child = g_child;
+  if (child > 0)
+    ::kill (child, signal);
+}
+
+/** SIGINT and SIGTERM passed on to the running child while it lives. */
+class SignalForwarding
+{
+public:
+  explicit SignalForwarding (bool on) : on_ (on)
+  {
+    if (!on_)
+      return;
+    g_forwarded = 0;
+    struct sigaction action{};
+    action.sa_handler = forwardSignal;
+    sigemptyset (&action.sa_mask);
+    sigaction (SIGINT, &action, &previous_int_);
+    sigaction (SIGTERM, &action, &previous_term_);
+  }
+  ~SignalForwarding ()
+  {
+    if (!on_)
+      return;
+    g_child = 0;
+    sigaction (SIGINT, &previous_int_, nullptr);
+    sigaction (SIGTERM, &previous_term_, nullptr);
+  }
+  SignalForwarding (const SignalForwarding&) = delete;
+  SignalForwarding& operator= (const SignalForwarding&) = delete;
+
+private:
+  bool on_;
+  struct sigaction previous_int_{}, previous_term_{};
+};
+}  // namespace
+
 ProcessResult
-runProcess (const std::vector<std::string>& argv, const Redirect& out, const Redirect& err, const std::string& directory)
+runProcess (const std::vector<std::string>& argv, const Redirect& out, const Redirect& err, const std::string& directory,
+            bool forward_signals)
 {
   ProcessResult result;
   if (argv.empty ())
@@ -96,6 +145,7 @@ runProcess (const std::vector<std::string>& argv, const Redirect& out, const Red
     posix_spawn_file_actions_adddup2 (&actions, 1, 2);
   else
     redirect (2, err);
+  const SignalForwarding forwarding (forward_signals);
   pid_t pid = 0;
   const int spawned = posix_spawn (&pid, c_args.front (), &actions, nullptr, c_args.data (), environ);
   posix_spawn_file_actions_destroy (&actions);
@@ -103,6 +153,12 @@ runProcess (const std::vector<std::string>& argv, const Redirect& out, const Red
   {
     result.error = std::string (std::strerror (spawned));
     return result;
+  }
+  if (forward_signals)
+  {
+    g_child = pid;
+    if (g_forwarded)  // a signal came between the handlers' installation and the spawn
+      ::kill (pid, g_forwarded);
   }
   result.started = true;
   int status = 0;
@@ -113,6 +169,7 @@ runProcess (const std::vector<std::string>& argv, const Redirect& out, const Red
       result.started = false;
       return result;
     }
+  result.forwarded = forward_signals ? g_forwarded.load () : 0;
   if (WIFSIGNALED (status))
     result.signal = WTERMSIG (status);
   else

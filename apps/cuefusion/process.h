@@ -14,6 +14,7 @@ struct ProcessResult
   int exit_code = -1;    ///< its exit status when it exited normally
   int signal = 0;        ///< the signal that ended it, 0 when it exited
   std::string error;     ///< why it could not be started
+  int forwarded = 0;     ///< SIGINT or SIGTERM this process received and passed on to it (0: none)
   /** Exited with status 0. */
   bool
   ok () const
@@ -33,10 +34,13 @@ struct Redirect
 };
 
 /** Runs \a argv (argv[0] is looked up on PATH unless it holds a slash) in \a directory
-  * ("" = this process's), with stdout and stderr redirected as given, and waits for it. */
+  * ("" = this process's), with stdout and stderr redirected as given, and waits for it.
+  * With \a forward_signals, a SIGINT or SIGTERM this process receives meanwhile is sent
+  * on to the child (which decides how to stop) and the wait goes on until it ends: a
+  * parent never leaves children writing behind it (ProcessResult::forwarded says so). */
 ProcessResult
 runProcess (const std::vector<std::string>& argv, const Redirect& out = Redirect (), const Redirect& err = Redirect (),
-            const std::string& directory = std::string ());
+            const std::string& directory = std::string (), bool forward_signals = false);
 
 /** An executable called \a name on PATH, or "" when there is none. */
 std::string

@@ -374,7 +374,9 @@ TEST_F (Cli, SignalsFinishTheSetOrKeepThePreviousOne)
   // The set was replaced (stopped_early and labels/ say so); the map differs unless the
   // signal happened to stop the run after the first run's 4 frames (seen under load).
   if (second["frames"] != first["frames"])
+  {
     EXPECT_NE (test::readFile (out + "/map.pcd"), first_map);
+  }
   EXPECT_FALSE (boost::filesystem::exists (out + "/labels"));  // the previous run's, removed with its set
   std::vector<std::string> left;
   for (boost::filesystem::directory_iterator it (out), end; it != end; ++it)

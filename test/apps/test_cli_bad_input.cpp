@@ -335,6 +335,15 @@ TEST_F (BadInputCli, EveryCaseIsOneLineNamingTheCulpritAndWritesNothing)
        fs::create_symlink ("/dev/zero", png);
      }),
      "run {D}/seq --masks {D}/seq/detections --out {D}/o", 1, ".png"},
+    // --- outputs onto inputs
+    {"segment-frame --png onto its input", [&] (const std::string& d) { fs::copy_file (first (S + "/depth", ".png"), d + "/d.png"); write (d + "/k.txt", "52.5 52.5 31.5 23.5 64 48\n"); },
+     "segment-frame {D}/d.png --intrinsics {D}/k.txt --out {D}/o.pcd --png {D}/./d.png", 2, "--png"},
+    {"segment-frame DIR --out DIR", [&] (const std::string& d) { fs::create_directories (d + "/in"); fs::copy_file (first (S + "/depth", ".png"), d + "/in/d.png"); write (d + "/k.txt", "52.5 52.5 31.5 23.5 64 48\n"); },
+     "segment-frame {D}/in --intrinsics {D}/k.txt --out {D}/in/", 2, "--out"},
+    {"run --load-volume X/volume.tsdf --out X without --save-volume", [&] (const std::string& d) {
+       ASSERT_EQ (std::system ((std::string (CUEFUSION_BINARY) + " run " + S + " --frames 2 --save-volume --out " + d + "/v >/dev/null 2>&1").c_str ()), 0);
+     },
+     "run {S} --load-volume {D}/v/volume.tsdf --out {D}/v", 2, "--out"},
     // --- numbers out of range that wrapped or crashed
     {"eval --min-pixels -1", nothing, "eval --run {R} --gt {S} --out {D}/rep --min-pixels=-1", 2, "--min-pixels"},
     {"eval --min-region -5", nothing, "eval --run {R} --gt {S} --out {D}/rep --min-region=-5", 2, "--min-region"},

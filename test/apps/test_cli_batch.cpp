@@ -66,38 +66,34 @@ protected:
   static void
   SetUpTestSuite ()
   {
-    shared_ = new test::TempDir;
-    int k = 0;
-    for (const std::string scene : {"tabletop", "clutter"})
-      for (const int seed : {1, 2})
-      {
-        const std::string name = "seq" + std::to_string (k++);
-        const auto r = test::runCuefusion ("synth --scene " + scene + " --frames 24 --size 160x120 --noise --seed " +
-                                             std::to_string (seed) + " --out " + (*shared_ / name),
-                                           *shared_);
-        ASSERT_EQ (r.code, 0) << r.err;
-      }
-  }
-  static void
-  TearDownTestSuite ()
-  {
-    delete shared_;
-    shared_ = nullptr;
+    shared_ = test::sharedFixture ("batch-cli-sequences", [] (const std::string& folder) {
+      test::TempDir logs;
+      int k = 0;
+      for (const std::string scene : {"tabletop", "clutter"})
+        for (const int seed : {1, 2})
+        {
+          const std::string name = "seq" + std::to_string (k++);
+          const auto r = test::runCuefusion ("synth --scene " + scene + " --frames 24 --size 160x120 --noise --seed " +
+                                               std::to_string (seed) + " --out " + folder + "/" + name,
+                                             logs);
+          ASSERT_EQ (r.code, 0) << r.err;
+        }
+    });
   }
   static std::string
   sequence (int k)
   {
-    return *shared_ / ("seq" + std::to_string (k));
+    return shared_ + "/seq" + std::to_string (k);
   }
   test::CommandResult
   run (const std::string& args)
   {
     return test::runCuefusion (args, dir);
   }
-  static test::TempDir* shared_;
+  static std::string shared_;
   test::TempDir dir;
 };
-test::TempDir* BatchCli::shared_ = nullptr;
+std::string BatchCli::shared_;
 }  // namespace
 
 TEST_F (BatchCli, RunsEvaluatesResumesAndWritesSlurmScripts)

@@ -25,22 +25,19 @@ lineCount (const std::string& s)
   return static_cast<int> (std::count (s.begin (), s.end (), '\n'));
 }
 
-/** One 320×240 tabletop sequence shared by the tests of this file (rendering it is the slow part). */
+/** One 320×240 tabletop sequence shared by the tests of this file (rendering it is the
+  * slow part), made once per build (test::sharedFixture). */
 class EvalCli : public ::testing::Test
 {
 protected:
   static void
   SetUpTestSuite ()
   {
-    shared_ = new test::TempDir;
-    const auto r = test::runCuefusion ("synth --scene tabletop --frames 10 --size 320x240 --layout redwood --out " + (*shared_ / "seq"), *shared_);
-    ASSERT_EQ (r.code, 0) << r.err;
-  }
-  static void
-  TearDownTestSuite ()
-  {
-    delete shared_;
-    shared_ = nullptr;
+    shared_ = test::sharedFixture ("eval-cli-tabletop", [] (const std::string& folder) {
+      test::TempDir logs;
+      const auto r = test::runCuefusion ("synth --scene tabletop --frames 10 --size 320x240 --layout redwood --out " + folder + "/seq", logs);
+      ASSERT_EQ (r.code, 0) << r.err;
+    });
   }
   test::CommandResult
   run (const std::string& args)
@@ -50,7 +47,7 @@ protected:
   static std::string
   seq ()
   {
-    return *shared_ / "seq";
+    return shared_ + "/seq";
   }
   static nlohmann::json
   json (const std::string& path)
@@ -75,10 +72,10 @@ protected:
       }
     return hits;
   }
-  static test::TempDir* shared_;
+  static std::string shared_;
   test::TempDir dir;
 };
-test::TempDir* EvalCli::shared_ = nullptr;
+std::string EvalCli::shared_;
 }  // namespace
 
 TEST_F (EvalCli, ReportsTrackingObjectIoUAndInstanceAP)

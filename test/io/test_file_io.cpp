@@ -4,12 +4,18 @@
 #include <cuefusion/common/rgbd_frame.h>
 #include <cuefusion/io/camera_io.h>
 #include <cuefusion/io/file_io.h>
+#include <cuefusion/io/map_io.h>
+#include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
 
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <functional>
+
+#include <sys/stat.h>
 
 using namespace cuefusion;
 using cuefusion::test::TempDir;
@@ -211,4 +217,57 @@ TEST (FileIO, OutputSetReplacesThePreviousSetAsAWhole)
   }
   EXPECT_EQ (test::readFile (dir / "out/a.txt"), "a3");
   EXPECT_EQ (test::readFile (dir / "out/done.json"), "3");
+}
+
+TEST (FileIO, ReadersRefuseFoldersDevicesAndPipesByName)
+{
+  // A FIFO blocks the first read forever and /dev/zero never ends: each reader refuses
+  // them (and folders) before opening, naming the path.
+  TempDir dir;
+  const std::string fifo = dir / "pipe", zero = dir / "zero", folder = dir / "folder";
+  ASSERT_EQ (mkfifo (fifo.c_str (), 0600), 0);
+  boost::filesystem::create_symlink ("/dev/zero", zero);
+  boost::filesystem::create_directories (folder);
+  const std::vector<std::pair<std::string, std::function<void (const std::string&)>>> readers = {
+    {"readTextFile", [] (const std::string& p) { io::readTextFile (p); }},
+    {"readJsonFile", [] (const std::string& p) { io::readJsonFile (p); }},
+    {"readImage", [] (const std::string& p) { io::readImage (p, -1); }},
+    {"readIntrinsics", [] (const std::string& p) { io::readIntrinsics (p); }},
+    {"readTumTrajectory", [] (const std::string& p) { io::readTumTrajectory (p); }},
+    {"readPCD", [] (const std::string& p) { io::readPCD (p); }},
+    {"readSegmentsJson", [] (const std::string& p) { io::readSegmentsJson (p); }},
+    {"readMeshPLY", [] (const std::string& p) { io::readMeshPLY (p); }},
+  };
+  for (const auto& [name, read] : readers)
+  {
+    SCOPED_TRACE (name);
+    test::expectError ([&] { read (fifo); }, "pipe", "is a pipe (FIFO)");
+    test::expectError ([&] { read (zero); }, "zero", "is a device");
+    test::expectError ([&] { read (folder); }, "folder", "is a folder");
+  }
+  test::writeFile (dir / "plain.txt", "12345");
+  boost::filesystem::create_symlink (dir / "plain.txt", dir / "link.txt");
+  EXPECT_EQ (io::requireRegularFile (dir / "link.txt"), 5u);  // a link to a regular file is one
+  test::expectError ([&] { io::requireRegularFile (dir / "missing"); }, "missing", "no such file");
+}
+
+TEST (FileIO, OneOutputSetAtATimeWritesIntoAFolder)
+{
+  // Two commands writing into one folder at once left one's outputs.json beside the
+  // other's files: the second is refused while the first holds the folder.
+  TempDir dir;
+  const std::string out = dir / "out";
+  {
+    io::OutputSet first (out, {"a.txt", "done.json"}, "done.json");
+    io::writeTextAtomic (first.stagingPath ("a.txt"), "first");
+    test::expectError ([&] { io::OutputSet second (out, {"a.txt", "done.json"}, "done.json"); }, "out", "another cuefusion command");
+    io::writeTextAtomic (first.stagingPath ("done.json"), "{}");
+    first.commit ();
+  }
+  EXPECT_EQ (test::readFile (dir / "out/a.txt"), "first");
+  io::OutputSet next (out, {"a.txt", "done.json"}, "done.json");  // free again once the first is done
+  std::size_t entries = 0;
+  for (boost::filesystem::directory_iterator it (out), end; it != end; ++it)
+    entries += it->path ().filename ().string ().rfind (".cuefusion-staging", 0) == 0 ? 0 : 1;
+  EXPECT_EQ (entries, 2u);  // the lock left no file behind
 }

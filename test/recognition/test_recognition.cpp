@@ -9,6 +9,7 @@
 #include <cuefusion/io/synthetic_sequence.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
+#include <cuefusion/recognition/onnx_model_check.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -344,7 +345,7 @@ TEST_F (OnnxSegmenter, BadModelsAreClearErrors)
 
   test::writeFile (dir / "junk.onnx", "not a protobuf at all");
   config.model_path = dir / "junk.onnx";
-  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "junk.onnx", "cannot load");
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "junk.onnx", "not a sound ONNX model");
 
   // Detections flattened to [1, N·D]: no YOLO-seg layout; the message names the shapes.
   config.model_path = makeModel (dir, "flat", spec ("flat"));
@@ -375,6 +376,87 @@ TEST_F (OnnxSegmenter, BadModelsAreClearErrors)
   test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "none.names", "no such file");
   config.input_size = 100;
   EXPECT_THROW (OnnxInstanceSegmenter s (config), ParameterError);
+}
+
+namespace
+{
+/** Protobuf wire format, enough to write ONNX models with hand-made lies. */
+std::string
+varint (std::uint64_t v)
+{
+  std::string out;
+  do
+  {
+    out += static_cast<char> ((v & 0x7fu) | (v > 0x7fu ? 0x80u : 0u));
+    v >>= 7;
+  } while (v);
+  return out;
+}
+std::string
+number (std::uint32_t field, std::uint64_t v)
+{
+  return varint (field << 3) + varint (v);
+}
+std::string
+bytes (std::uint32_t field, const std::string& b)
+{
+  return varint ((field << 3) | 2u) + varint (b.size ()) + b;
+}
+/** A float TensorProto named w: its dims, then \a extra fields (data, location). */
+std::string
+tensor (const std::vector<std::uint64_t>& dims, const std::string& extra)
+{
+  std::string t;
+  for (const std::uint64_t d : dims)
+    t += number (1, d);
+  return t + number (2, 1) + bytes (8, "w") + extra;
+}
+/** A model whose graph holds \a graph_fields. */
+std::string
+model (const std::string& graph_fields)
+{
+  return number (1, 8) + bytes (7, graph_fields);
+}
+}  // namespace
+
+TEST (OnnxModelCheck, MalformedModelsAreRefusedBeforeOpenCVReadsThem)
+{
+  test::TempDir dir;
+  // A sound initializer: 2 x 3 floats as raw data, as packed floats; a scalar.
+  EXPECT_NO_THROW (checkOnnxModelBytes (model (bytes (5, tensor ({2, 3}, bytes (9, std::string (24, '\0'))))), "m"));
+  EXPECT_NO_THROW (checkOnnxModelBytes (model (bytes (5, tensor ({2, 3}, bytes (4, std::string (24, '\0'))))), "m"));
+  EXPECT_NO_THROW (checkOnnxModelBytes (model (bytes (5, tensor ({}, bytes (9, std::string (4, '\0'))))), "m"));
+
+  // The two files that crashed OpenCV's importer inside `run` and `segment-frame`: huge
+  // dims and no data, and data in an external file. Refused by the segmenter by name.
+  OnnxInstanceSegmenterConfig config;
+  test::writeFile (dir / "huge.onnx", model (bytes (5, tensor ({std::uint64_t{1} << 20, std::uint64_t{1} << 20}, ""))));
+  config.model_path = dir / "huge.onnx";
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "huge.onnx", "more than 2^31 values");
+  test::writeFile (dir / "external.onnx", model (bytes (5, tensor ({4}, bytes (13, bytes (1, "location") + bytes (2, "w.bin")) + number (14, 1)))));
+  config.model_path = dir / "external.onnx";
+  test::expectError ([&] { OnnxInstanceSegmenter s (config); }, "external.onnx", "external data");
+
+  const auto refused = [] (const std::string& file, const std::string& why) {
+    test::expectError ([&] { checkOnnxModelBytes (file, "m.onnx"); }, "m.onnx", why);
+  };
+  refused (model (bytes (5, tensor ({4}, bytes (9, std::string (8, '\0'))))), "promise 4 values and which holds 2");
+  refused (model (bytes (5, tensor ({4}, bytes (9, std::string (7, '\0'))))), "partial value");
+  refused (model (bytes (5, tensor ({1000}, ""))), "holds 0");
+  refused (model (bytes (5, tensor ({4}, number (14, 1) + bytes (9, std::string (16, '\0'))))), "external data");
+  refused (model (bytes (5, tensor ({~std::uint64_t{0}}, ""))), "negative dimension");
+  refused (model (bytes (5, tensor ({2}, number (2, 99) + bytes (9, "12345678")))), "unknown data type");
+  refused (model (bytes (15, bytes (1, tensor ({3}, "")))), "holds 0");  // a sparse initializer's values
+  refused (model (bytes (1, bytes (5, bytes (5, tensor ({9}, ""))))), "holds 0");  // a Constant node's tensor
+  std::string nested = bytes (5, tensor ({}, ""));
+  for (int i = 0; i < 20; ++i)
+    nested = bytes (1, bytes (5, bytes (6, nested)));  // node → attribute → graph
+  refused (model (nested), "nested more than 16");
+  const std::string good = model (bytes (5, tensor ({2}, bytes (9, std::string (8, '\0')))));
+  refused (good.substr (0, good.size () - 3), "longer than the file");
+  refused (number (1, 8), "no graph");
+  refused ("\x0f", "wire type");
+  refused (model (std::string ("\x08") + std::string (11, '\xff')), "longer than ten bytes");
 }
 
 TEST (ClassNames, BundledCocoList)

@@ -80,8 +80,9 @@ writeFolderAtomic (const std::string& dir, bool overwrite, const std::function<v
 class OutputSet
 {
 public:
-  /** Creates \a dir when missing and a staging folder in it; cuefusion::Error naming
-    * \a dir when that fails. \a owned: the top-level names this command writes;
+  /** Creates \a dir when missing and a staging folder in it, and holds an exclusive
+    * lock on \a dir until destroyed; cuefusion::Error naming \a dir when that fails or
+    * another process holds the lock (two commands writing into one folder). \a owned: the top-level names this command writes;
     * \a marker: the one among them written last (it marks the set complete). */
   OutputSet (const std::string& dir, std::vector<std::string> owned, std::string marker);
   ~OutputSet ();
@@ -114,6 +115,7 @@ private:
   std::vector<std::string> owned_;
   bool committed_ = false;
   bool created_ = false;  ///< dir_ did not exist before: removed again (when empty) if never committed
+  int lock_ = -1;         ///< the folder, open and flock()ed for the set's lifetime
 };
 
 /** \brief Writes text atomically (temporary file, then rename). */

@@ -22,6 +22,7 @@
 
 #include <fcntl.h>
 #include <pthread.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -293,6 +294,17 @@ OutputSet::OutputSet (const std::string& dir, std::vector<std::string> owned, st
   fs::create_directories (dir_, ec);
   if (ec || !fs::is_directory (dir_))
     throw Error (dir_, "cannot create output folder" + (ec ? ": " + ec.message () : std::string ()));
+  // One writer a folder: a second command writing its set into the same folder at the
+  // same time would leave one's marker beside the other's files. flock on the folder
+  // itself leaves no lock file behind; the kernel releases it when the process dies.
+  lock_ = ::open (dir_.c_str (), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (lock_ < 0)
+    throw Error (dir_, std::string ("cannot open output folder: ") + std::strerror (errno));
+  if (::flock (lock_, LOCK_EX | LOCK_NB) != 0)
+  {
+    ::close (lock_);
+    throw Error (dir_, "another cuefusion command is writing its outputs in this folder now");
+  }
   removeStaleStaging (dir_);
   const fs::path staging =
     fs::path (dir_) / fs::unique_path (kStagingPrefix + std::to_string (::getpid ()) + "-%%%%%%");
@@ -307,6 +319,7 @@ OutputSet::~OutputSet ()
   fs::remove_all (staging_, ec);
   if (!committed_ && created_)
     fs::remove (dir_, ec);  // only when still empty: a failed command leaves no trace
+  ::close (lock_);
 }
 
 std::string

@@ -1,5 +1,6 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
+#include <cuefusion/recognition/onnx_model_check.h>
 
 #include <boost/filesystem.hpp>
 
@@ -416,6 +417,7 @@ OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxInstanceSegmenterConfig&
   boost::system::error_code ec;
   if (!boost::filesystem::is_regular_file (config_.model_path, ec))
     throw Error (config_.model_path, "no such model file");
+  checkOnnxModel (config_.model_path);  // OpenCV's importer crashes on some malformed files
   try
   {
     net_ = cv::dnn::readNetFromONNX (config_.model_path);
