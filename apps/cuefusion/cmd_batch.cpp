@@ -459,7 +459,7 @@ runBatchTask (const std::vector<std::string>& args)
     ok = stage ("eval", argv);
   }
   status["finished"] = isoTimeNow ();
-  io::writeTextAtomic ((result / kTaskFile).string (), status.dump (2) + "\n");
+  io::writeTextAtomic ((result / kTaskFile).string (), io::jsonText (status, 2) + "\n");
   if (ok)
     std::cout << name << ": " << (status["run_seconds"].is_null () && status["eval_seconds"].is_null () ? "complete already" : "done") << "\n";
   else
@@ -615,7 +615,7 @@ runBatch (const std::vector<std::string>& args)
       std::cerr << "cuefusion batch: note: the options differ from the previous batch in " << out
                 << "; complete sequences are kept as they are (--redo redoes them)\n";
   }
-  io::writeTextAtomic (plan_file.string (), planJson (plan).dump (2) + "\n");
+  io::writeTextAtomic (plan_file.string (), io::jsonText (planJson (plan), 2) + "\n");
 
   std::vector<std::size_t> pending;
   for (std::size_t k = 0; k < plan.sequences.size (); ++k)

@@ -684,7 +684,7 @@ runEval (const std::vector<std::string>& args)
   io::writeTextAtomic (outputs.stagingPath ("object_iou.csv"), found.iou_csv.str ());
   io::writeTextAtomic (outputs.stagingPath ("object_iou_frames.csv"), found.iou_frames_csv.str ());
   io::writeTextAtomic (outputs.stagingPath ("instance_ap.csv"), found.ap_csv.str ());
-  io::writeTextAtomic (outputs.stagingPath ("report.json"), report.dump (2) + "\n");
+  io::writeTextAtomic (outputs.stagingPath ("report.json"), io::jsonText (report, 2) + "\n");
   outputs.commit ();
   printEvalSummary (report, s, truth, found.frames_with_masks, plots, plot_note);
   return 0;

@@ -688,15 +688,15 @@ RunSession::writeOutputs ()
     triangles_ = mesh.triangles.size ();
   }
   segments_ = fusion_.segments ();
-  io::writeTextAtomic (staged ("segments.json"), segmentsJson (segments_).dump (1) + "\n");
+  io::writeTextAtomic (staged ("segments.json"), io::jsonText (segmentsJson (segments_), 1) + "\n");
   io::writeTumTrajectory (staged ("trajectory.txt"), result_.trajectory);
   if (!result_.reference.empty ())  // for evaluating the estimate with any TUM tool
     io::writeTumTrajectory (staged ("reference_trajectory.txt"), result_.reference);
   if (s_.save_volume)
     fusion_.saveVolume (staged ("volume.tsdf"), staged ("volume.labels"), staged ("volume.keyframes"));
-  io::writeTextAtomic (staged ("tracking.json"), trackingJson ().dump (2) + "\n");
+  io::writeTextAtomic (staged ("tracking.json"), io::jsonText (trackingJson (), 2) + "\n");
   io::writeTextAtomic (staged ("timings.json"),
-                       timingsJson (result_.reports, result_.segmentation, result_.volume_bytes, result_.loop_ms).dump (2) + "\n");
+                       io::jsonText (timingsJson (result_.reports, result_.segmentation, result_.volume_bytes, result_.loop_ms), 2) + "\n");
   nlohmann::json files = nlohmann::json::array ();
   for (const std::string& name : kRunOutputs)
     if (fs::exists (fs::path (outputs_.stagingPath (name))))
@@ -709,7 +709,7 @@ RunSession::writeOutputs ()
                                    // a recorded sequence cut short by a signal or a closed window
                                    {"stopped_early", dataset_ != nullptr && InterruptHandlers::interrupted ()},
                                    {"files", files}};
-  io::writeTextAtomic (staged ("outputs.json"), manifest.dump (2) + "\n");
+  io::writeTextAtomic (staged ("outputs.json"), io::jsonText (manifest, 2) + "\n");
   if (video_)
     video_->finish ();
   outputs_.commit ();

@@ -193,7 +193,7 @@ segmentsJson (const std::vector<segmentation::SegmentInstance>& segments, const 
       entry["geometric_segments"] = s.geometric_segments;
     list.push_back (entry);
   }
-  return nlohmann::json ({{"segments", list}}).dump (1) + "\n";
+  return io::jsonText (nlohmann::json ({{"segments", list}}), 1) + "\n";
 }
 
 struct FrameTimes
@@ -541,7 +541,7 @@ runSegmentFrame (const std::vector<std::string>& args)
   }
   if (!s.timings_path.empty ())
     io::writeTextAtomic (s.timings_path,
-                         nlohmann::json ({{"segmentation_ms", timingSummary (totals)}, {"frames", frames}}).dump (1) + "\n");
+                         io::jsonText (nlohmann::json ({{"segmentation_ms", timingSummary (totals)}, {"frames", frames}}), 1) + "\n");
   if (s.verbose || inputs.size () > 1)
     std::cout << inputs.size () << " frame(s) segmented; geometric segmentation median "
               << timingSummary (totals)["median"].get<double> () << " ms per frame\n";

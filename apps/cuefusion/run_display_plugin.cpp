@@ -8,6 +8,10 @@
 #include <boost/filesystem.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+
 namespace fs = boost::filesystem;
 
 namespace cuefusion
@@ -16,6 +20,56 @@ namespace cli
 {
 namespace
 {
+/** Whether the file's top-level container structure is whole: an AVI's RIFF chunks (and
+  * AVIX extensions), an MP4's boxes with its 'moov' index, each within the file. Reading
+  * the frames back with OpenCV would print FFmpeg's or OpenCV's complaints on stderr. */
+bool
+containerComplete (const std::string& path, bool avi)
+{
+  std::ifstream in (path, std::ios::binary);
+  in.seekg (0, std::ios::end);
+  const std::uint64_t size = static_cast<std::uint64_t> (in.tellg ());
+  in.seekg (0);
+  std::uint64_t at = 0;
+  bool moov = false;
+  while (at < size)
+  {
+    unsigned char head[16] = {};
+    in.seekg (static_cast<std::streamoff> (at));
+    if (size - at < 8 || !in.read (reinterpret_cast<char*> (head), 8))
+      return false;
+    std::uint64_t length = 0;
+    if (avi)  // 'RIFF', little-endian size of what follows, padded to even
+    {
+      if (std::memcmp (head, "RIFF", 4) != 0)
+        return false;
+      length = 8 + (std::uint64_t (head[4]) | std::uint64_t (head[5]) << 8 | std::uint64_t (head[6]) << 16 | std::uint64_t (head[7]) << 24);
+      length += length & 1u;
+    }
+    else  // big-endian box size (1: a 64-bit size follows; 0: to the end), then the type
+    {
+      length = std::uint64_t (head[0]) << 24 | std::uint64_t (head[1]) << 16 | std::uint64_t (head[2]) << 8 | head[3];
+      moov = moov || std::memcmp (head + 4, "moov", 4) == 0;
+      if (length == 0)
+        length = size - at;
+      else if (length == 1)
+      {
+        if (size - at < 16 || !in.read (reinterpret_cast<char*> (head + 8), 8))
+          return false;
+        length = 0;
+        for (int k = 8; k < 16; ++k)
+          length = length << 8 | head[k];
+      }
+      if (length < 8)
+        return false;
+    }
+    if (length > size - at)
+      return false;
+    at += length;
+  }
+  return size > 0 && (avi || moov);
+}
+
 /** Frames go to a temporary file next to the target, renamed into place when the run ends
   * well (a failed run leaves no half-written video). The container follows the extension:
   * .avi → Motion-JPEG (always available in OpenCV), .mp4 → MPEG-4 part 2. */
@@ -59,12 +113,17 @@ public:
     if (image.size () != size_)
       throw Error (path_, "frame size changed during the run");
     writer_.write (image);
+    ++frames_;
   }
   void finish () override
   {
     if (!writer_.isOpened ())
       return;
     writer_.release ();
+    // OpenCV's writer reports no write error: a full disk leaves a cut-short file.
+    if (!containerComplete (temporary_, fourcc_ == cv::VideoWriter::fourcc ('M', 'J', 'P', 'G')))
+      throw Error (path_, "the video file was cut short while " + std::to_string (frames_) +
+                            " frames were written (is the disk full?)");
     boost::system::error_code ec;
     fs::rename (temporary_, path_, ec);
     if (ec)
@@ -79,6 +138,7 @@ private:
   cv::Size size_;
   cv::VideoWriter writer_;
   bool finished_ = false;
+  long long frames_ = 0;
 };
 
 class LiveViewerWindow : public ViewerWindow

@@ -378,7 +378,7 @@ writeSummary (const std::string& dir, const std::vector<SequenceResult>& rows, b
     }
   }
   io::writeTextAtomic (outputs.stagingPath ("summary.csv"), csv.str ());
-  io::writeTextAtomic (outputs.stagingPath ("summary.json"), summary.dump (2) + "\n");
+  io::writeTextAtomic (outputs.stagingPath ("summary.json"), io::jsonText (summary, 2) + "\n");
   outputs.commit ();
 
   // The table on stdout.

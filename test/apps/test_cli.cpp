@@ -384,3 +384,53 @@ TEST_F (Cli, SignalsFinishTheSetOrKeepThePreviousOne)
       left.push_back (it->path ().string ());
   EXPECT_TRUE (left.empty ()) << left.front ();
 }
+
+TEST_F (Cli, OneWriterAFolderAndBatchWaitsForItsChildren)
+{
+  const std::string seq = dir / "seq";
+  ASSERT_EQ (run ("synth --scene tabletop --frames 200 --size 160x120 --out " + seq).code, 0);
+
+  // Two runs into one folder: the second is refused while the first writes.
+  const std::string out = dir / "run";
+  pid_t pid = startCuefusion ({"run", seq, "--out", out}, dir);
+  ASSERT_GT (pid, 0);
+  ASSERT_TRUE (waitForStaging (out));
+  const auto second = run ("run " + seq + " --frames 2 --out " + out);
+  EXPECT_EQ (second.code, 1);
+  EXPECT_NE (second.err.find ("another cuefusion command is writing"), std::string::npos) << second.err;
+  kill (pid, SIGTERM);
+  int status = 0;
+  waitpid (pid, &status, 0);
+  ASSERT_TRUE (WIFEXITED (status));
+  EXPECT_EQ (WEXITSTATUS (status), 0) << test::readFile (dir / "bg_err.txt");
+  const nlohmann::json outputs = nlohmann::json::parse (test::readFile (out + "/outputs.json"));
+  EXPECT_EQ (outputs["stopped_early"], true);  // the first run's set, not the second's 2 frames
+  EXPECT_NE (outputs["frames"], 2);
+
+  // SIGTERM to batch: it passes it on (parallel, the task, the run) and returns only when
+  // nothing of it is left writing, with the folder's lock free for the next call.
+  const std::string batch = dir / "batch";
+  pid = startCuefusion ({"batch", seq, "--out", batch}, dir);
+  ASSERT_GT (pid, 0);
+  bool started = false;
+  for (int i = 0; i < 6000 && !started; ++i)
+  {
+    boost::system::error_code ec;
+    for (boost::filesystem::directory_iterator it (batch, ec), end; !ec && it != end && !started; it.increment (ec))
+      if (boost::filesystem::is_directory (it->path ()))
+        started = waitForStaging (it->path ().string ());
+    if (!started)
+      std::this_thread::sleep_for (std::chrono::milliseconds (10));
+  }
+  ASSERT_TRUE (started);
+  kill (pid, SIGTERM);
+  waitpid (pid, &status, 0);
+  ASSERT_TRUE (WIFEXITED (status));
+  EXPECT_EQ (WEXITSTATUS (status), 1);
+  const std::string err = test::readFile (dir / "bg_err.txt");
+  EXPECT_NE (err.find ("stopped by SIGTERM"), std::string::npos) << err;
+  for (boost::filesystem::recursive_directory_iterator it (batch), end; it != end; ++it)
+    EXPECT_NE (it->path ().filename ().string ().rfind (".cuefusion-staging-", 0), 0u) << it->path () << " left writing";
+  const auto again = run ("batch " + seq + " --out " + batch);  // redoes the sequence cut short
+  EXPECT_EQ (again.code, 0) << again.err;  // the lock was released
+}

@@ -287,9 +287,12 @@ TEST_F (EvalCli, DatasetTextNeverRunsAsCode)
   for (nlohmann::json& instance : scene.at ("instances"))
     instance["class_name"] = "mug'\nsystem 'touch " + class_marker + "'\r\nprint '\\";
   test::writeFile (seq_dir + "/scene.json", scene.dump ());
-  r = run ("run " + seq_dir + " --use-gt-poses --mode masks --masks " + seq_dir + "/detections --out " + (dir / "run"));
+  // (a run folder whose name is not UTF-8: its path goes into outputs.json and report.json)
+  const std::string run_dir = dir / "run-\xff\xfe";
+  r = run ("run " + seq_dir + " --use-gt-poses --mode masks --masks " + seq_dir + "/detections --out '" + run_dir + "'");
   ASSERT_EQ (r.code, 0) << r.err;
-  r = run ("eval --min-pixels 1 --run 'x\nsystem \"touch " + run_marker + "\"\n#=" + (dir / "run") + "' --gt " + seq_dir + " --out " + (dir / "report"));
+  EXPECT_NO_THROW (json (run_dir + "/outputs.json"));
+  r = run ("eval --min-pixels 1 --run 'x\nsystem \"touch " + run_marker + "\"\n#=" + run_dir + "' --gt " + seq_dir + " --out " + (dir / "report"));
   ASSERT_EQ (r.code, 0) << r.err;
   EXPECT_FALSE (fs::exists (class_marker));
   EXPECT_FALSE (fs::exists (run_marker));
@@ -304,4 +307,24 @@ TEST_F (EvalCli, DatasetTextNeverRunsAsCode)
       EXPECT_EQ (gp.find ('\r'), std::string::npos) << it->path ();
     }
   EXPECT_GT (scripts_with_class, 0);
+}
+
+TEST_F (EvalCli, AVideoCutShortByAFullDiskIsAnError)
+{
+  // OpenCV's video writer says nothing when the disk fills: the run read the file back.
+  const std::string full = dir / "full";
+  fs::create_directories (full);
+  if (std::system (("mount -t tmpfs -o size=48k tmpfs " + full + " 2>/dev/null").c_str ()) != 0)
+    GTEST_SKIP () << "mounting a small tmpfs needs root (CI runs as root)";
+  struct Unmount
+  {
+    std::string at;
+    ~Unmount () { (void) std::system (("umount " + at).c_str ()); }
+  } unmount{full};
+  const auto r = run ("run " + seq () + " --use-gt-poses --mode geometry --frames 4 --out " + (dir / "run") + " --video " + full + "/v.avi");
+  EXPECT_EQ (r.code, 1) << r.err;
+  EXPECT_EQ (lineCount (r.err), 1) << r.err;
+  EXPECT_NE (r.err.find ("v.avi"), std::string::npos) << r.err;
+  EXPECT_NE (r.err.find ("cut short"), std::string::npos) << r.err;
+  EXPECT_TRUE (fs::is_empty (full));  // neither the video nor its temporary is left
 }

@@ -14,8 +14,11 @@
 
 #include <algorithm>
 #include <functional>
+#include <memory>
 
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 using namespace cuefusion;
 using cuefusion::test::TempDir;
@@ -270,4 +273,56 @@ TEST (FileIO, OneOutputSetAtATimeWritesIntoAFolder)
   for (boost::filesystem::directory_iterator it (out), end; it != end; ++it)
     entries += it->path ().filename ().string ().rfind (".cuefusion-staging", 0) == 0 ? 0 : 1;
   EXPECT_EQ (entries, 2u);  // the lock left no file behind
+}
+
+TEST (FileIO, ACommitKilledHalfWayGetsThePreviousSetBack)
+{
+  // The state a SIGKILL inside OutputSet::commit leaves: the old marker and an old file
+  // moved aside into the staging folder's .previous/, one new file moved in (replacing
+  // an old one) and one new-only file moved in, the new marker still staged. The next
+  // writer puts the complete previous set back before it starts.
+  TempDir dir;
+  const std::string out = dir / "out";
+  {
+    io::OutputSet previous (out, {"a.txt", "keep.txt", "b.txt", "done.json"}, "done.json");
+    io::writeTextAtomic (previous.stagingPath ("a.txt"), "old a");
+    io::writeTextAtomic (previous.stagingPath ("keep.txt"), "old keep");
+    io::writeTextAtomic (previous.stagingPath ("done.json"), "old");
+    previous.commit ();
+  }
+  test::writeFile (dir / "out/mine.txt", "not cuefusion's");
+  const pid_t dead = fork ();
+  if (dead == 0)
+    _exit (0);
+  waitpid (dead, nullptr, 0);
+  const std::string staging = out + "/.cuefusion-staging-" + std::to_string (dead) + "-abcdef";
+  boost::filesystem::create_directories (staging + "/.previous");
+  test::writeFile (staging + "/.journal", "done.json\na.txt\nb.txt\nkeep.txt\n");
+  boost::filesystem::rename (out + "/done.json", staging + "/.previous/done.json");
+  boost::filesystem::rename (out + "/a.txt", staging + "/.previous/a.txt");
+  test::writeFile (out + "/a.txt", "new a");   // moved in
+  test::writeFile (out + "/b.txt", "new b");   // moved in, had no old counterpart
+  test::writeFile (staging + "/keep.txt", "new keep");  // not moved yet
+  test::writeFile (staging + "/done.json", "new");      // the marker never arrived
+
+  std::unique_ptr<io::OutputSet> next = std::make_unique<io::OutputSet> (out, std::vector<std::string>{"a.txt", "keep.txt", "b.txt", "done.json"}, "done.json");
+  EXPECT_EQ (test::readFile (out + "/done.json"), "old");
+  EXPECT_EQ (test::readFile (out + "/a.txt"), "old a");
+  EXPECT_EQ (test::readFile (out + "/keep.txt"), "old keep");
+  EXPECT_FALSE (boost::filesystem::exists (out + "/b.txt"));
+  EXPECT_EQ (test::readFile (out + "/mine.txt"), "not cuefusion's");
+  EXPECT_FALSE (boost::filesystem::exists (staging));
+  next.reset ();
+
+  // A commit that finished (its marker moved in) but was killed before removing its
+  // staging folder: the folder is simply removed, the new set stays.
+  const std::string finished = out + "/.cuefusion-staging-" + std::to_string (dead) + "-fedcba";
+  boost::filesystem::create_directories (finished + "/.previous");
+  test::writeFile (finished + "/.journal", "done.json\na.txt\n");
+  test::writeFile (finished + "/.previous/a.txt", "older");
+  {
+    io::OutputSet after (out, {"a.txt", "done.json"}, "done.json");
+  }
+  EXPECT_EQ (test::readFile (out + "/a.txt"), "old a");
+  EXPECT_FALSE (boost::filesystem::exists (finished));
 }

@@ -155,13 +155,19 @@ TEST (ImageCodec, ReadsThePixelsOpenCvReads)
   bytes[bytes.find ("IDAT") + 12] ^= 0x55;
   test::writeFile (dir / "corrupt.png", bytes);
   test::expectError ([&] { io::readImage (dir / "corrupt.png", cv::IMREAD_COLOR); }, "corrupt.png", "libpng");
-  // A header claiming more pixels than any frame: refused before anything is allocated.
-  bytes = test::readFile (dir / "gray8.png");
-  const unsigned char huge[8] = {0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00};  // 65536 x 65536
-  bytes.replace (16, 8, reinterpret_cast<const char*> (huge), 8);
-  const std::uint32_t crc = crc32 (bytes.substr (12, 17));  // "IHDR" and its 13 bytes
-  for (int k = 0; k < 4; ++k)
-    bytes[static_cast<std::size_t> (29 + k)] = static_cast<char> ((crc >> (24 - 8 * k)) & 0xffu);
-  test::writeFile (dir / "huge.png", bytes);
-  test::expectError ([&] { io::readImage (dir / "huge.png", cv::IMREAD_COLOR); }, "huge.png", "larger");
+  // Headers claiming more pixels than any frame (65536², and 16384² — 2 to 9.5 GB decoded
+  // from a 510 KB file before): refused before anything is allocated.
+  const std::string gray = test::readFile (dir / "gray8.png");
+  for (const unsigned char side : {0x01, 0x00})
+  {
+    bytes = gray;
+    const unsigned char second = side ? 0x00 : 0x40;  // 0x00010000 = 65536, 0x00004000 = 16384
+    const unsigned char huge[8] = {0x00, side, second, 0x00, 0x00, side, second, 0x00};
+    bytes.replace (16, 8, reinterpret_cast<const char*> (huge), 8);
+    const std::uint32_t crc = crc32 (bytes.substr (12, 17));  // "IHDR" and its 13 bytes
+    for (int k = 0; k < 4; ++k)
+      bytes[static_cast<std::size_t> (29 + k)] = static_cast<char> ((crc >> (24 - 8 * k)) & 0xffu);
+    test::writeFile (dir / "huge.png", bytes);
+    test::expectError ([&] { io::readImage (dir / "huge.png", cv::IMREAD_COLOR); }, "huge.png", "larger");
+  }
 }

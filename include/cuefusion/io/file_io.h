@@ -118,6 +118,12 @@ private:
   int lock_ = -1;         ///< the folder, open and flock()ed for the set's lifetime
 };
 
+/** \brief \a j as JSON text (\a indent as nlohmann::json::dump; -1: one line). Text that
+  * is not UTF-8 (a path or class name of other bytes) is written with U+FFFD for each bad
+  * byte instead of failing: every JSON cuefusion writes or quotes goes through here. */
+std::string
+jsonText (const nlohmann::json& j, int indent = -1);
+
 /** \brief Writes text atomically (temporary file, then rename). */
 void
 writeTextAtomic (const std::string& path, const std::string& text);

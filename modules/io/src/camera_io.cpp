@@ -39,7 +39,7 @@ readIntrinsicsJson (const std::string& path)
       continue;
     // Read wide: an int read of 4294967616 would silently become 320.
     if (!j[key].is_number_integer () || j[key].get<long long> () < 1 || j[key].get<long long> () > 65536)
-      throw Error (path, std::string ("\"") + key + "\" must be an integer in [1, 65536], found " + j[key].dump ());
+      throw Error (path, std::string ("\"") + key + "\" must be an integer in [1, 65536], found " + jsonText (j[key]));
     *target = static_cast<int> (j[key].get<long long> ());
   }
   return camera;
@@ -90,7 +90,7 @@ writeIntrinsicsJson (const std::string& path, const PinholeCamera& c)
   j["width"] = c.width;
   j["height"] = c.height;
   j["intrinsic_matrix"] = {c.fx, 0.0, 0.0, 0.0, c.fy, 0.0, c.cx, c.cy, 1.0};
-  writeTextAtomic (path, j.dump (1, '\t') + "\n");
+  writeTextAtomic (path, j.dump (1, '\t', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 void

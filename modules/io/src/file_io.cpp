@@ -248,11 +248,38 @@ namespace
 {
 const std::string kStagingPrefix = ".cuefusion-staging-";
 
-/** Staging folders of processes that no longer run (killed while writing). */
+const std::string kJournal = ".journal", kPrevious = ".previous";
+
+/** The previous set, put back from the staging folder \a staging of a commit that was
+  * killed before its marker arrived: the entries it had moved in (its journal names them)
+  * are removed, those it had moved aside (`.previous/`) return. */
+void
+restorePreviousSet (const fs::path& dir, const fs::path& staging)
+{
+  std::istringstream journal (readTextFile ((staging / kJournal).string ()));
+  std::string marker, name;
+  std::getline (journal, marker);
+  if (marker.empty () || !fs::exists (fs::symlink_status (staging / marker)))
+    return;  // the new marker had arrived: that commit finished; nothing to put back
+  boost::system::error_code ec;
+  while (std::getline (journal, name))
+    if (!name.empty () && !fs::exists (fs::symlink_status (staging / name)))
+      fs::remove_all (dir / name, ec);  // moved in by the killed commit
+  for (fs::directory_iterator it (staging / kPrevious, ec), end; !ec && it != end; it.increment (ec))
+  {
+    boost::system::error_code ignored;
+    fs::remove_all (dir / it->path ().filename (), ignored);
+    fs::rename (it->path (), dir / it->path ().filename (), ignored);
+  }
+}
+
+/** Staging folders of processes that no longer run (killed while writing); a commit
+  * killed half-way gets the previous set back first. */
 void
 removeStaleStaging (const fs::path& dir)
 {
   boost::system::error_code ec;
+  std::vector<fs::path> stale;
   for (fs::directory_iterator it (dir, ec), end; !ec && it != end; it.increment (ec))
   {
     const std::string name = it->path ().filename ().string ();
@@ -260,10 +287,23 @@ removeStaleStaging (const fs::path& dir)
       continue;
     const long pid = std::strtol (name.c_str () + kStagingPrefix.size (), nullptr, 10);
     if (pid > 0 && ::kill (static_cast<pid_t> (pid), 0) != 0 && errno == ESRCH)
+      stale.push_back (it->path ());
+  }
+  for (const fs::path& staging : stale)
+  {
+    if (fs::is_regular_file (staging / kJournal, ec))
     {
-      boost::system::error_code ignored;
-      fs::remove_all (it->path (), ignored);
+      try
+      {
+        restorePreviousSet (dir, staging);
+      }
+      catch (const Error&)
+      {
+        continue;  // an unreadable journal: left as it is, for a person to look at
+      }
     }
+    boost::system::error_code ignored;
+    fs::remove_all (staging, ignored);
   }
 }
 
@@ -370,6 +410,12 @@ OutputSet::commit ()
   }
   if (!fs::create_directory (aside, ec) || ec)
     throw Error (dir_, "cannot create a folder for the previous outputs: " + ec.message ());
+  // What this commit moves in, for the next writer should it be killed half-way
+  // (restorePreviousSet): the marker first, then the entries.
+  std::string journal = marker_ + "\n";
+  for (const std::string& name : staged)
+    journal += name + "\n";
+  writeTextAtomic ((staging / kJournal).string (), journal);
 
   // A journal of what moved, to put everything back if a rename fails half-way.
   std::vector<std::pair<fs::path, fs::path>> moved;  // (from, to)
@@ -467,6 +513,12 @@ parseJson (const std::string& text, const std::string& source)
   {
     throw Error (source, std::string ("not valid JSON (") + e.what () + ")");
   }
+}
+
+std::string
+jsonText (const nlohmann::json& j, int indent)
+{
+  return j.dump (indent, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 nlohmann::json

@@ -25,8 +25,10 @@ namespace detail
 {
 namespace
 {
-// Larger images are refused before anything is allocated (a header can claim any size).
-constexpr double kMaxPixels = double (1 << 28);
+// Larger images are refused before anything is allocated (a header can claim any size,
+// and 510 KB of PNG can declare 16384 x 16384): 2^25 pixels is 8192 x 4096, twice a 4K
+// colour camera's frame, at most 256 MB decoded (16-bit RGBA).
+constexpr double kMaxPixels = double (1 << 25);
 
 /** cv::imdecode's rule: the type decoded for an image stored as \a native. */
 int
@@ -192,7 +194,7 @@ decodePng (const std::vector<uchar>& bytes, int flags, std::string& failure, std
   if (double (header.width) * header.height > kMaxPixels)
   {
     failure = "image of " + std::to_string (header.width) + "x" + std::to_string (header.height) +
-              " pixels is larger than cuefusion reads (2^28 pixels)";
+              " pixels is larger than cuefusion reads (2^25 pixels)";
     return cv::Mat ();
   }
   int native_channels = 1;
@@ -376,7 +378,7 @@ decodeJpeg (const std::vector<uchar>& bytes, int flags, std::string& failure, st
   if (double (cinfo.image_width) * cinfo.image_height > kMaxPixels)
   {
     failure = "image of " + std::to_string (cinfo.image_width) + "x" + std::to_string (cinfo.image_height) +
-              " pixels is larger than cuefusion reads (2^28 pixels)";
+              " pixels is larger than cuefusion reads (2^25 pixels)";
     return cv::Mat ();
   }
   const int type = CV_MAKETYPE (CV_8U, CV_MAT_CN (decodedType (cinfo.num_components > 1 ? CV_8UC3 : CV_8UC1, flags)));

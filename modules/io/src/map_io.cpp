@@ -391,7 +391,7 @@ readSegmentsJson (const std::string& path)
     if (!s.is_object () || !s.contains ("id") || !s.at ("id").is_number_unsigned () || s.at ("id").get<std::uint64_t> () == 0 ||
         s.at ("id").get<std::uint64_t> () > std::numeric_limits<std::uint32_t>::max ())
       throw bad ("every segment needs an integer \"id\" in [1, 2^32), got " +
-                 (s.is_object () && s.contains ("id") ? s.at ("id").dump () : std::string ("none")));
+                 (s.is_object () && s.contains ("id") ? jsonText (s.at ("id")) : std::string ("none")));
     SegmentEntry entry;
     entry.id = s.at ("id").get<std::uint32_t> ();
     if (!seen.insert (entry.id).second)
@@ -407,7 +407,7 @@ readSegmentsJson (const std::string& path)
       entry.score = s.at ("score").is_number () ? s.at ("score").get<double> () : -1.0;
       if (!(entry.score >= 0.0 && entry.score <= 1.0))
         throw bad ("segment " + std::to_string (entry.id) + ": \"score\" must be a number in [0, 1] or null, got " +
-                   s.at ("score").dump ());
+                   jsonText (s.at ("score")));
     }
     entries.push_back (entry);
   }

@@ -520,7 +520,7 @@ writeRandomViews (const RandomSceneGenerator& generator, std::size_t count, int 
         progress (i + 1);
     }
     writeTextAtomic ((fs::path (staging) / "views.json").string (),
-                     nlohmann::json ({{"generator", generatorJson (generator)}, {"depth_units_per_metre", 1000}, {"views", views}}).dump (1) + "\n");
+                     jsonText (nlohmann::json ({{"generator", generatorJson (generator)}, {"depth_units_per_metre", 1000}, {"views", views}}), 1) + "\n");
   });
 }
 }  // namespace io

@@ -1,3 +1,4 @@
+#include <cuefusion/io/file_io.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/scene_renderer.h>
 #include <cuefusion/io/simulated_detector.h>
@@ -261,7 +262,7 @@ detectionsToJson (const DetectionResult& result)
   nlohmann::json instances = nlohmann::json::array ();
   for (const Detection& d : result.detections)
     instances.push_back ({{"id", d.id}, {"class_id", d.class_id}, {"class_name", d.class_name}, {"score", d.score}});
-  return nlohmann::json ({{"instances", instances}}).dump (1) + "\n";
+  return jsonText (nlohmann::json ({{"instances", instances}}), 1) + "\n";
 }
 }  // namespace io
 }  // namespace cuefusion

@@ -139,7 +139,7 @@ sceneJson (const SyntheticSequence& sequence)
                       {"camera", {{"width", c.width}, {"height", c.height}, {"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}}},
                       {"classes", scene.classNames ()},
                       {"instances", instances}};
-  return j.dump (1) + "\n";
+  return jsonText (j, 1) + "\n";
 }
 }  // namespace
 

@@ -91,7 +91,7 @@ MaskFolderSegmenter::readInstanceMasks (const std::string& png, cv::Size size, c
       // (a class_id of 1e20 would become INT_MIN, a score of 1e300 outvote every mask).
       const auto& id_value = entry.at ("id");
       if (!id_value.is_number_integer ())
-        throw Error (json_path, "instance id " + id_value.dump () + " is not an integer");
+        throw Error (json_path, "instance id " + io::jsonText (id_value) + " is not an integer");
       const long long id = id_value.get<long long> ();
       const auto it = std::find (id_values.begin (), id_values.end (), id);
       if (it == id_values.end ())
@@ -101,7 +101,7 @@ MaskFolderSegmenter::readInstanceMasks (const std::string& png, cv::Size size, c
       {
         const auto& class_id = entry.at ("class_id");
         if (!class_id.is_number_integer () || class_id.get<long long> () < -1 || class_id.get<long long> () > 1000000)
-          throw Error (json_path, "class_id " + class_id.dump () + " of instance " + std::to_string (id) +
+          throw Error (json_path, "class_id " + io::jsonText (class_id) + " of instance " + std::to_string (id) +
                                     " is not an integer in [-1, 1000000]");
         instance.class_id = class_id.get<int> ();
       }
@@ -113,7 +113,7 @@ MaskFolderSegmenter::readInstanceMasks (const std::string& png, cv::Size size, c
       {
         const auto& score = entry.at ("score");
         if (!score.is_number () || !(score.get<double> () >= 0.0 && score.get<double> () <= 1.0))
-          throw Error (json_path, "score " + score.dump () + " of instance " + std::to_string (id) + " is not in [0, 1]");
+          throw Error (json_path, "score " + io::jsonText (score) + " of instance " + std::to_string (id) + " is not in [0, 1]");
         instance.score = score.get<float> ();
       }
     }
