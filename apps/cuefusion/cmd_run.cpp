@@ -1,4 +1,5 @@
 #include "cli.h"
+#include "process.h"
 #include "run_display.h"
 
 #include <cuefusion/common/exceptions.h>
@@ -55,20 +56,7 @@ onInterrupt (int)
 class InterruptHandlers
 {
 public:
-  InterruptHandlers ()
-  {
-    g_signals = 0;
-    struct sigaction action{};
-    action.sa_handler = onInterrupt;
-    sigemptyset (&action.sa_mask);
-    sigaction (SIGINT, &action, &previous_int_);
-    sigaction (SIGTERM, &action, &previous_term_);
-  }
-  ~InterruptHandlers ()
-  {
-    sigaction (SIGINT, &previous_int_, nullptr);
-    sigaction (SIGTERM, &previous_term_, nullptr);
-  }
+  InterruptHandlers () : handlers_ ((g_signals = 0, onInterrupt)) {}
   static bool
   interrupted ()
   {
@@ -81,7 +69,7 @@ public:
   }
 
 private:
-  struct sigaction previous_int_, previous_term_;
+  StopSignalHandlers handlers_;
 };
 
 /** What `run` writes into --out (outputs.json, written last, marks a complete set). */

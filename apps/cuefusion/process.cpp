@@ -3,6 +3,7 @@
 #include <boost/filesystem.hpp>
 
 #include <atomic>
+#include <memory>
 
 #include <cerrno>
 #include <csignal>
@@ -57,6 +58,21 @@ selfExecutable ()
   return ec ? std::string () : self.string ();
 }
 
+StopSignalHandlers::StopSignalHandlers (void (*handler) (int))
+{
+  struct sigaction action{};
+  action.sa_handler = handler;
+  sigemptyset (&action.sa_mask);
+  sigaction (SIGINT, &action, &previous_int_);
+  sigaction (SIGTERM, &action, &previous_term_);
+}
+
+StopSignalHandlers::~StopSignalHandlers ()
+{
+  sigaction (SIGINT, &previous_int_, nullptr);
+  sigaction (SIGTERM, &previous_term_, nullptr);
+}
+
 namespace
 {
 std::atomic<pid_t> g_child{0};
@@ -75,31 +91,22 @@ forwardSignal (int signal)
 class SignalForwarding
 {
 public:
-  explicit SignalForwarding (bool on) : on_ (on)
+  explicit SignalForwarding (bool on)
   {
-    if (!on_)
+    if (!on)
       return;
     g_forwarded = 0;
-    struct sigaction action{};
-    action.sa_handler = forwardSignal;
-    sigemptyset (&action.sa_mask);
-    sigaction (SIGINT, &action, &previous_int_);
-    sigaction (SIGTERM, &action, &previous_term_);
+    handlers_ = std::make_unique<StopSignalHandlers> (forwardSignal);
   }
   ~SignalForwarding ()
   {
-    if (!on_)
-      return;
     g_child = 0;
-    sigaction (SIGINT, &previous_int_, nullptr);
-    sigaction (SIGTERM, &previous_term_, nullptr);
   }
   SignalForwarding (const SignalForwarding&) = delete;
   SignalForwarding& operator= (const SignalForwarding&) = delete;
 
 private:
-  bool on_;
-  struct sigaction previous_int_{}, previous_term_{};
+  std::unique_ptr<StopSignalHandlers> handlers_;
 };
 }  // namespace
 

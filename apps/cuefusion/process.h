@@ -1,5 +1,6 @@
 #pragma once
 
+#include <csignal>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,20 @@ struct Redirect
 {
   std::string path;     ///< "" = inherited from this process
   bool append = false;  ///< append to \a path instead of truncating it
+};
+
+/** \a handler on SIGINT and SIGTERM for the object's lifetime; the handlers before it
+  * come back at its end. */
+class StopSignalHandlers
+{
+public:
+  explicit StopSignalHandlers (void (*handler) (int));
+  ~StopSignalHandlers ();
+  StopSignalHandlers (const StopSignalHandlers&) = delete;
+  StopSignalHandlers& operator= (const StopSignalHandlers&) = delete;
+
+private:
+  struct sigaction previous_int_{}, previous_term_{};
 };
 
 /** Runs \a argv (argv[0] is looked up on PATH unless it holds a slash) in \a directory
