@@ -452,6 +452,13 @@ TEST (OnnxModelCheck, MalformedModelsAreRefusedBeforeOpenCVReadsThem)
   for (int i = 0; i < 20; ++i)
     nested = bytes (1, bytes (5, bytes (6, nested)));  // node → attribute → graph
   refused (model (nested), "nested more than 16");
+  // A node reading a name nothing defines (OpenCV's importer crashed on it: found by
+  // fuzzing), and a graph output defined nowhere.
+  const std::string conv = bytes (1, bytes (1, "x") + bytes (1, "w") + bytes (2, "y") + bytes (4, "Conv"));
+  const std::string input_x = bytes (11, bytes (1, "x"));
+  EXPECT_NO_THROW (checkOnnxModelBytes (model (conv + input_x + bytes (5, tensor ({1}, bytes (9, std::string (4, '\0')))) + bytes (12, bytes (1, "y"))), "m"));
+  refused (model (conv + input_x), "reads 'w', which nothing before it defines");
+  refused (model (input_x + bytes (12, bytes (1, "z"))), "output 'z' is defined nowhere");
   const std::string good = model (bytes (5, tensor ({2}, bytes (9, std::string (8, '\0')))));
   refused (good.substr (0, good.size () - 3), "longer than the file");
   refused (number (1, 8), "no graph");

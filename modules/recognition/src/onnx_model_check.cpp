@@ -7,7 +7,9 @@
 #include <cuefusion/recognition/onnx_model_check.h>
 
 #include <cstring>
+#include <set>
 #include <string>
+#include <vector>
 
 namespace cuefusion
 {
@@ -17,8 +19,10 @@ namespace
 {
 // Field numbers of onnx.proto (ONNX IR version 9).
 constexpr std::uint32_t kModelGraph = 7;
-constexpr std::uint32_t kGraphNode = 1, kGraphInitializer = 5, kGraphSparseInitializer = 15;
-constexpr std::uint32_t kNodeAttribute = 5;
+constexpr std::uint32_t kGraphNode = 1, kGraphInitializer = 5, kGraphInput = 11, kGraphOutput = 12,
+                        kGraphSparseInitializer = 15;
+constexpr std::uint32_t kNodeInput = 1, kNodeOutput = 2, kNodeAttribute = 5;
+constexpr std::uint32_t kValueInfoName = 1, kTensorName = 8;
 constexpr std::uint32_t kAttributeTensor = 5, kAttributeGraph = 6, kAttributeTensors = 10, kAttributeGraphs = 11,
                         kAttributeSparseTensor = 22, kAttributeSparseTensors = 23;
 constexpr std::uint32_t kSparseValues = 1, kSparseIndices = 2;
@@ -228,19 +232,37 @@ checkTensor (Message m)
             (held == ~std::uint64_t{0} ? std::string ("a partial value") : std::to_string (held)));
 }
 
-void checkGraph (Message m, int depth);
+using Names = std::set<std::string>;
+
+void checkGraph (Message m, int depth, const Names& outer);
+
+/** The string field \a number of a message (its last occurrence), or "". */
+std::string
+stringField (Message m, std::uint32_t number)
+{
+  std::string value;
+  Message::Field f;
+  while (m.next (f))
+    if (f.number == number && f.wire == kLengthDelimited)
+      value.assign (f.bytes, f.size);
+  return value;
+}
 
 void
-checkSparseTensor (Message m)
+checkSparseTensor (Message m, Names* defined)
 {
   Message::Field f;
   while (m.next (f))
     if (f.number == kSparseValues || f.number == kSparseIndices)
+    {
       checkTensor (m.sub (f));
+      if (defined && f.number == kSparseValues)
+        defined->insert (stringField (m.sub (f), kTensorName));
+    }
 }
 
 void
-checkAttribute (Message m, int depth)
+checkAttribute (Message m, int depth, const Names& visible)
 {
   Message::Field f;
   while (m.next (f))
@@ -248,31 +270,61 @@ checkAttribute (Message m, int depth)
     if (f.number == kAttributeTensor || f.number == kAttributeTensors)
       checkTensor (m.sub (f));
     else if (f.number == kAttributeSparseTensor || f.number == kAttributeSparseTensors)
-      checkSparseTensor (m.sub (f));
+      checkSparseTensor (m.sub (f), nullptr);
     else if (f.number == kAttributeGraph || f.number == kAttributeGraphs)
-      checkGraph (m.sub (f), depth + 1);
+      checkGraph (m.sub (f), depth + 1, visible);
   }
 }
 
+/** Every tensor checked, and every name a node or the graph's outputs use defined before
+  * it (a graph input, an initializer, an earlier node's output, or a name of the graphs
+  * around it): OpenCV's importer dereferences what it looks up by name. */
 void
-checkGraph (Message m, int depth)
+checkGraph (Message m, int depth, const Names& outer)
 {
   if (depth > kMaxGraphDepth)
     m.fail ("graphs nested more than " + std::to_string (kMaxGraphDepth) + " deep");
+  Names defined = outer;
   Message::Field f;
-  while (m.next (f))
+  for (Message pass = m; pass.next (f);)
   {
     if (f.number == kGraphInitializer)
-      checkTensor (m.sub (f));
-    else if (f.number == kGraphSparseInitializer)
-      checkSparseTensor (m.sub (f));
-    else if (f.number == kGraphNode)
     {
-      Message node = m.sub (f);
+      checkTensor (pass.sub (f));
+      defined.insert (stringField (pass.sub (f), kTensorName));
+    }
+    else if (f.number == kGraphSparseInitializer)
+      checkSparseTensor (pass.sub (f), &defined);
+    else if (f.number == kGraphInput)
+      defined.insert (stringField (pass.sub (f), kValueInfoName));
+  }
+  for (Message pass = m; pass.next (f);)
+  {
+    if (f.number == kGraphNode)
+    {
+      Message node = pass.sub (f);
       Message::Field a;
-      while (node.next (a))
-        if (a.number == kNodeAttribute)
-          checkAttribute (node.sub (a), depth);
+      std::vector<std::string> outputs;
+      for (Message fields = node; fields.next (a);)
+      {
+        if (a.number == kNodeInput)
+        {
+          const std::string name = a.wire == kLengthDelimited ? std::string (a.bytes, a.size) : std::string ("?");
+          if (!name.empty () && !defined.count (name))
+            m.fail ("a node reads '" + name.substr (0, 64) + "', which nothing before it defines");
+        }
+        else if (a.number == kNodeOutput && a.wire == kLengthDelimited)
+          outputs.emplace_back (a.bytes, a.size);
+        else if (a.number == kNodeAttribute)
+          checkAttribute (node.sub (a), depth, defined);
+      }
+      defined.insert (outputs.begin (), outputs.end ());
+    }
+    else if (f.number == kGraphOutput)
+    {
+      const std::string name = stringField (pass.sub (f), kValueInfoName);
+      if (!defined.count (name))
+        m.fail ("the graph's output '" + name.substr (0, 64) + "' is defined nowhere");
     }
   }
 }
@@ -287,7 +339,7 @@ checkOnnxModelBytes (const std::string& bytes, const std::string& source)
   while (model.next (f))
     if (f.number == kModelGraph)
     {
-      checkGraph (model.sub (f), 0);
+      checkGraph (model.sub (f), 0, Names ());
       graph = true;
     }
   if (!graph)
