@@ -17,7 +17,7 @@ namespace reconstruction
   * lies in [-2^19, 2^19), the 20 bits per axis that the surface extraction packs into an
   * edge key. At 1 cm voxels that is ±5.2 km from the origin. Blocks outside are never
   * allocated, a volume file naming one is refused, and TSDFVolume::integrate refuses a
-  * camera outside (addressableRadius()).
+  * camera whose depth range reaches outside.
   */
 constexpr int kVoxelCoordinateBits = 20;
 constexpr std::int32_t kVoxelCoordinateLimit = 1 << (kVoxelCoordinateBits - 1);

@@ -111,9 +111,7 @@ struct StampedFile
 std::vector<StampedFile>
 readTumFileList (const fs::path& list)
 {
-  if (!fs::is_regular_file (list))
-    throw Error (list.string (), "no such file");
-  std::istringstream in (readTextFile (list.string ()));
+  std::istringstream in (readTextFile (list.string ()));  // names a missing file, a FIFO, a folder
   std::vector<StampedFile> entries;
   std::string line;
   int line_no = 0;
