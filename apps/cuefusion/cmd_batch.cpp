@@ -42,6 +42,9 @@ namespace
 const char* kPlanFile = "batch.json";
 const char* kTaskFile = "batch-task.json";
 const char* kLogFile = "batch.log";
+/** How long a stopped task may take to finish its frame and write its outputs before
+  * GNU parallel kills it (a large map's files take seconds; Slurm's KillWait is 30 s). */
+constexpr int kTaskStopGraceMs = 300000;
 /** Names in DIR that are batch's own: no sequence folder may take them. */
 const std::set<std::string> kReservedNames = {"batch.json", "summary.json", "summary.csv", "summary_plots", "joblog.txt", "eval"};
 
@@ -499,7 +502,12 @@ runTasks (const BatchPlan& plan, const std::vector<std::size_t>& pending, unsign
 {
   if (findOnPath ("parallel").empty ())
     throw Error ("parallel", "GNU parallel is not installed (Debian package parallel; scripts/setup installs it)");
+  // --termseq: stopped, parallel sends its tasks TERM and by default TERM again 200 ms
+  // later, then KILL: a run still writing its outputs would be cut off and leave a staging
+  // folder. One TERM, and KILL only after kTaskStopGraceMs (a second signal to batch
+  // still stops everything at once: parallel sends TERM again, and a run's second abandons).
   std::vector<std::string> argv = {"parallel", "--will-cite", "--jobs", std::to_string (jobs), "--halt", "never",
+                                   "--termseq", "TERM," + std::to_string (kTaskStopGraceMs) + ",KILL,25",
                                    "--joblog", "+" + (fs::path (plan.folder) / "joblog.txt").string ()};
   if (!hosts.empty ())
   {

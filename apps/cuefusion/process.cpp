@@ -152,10 +152,22 @@ runProcess (const std::vector<std::string>& argv, const Redirect& out, const Red
     posix_spawn_file_actions_adddup2 (&actions, 1, 2);
   else
     redirect (2, err);
+  // A forwarding parent starts its child in a process group of its own: a signal sent to
+  // the parent's group (Ctrl-C at a terminal, GNU parallel stopping a job) then reaches the
+  // child once, from the parent, not twice (the group's and the forwarded one), and a
+  // child's second signal keeps its meaning (`run`: abandon writing).
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init (&attributes);
+  if (forward_signals)
+  {
+    posix_spawnattr_setflags (&attributes, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup (&attributes, 0);
+  }
   const SignalForwarding forwarding (forward_signals);
   pid_t pid = 0;
-  const int spawned = posix_spawn (&pid, c_args.front (), &actions, nullptr, c_args.data (), environ);
+  const int spawned = posix_spawn (&pid, c_args.front (), &actions, &attributes, c_args.data (), environ);
   posix_spawn_file_actions_destroy (&actions);
+  posix_spawnattr_destroy (&attributes);
   if (spawned != 0)
   {
     result.error = std::string (std::strerror (spawned));

@@ -52,7 +52,8 @@ private:
   * ("" = this process's), with stdout and stderr redirected as given, and waits for it.
   * With \a forward_signals, a SIGINT or SIGTERM this process receives meanwhile is sent
   * on to the child (which decides how to stop) and the wait goes on until it ends: a
-  * parent never leaves children writing behind it (ProcessResult::forwarded says so). */
+  * parent never leaves children writing behind it (ProcessResult::forwarded says so). Such
+  * a child runs in a process group of its own, so that it receives each signal once. */
 ProcessResult
 runProcess (const std::vector<std::string>& argv, const Redirect& out = Redirect (), const Redirect& err = Redirect (),
             const std::string& directory = std::string (), bool forward_signals = false);

@@ -289,9 +289,11 @@ TEST_F (Cli, RunSegmentsWithMasks)
 
 namespace
 {
-/** Starts `cuefusion ARGS` without waiting; stdout/stderr go to files of \a dir. */
+/** Starts `cuefusion ARGS` without waiting; stdout/stderr go to files of \a dir. With
+  * \a own_group it leads a process group, as a shell's foreground job does (kill (-pid)
+  * then signals it the way Ctrl-C at a terminal does: every process of the group). */
 pid_t
-startCuefusion (const std::vector<std::string>& args, const test::TempDir& dir)
+startCuefusion (const std::vector<std::string>& args, const test::TempDir& dir, bool own_group = false)
 {
   std::vector<std::string> argv_strings = {CUEFUSION_BINARY};
   argv_strings.insert (argv_strings.end (), args.begin (), args.end ());
@@ -304,9 +306,17 @@ startCuefusion (const std::vector<std::string>& args, const test::TempDir& dir)
   const std::string out = dir / "bg_out.txt", err = dir / "bg_err.txt";
   posix_spawn_file_actions_addopen (&actions, 1, out.c_str (), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen (&actions, 2, err.c_str (), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init (&attributes);
+  if (own_group)
+  {
+    posix_spawnattr_setflags (&attributes, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup (&attributes, 0);
+  }
   pid_t pid = -1;
-  const int spawned = posix_spawn (&pid, CUEFUSION_BINARY, &actions, nullptr, argv.data (), environ);
+  const int spawned = posix_spawn (&pid, CUEFUSION_BINARY, &actions, &attributes, argv.data (), environ);
   posix_spawn_file_actions_destroy (&actions);
+  posix_spawnattr_destroy (&attributes);
   return spawned == 0 ? pid : -1;
 }
 
@@ -407,10 +417,12 @@ TEST_F (Cli, OneWriterAFolderAndBatchWaitsForItsChildren)
   EXPECT_EQ (outputs["stopped_early"], true);  // the first run's set, not the second's 2 frames
   EXPECT_NE (outputs["frames"], 2);
 
-  // SIGTERM to batch: it passes it on (parallel, the task, the run) and returns only when
-  // nothing of it is left writing, with the folder's lock free for the next call.
+  // Ctrl-C to batch's process group: batch passes it on (parallel, the task, the run), the
+  // run receives one signal, not one from each process of the chain, so it stops after its
+  // frame and writes its outputs, and batch returns only when nothing of it is left
+  // writing, with the folder's lock free for the next call.
   const std::string batch = dir / "batch";
-  pid = startCuefusion ({"batch", seq, "--out", batch}, dir);
+  pid = startCuefusion ({"batch", seq, "--out", batch}, dir, true);
   ASSERT_GT (pid, 0);
   bool started = false;
   for (int i = 0; i < 6000 && !started; ++i)
@@ -423,12 +435,15 @@ TEST_F (Cli, OneWriterAFolderAndBatchWaitsForItsChildren)
       std::this_thread::sleep_for (std::chrono::milliseconds (10));
   }
   ASSERT_TRUE (started);
-  kill (pid, SIGTERM);
+  kill (-pid, SIGINT);
   waitpid (pid, &status, 0);
   ASSERT_TRUE (WIFEXITED (status));
   EXPECT_EQ (WEXITSTATUS (status), 1);
   const std::string err = test::readFile (dir / "bg_err.txt");
-  EXPECT_NE (err.find ("stopped by SIGTERM"), std::string::npos) << err;
+  EXPECT_NE (err.find ("stopped by SIGINT"), std::string::npos) << err;
+  const std::string stopped = batch + "/seq/outputs.json";
+  ASSERT_TRUE (boost::filesystem::exists (stopped)) << test::readFile (batch + "/seq/batch.log");
+  EXPECT_EQ (nlohmann::json::parse (test::readFile (stopped))["stopped_early"], true);
   for (boost::filesystem::recursive_directory_iterator it (batch), end; it != end; ++it)
     EXPECT_NE (it->path ().filename ().string ().rfind (".cuefusion-staging-", 0), 0u) << it->path () << " left writing";
   const auto again = run ("batch " + seq + " --out " + batch);  // redoes the sequence cut short
