@@ -7,6 +7,9 @@
 #include <cuefusion/io/synthetic_sequence.h>
 
 #include <boost/filesystem.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <gtest/gtest.h>
 
 using namespace cuefusion;
@@ -91,6 +94,46 @@ TEST_F (BadInput, MismatchedCounts)
   test::expectError ([&] { io::openDataset (dir / "redwood"); }, "redwood", "3 depth images but 2 colour images");
   fs::remove (dir / "7s/frame-000001.color.png");
   test::expectError ([&] { io::openDataset (dir / "7s"); }, "frame-000001", "missing colour image");
+}
+
+TEST_F (BadInput, RedwoodPairsColourAndDepthByFrameNotBySortPosition)
+{
+  // Equal counts, one colour frame missing and another extra: by sort position depth 00001
+  // would take colour 00002 and every later frame its neighbour's colour.
+  fs::rename (dir / "redwood/image/00001.png", dir / "redwood/image/00003.png");
+  test::expectError ([&] { io::openDataset (dir / "redwood"); }, "depth/00001.png", "no colour image of its frame in image/");
+  // Redwood scans name a frame INDEX-STAMP with colour and depth stamps apart: the index pairs them.
+  fs::rename (dir / "redwood/image/00003.png", dir / "redwood/image/00001.png");
+  for (int i = 0; i < 3; ++i)
+  {
+    const std::string n = "0000" + std::to_string (i);
+    fs::rename (dir / ("redwood/depth/" + n + ".png"), dir / ("redwood/depth/" + n + "-00000" + std::to_string (40 - 3 * i) + ".png"));
+    fs::rename (dir / ("redwood/image/" + n + ".png"), dir / ("redwood/image/" + n + "-00000" + std::to_string (41 + i) + ".png"));
+  }
+  const io::DatasetGrabber::Ptr g = io::openDataset (dir / "redwood");
+  const io::DatasetGrabber::Ptr seven = io::openDataset (dir / "7s");
+  for (std::size_t i = 0; i < 3; ++i)
+  {
+    const cv::Mat a = g->readFrame (i)->color, b = seven->readFrame (i)->color;
+    ASSERT_EQ (a.size (), b.size ());
+    EXPECT_EQ (cv::norm (a, b, cv::NORM_INF), 0.0) << "frame " << i << " took another frame's colour";
+  }
+  // Two colour images of one frame: which one is meant is not for the reader to guess.
+  fs::copy_file (dir / "redwood/image/00002-0000043.png", dir / "redwood/image/2.png");
+  test::expectError ([&] { io::openDataset (dir / "redwood"); }, "image/", "names the same frame as");
+}
+
+TEST_F (BadInput, ColourOfAnotherAspectThanTheDepthIsRefused)
+{
+  const std::string color = dir / "7s/frame-000001.color.png";
+  const cv::Mat original = cv::imread (color, cv::IMREAD_COLOR);
+  ASSERT_EQ (original.cols * 48, original.rows * 64);  // the depth's aspect, at another resolution
+  cv::Mat square;
+  cv::resize (original, square, cv::Size (original.cols, original.cols));
+  ASSERT_TRUE (cv::imwrite (color, square));
+  const io::DatasetGrabber::Ptr g = io::openDataset (dir / "7s");
+  test::expectError ([&] { g->readFrame (1); }, "frame-000001.color.png", "another aspect than the depth's 64x48");
+  EXPECT_NO_THROW (g->readFrame (0));
 }
 
 TEST_F (BadInput, SyntheticOutputIsNeverHalfWritten)

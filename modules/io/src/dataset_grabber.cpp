@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -13,6 +14,13 @@ namespace cuefusion
 {
 namespace io
 {
+namespace
+{
+/** Largest relative difference of a colour image's horizontal and vertical scale to the
+  * depth image that is still taken as the same field of view. */
+constexpr double kAspectTolerance = 0.01;
+}  // namespace
+
 DatasetGrabber::DatasetGrabber (const std::string& root) : root_ (root) {}
 
 DatasetGrabber::~DatasetGrabber () { stop (); }
@@ -94,7 +102,14 @@ DatasetGrabber::registerToDepth (const cv::Mat& image, const std::string& path, 
     cv::remap (image, out, map_x_, map_y_, nearest ? cv::INTER_NEAREST : cv::INTER_LINEAR, cv::BORDER_CONSTANT);
     return out;
   }
-  // Same field of view at another resolution.
+  // Same field of view at another resolution: the same aspect (within kAspectTolerance, the
+  // rounding of sensors' crops, e.g. 1296x968 over 640x480), or the pixels would not meet
+  // the depth's and labels would land on other surfaces.
+  const double sx = static_cast<double> (image.cols) / camera_.width, sy = static_cast<double> (image.rows) / camera_.height;
+  if (std::abs (sx - sy) > kAspectTolerance * std::max (sx, sy))
+    throw Error (path, "image is " + std::to_string (image.cols) + "x" + std::to_string (image.rows) +
+                           ", another aspect than the depth's " + std::to_string (camera_.width) + "x" +
+                           std::to_string (camera_.height) + " (a colour camera of its own needs its intrinsics)");
   cv::Mat out;
   cv::resize (image, out, cv::Size (camera_.width, camera_.height), 0, 0, nearest ? cv::INTER_NEAREST : cv::INTER_AREA);
   return out;

@@ -84,6 +84,24 @@ siblingImage (const fs::path& dir, const std::string& stem)
   return "";
 }
 
+/** The frame a file of a Redwood folder belongs to: its stem's number ("000012" and "12"
+  * name one frame), or the number before its first '-' (the Redwood scans' "INDEX-STAMP",
+  * whose stamps differ between a frame's colour and depth), or else the stem itself. */
+std::string
+redwoodFrameKey (const std::string& stem)
+{
+  std::string key = stem;
+  const std::size_t dash = stem.find ('-');
+  if (dash != std::string::npos && dash > 0 && allDigits (stem.substr (0, dash)))
+    key = stem.substr (0, dash);
+  if (!key.empty () && allDigits (key))
+  {
+    const std::size_t first = key.find_first_not_of ('0');
+    key = first == std::string::npos ? "0" : key.substr (first);
+  }
+  return key;
+}
+
 void
 requireFolder (const fs::path& p, const std::string& what)
 {
@@ -237,6 +255,15 @@ RedwoodGrabber::RedwoodGrabber (const std::string& root, const Config& config) :
   requireFolder (color_dir, "image/ or color/");
   const std::vector<fs::path> depth = listImages (dir / "depth");
   const std::vector<fs::path> color = listImages (color_dir);
+  // Colour and depth are paired by frame (redwoodFrameKey), never by sort position: a
+  // missing or extra file would shift every later pair.
+  std::map<std::string, fs::path> color_of_frame;
+  for (const fs::path& c : color)
+  {
+    const auto [it, added] = color_of_frame.emplace (redwoodFrameKey (c.stem ().string ()), c);
+    if (!added)
+      throw Error (c.string (), "names the same frame as " + it->second.filename ().string ());
+  }
   if (depth.size () != color.size ())
     throw Error (root, std::to_string (depth.size ()) + " depth images but " + std::to_string (color.size ()) +
                            " colour images in " + color_dir.filename ().string () + "/");
@@ -255,7 +282,11 @@ RedwoodGrabber::RedwoodGrabber (const std::string& root, const Config& config) :
     r.timestamp = i / config.fps;
     r.name = depth[i].stem ().string ();
     r.depth_path = depth[i].string ();
-    r.color_path = color[i].string ();
+    const auto c = color_of_frame.find (redwoodFrameKey (r.name));
+    if (c == color_of_frame.end ())
+      throw Error (r.depth_path, "no colour image of its frame in " + color_dir.filename ().string () +
+                                     "/ (a frame's images share a name, or the number before '-')");
+    r.color_path = c->second.string ();
     if (!poses.empty ())
       r.pose = poses[i];
     r.instance_path = siblingImage (dir / "instance", r.name);
