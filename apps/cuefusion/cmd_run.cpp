@@ -208,7 +208,10 @@ continueSavedVolume (const std::string& path, const po::variables_map& vm, const
   const std::string keyframes_path = fs::path (path).replace_extension (".keyframes").string ();
   boost::system::error_code ec;
   if (fs::exists (keyframes_path, ec))
-    fusion.continueFrom (std::move (volume), std::move (labels), reconstruction::KeyframeDatabase::load (keyframes_path));
+  {
+    reconstruction::KeyframeDatabase database = reconstruction::KeyframeDatabase::load (keyframes_path, volume);
+    fusion.continueFrom (std::move (volume), std::move (labels), std::move (database));
+  }
   else
   {
     std::cerr << "cuefusion run: no " << keyframes_path << " beside the volume: the first frame can be placed only at "

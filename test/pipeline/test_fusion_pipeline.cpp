@@ -458,7 +458,8 @@ TEST (FusionPipeline, AContinuedMapKeepsItsObjects)
   pipeline::FusionPipeline continued = withReferencePoses (pipeline::SegmentationMode::Fused);
   reconstruction::TSDFVolume volume = reconstruction::TSDFVolume::load (dir / "volume.tsdf");
   segmentation::VoxelLabelLayer labels = segmentation::VoxelLabelLayer::load (dir / "volume.labels", volume);
-  continued.continueFrom (std::move (volume), std::move (labels), reconstruction::KeyframeDatabase::load (dir / "volume.keyframes"));
+  reconstruction::KeyframeDatabase keyframes = reconstruction::KeyframeDatabase::load (dir / "volume.keyframes", volume);
+  continued.continueFrom (std::move (volume), std::move (labels), std::move (keyframes));
   const auto loaded = continued.labelledCloud ();
   ASSERT_EQ (loaded->size (), saved->size ());
   std::map<std::uint32_t, std::uint32_t> forward, backward;  // saved ↔ loaded labels, one for one

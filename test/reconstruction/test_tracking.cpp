@@ -527,7 +527,7 @@ saveFirstFrames (const io::SyntheticSequence& sequence, std::size_t frames, cons
   const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, frames));
   EXPECT_LT (trackedRmse (run), 0.01);
   fusion.volume ().save (dir / "volume.tsdf");
-  fusion.keyframesForContinuing ().save (dir / "volume.keyframes");
+  fusion.keyframesForContinuing ().save (dir / "volume.keyframes", fusion.volume ());
 }
 }  // namespace
 
@@ -538,10 +538,11 @@ TEST (ContinueVolume, TheFirstFrameIsRelocalisedWhereTheLastRunStopped)
   const io::SyntheticSequence sequence = tabletopSequence (50, true);
   const test::TempDir dir;
   saveFirstFrames (sequence, 30, dir);
-  const KeyframeDatabase keyframes = KeyframeDatabase::load (dir / "volume.keyframes");
+  TSDFVolume volume = TSDFVolume::load (dir / "volume.tsdf");
+  const KeyframeDatabase keyframes = KeyframeDatabase::load (dir / "volume.keyframes", volume);
   ASSERT_GE (keyframes.size (), 2u);
   DenseReconstruction fusion;
-  fusion.continueFrom (TSDFVolume::load (dir / "volume.tsdf"), keyframes);
+  fusion.continueFrom (std::move (volume), keyframes);
   EXPECT_TRUE (fusion.awaitingPlacement ());
   const std::size_t blocks_loaded = fusion.volume ().blockCount ();
   EXPECT_GT (blocks_loaded, 100u);
@@ -577,7 +578,9 @@ TEST (ContinueVolume, AViewTheSavedRunNeverSawIsLostAndNothingIsFused)
   const test::TempDir dir;
   saveFirstFrames (sequence, 10, dir);
   DenseReconstruction fusion;
-  fusion.continueFrom (TSDFVolume::load (dir / "volume.tsdf"), KeyframeDatabase::load (dir / "volume.keyframes"));
+  TSDFVolume volume = TSDFVolume::load (dir / "volume.tsdf");
+  KeyframeDatabase keyframes = KeyframeDatabase::load (dir / "volume.keyframes", volume);
+  fusion.continueFrom (std::move (volume), std::move (keyframes));
   const std::size_t blocks_loaded = fusion.volume ().blockCount ();
   const std::vector<Processed> run = processWithoutPoses (fusion, sequence, 80, 85);
   for (const Processed& p : run)
@@ -601,8 +604,9 @@ TEST (ContinueVolume, KeyframeFilesReadBackExactlyAndBadOnesAreRefused)
     database.add (database.encode (sequence.frame (i)->depth), *sequence.frame (i)->pose);
   const test::TempDir dir;
   const std::string path = dir / "k.keyframes";
-  database.save (path);
-  const KeyframeDatabase loaded = KeyframeDatabase::load (path);
+  const TSDFVolume volume;  // an empty volume names itself too (voxel size, no blocks)
+  database.save (path, volume);
+  const KeyframeDatabase loaded = KeyframeDatabase::load (path, volume);
   ASSERT_EQ (loaded.size (), database.size ());
   EXPECT_EQ (loaded.getConfig ().ferns, 300);
   EXPECT_EQ (loaded.getConfig ().decisions, 5);
@@ -628,7 +632,7 @@ TEST (ContinueVolume, KeyframeFilesReadBackExactlyAndBadOnesAreRefused)
     std::ofstream (bad, std::ios::binary) << content;
     try
     {
-      KeyframeDatabase::load (bad);
+      KeyframeDatabase::load (bad, volume);
       ADD_FAILURE () << what << ": loaded";
     }
     catch (const Error& e)
@@ -648,12 +652,29 @@ TEST (ContinueVolume, KeyframeFilesReadBackExactlyAndBadOnesAreRefused)
   const std::int32_t no_ferns = 0, far_cell = 1000;
   const double bent = 2.0;
   const std::uint8_t wide = 0xff;
-  const std::size_t header = 8 + 4 + 16 + 16 + 8 + 4 + 8, tests = 300 * 5 * 12;
+  const std::size_t header = 8 + 4 + 16 + 16 + 8 + 4 + 8 + 16, tests = 300 * 5 * 12;
   refused ("not a keyframe file at all, just text long enough to fill a header.....", "magic");
   refused (patched (8, &version, 4), "version");
   refused (patched (12, &no_ferns, 4), "ferns");
   refused (patched (header, &far_cell, 4), "test cell");
   refused (patched (header + tests, &bent, 8), "pose");
   refused (patched (header + tests + 96 + 3, &wide, 1), "code");
-  EXPECT_THROW (KeyframeDatabase::load (dir / "missing.keyframes"), Error);
+  EXPECT_THROW (KeyframeDatabase::load (dir / "missing.keyframes", volume), Error);
+
+  // Keyframes belong to the volume they were saved with: their poses are in its frame.
+  TSDFVolumeConfig coarse;
+  coarse.voxel_size = 0.02;
+  test::expectError ([&] { KeyframeDatabase::load (path, TSDFVolume (coarse)); }, path,
+                     "saved with a volume of 0.01 m voxels, its volume has 0.02 m");
+  for (const std::size_t frame : {0, 20})  // another run's map: same voxel size, other blocks
+  {
+    DenseReconstruction run;
+    processInOrder (run, sequence, frameRange (frame, frame + 1));
+    const TSDFVolume& other = run.volume ();
+    ASSERT_GT (other.blockCount (), 0u);
+    test::expectError ([&] { KeyframeDatabase::load (path, other); }, path, "saved with another volume");
+    database.save (path, other);
+    EXPECT_EQ (KeyframeDatabase::load (path, other).size (), database.size ());
+    EXPECT_NE (TSDFVolume ().fingerprint (), other.fingerprint ());
+  }
 }

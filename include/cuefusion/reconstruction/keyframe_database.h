@@ -12,6 +12,8 @@ namespace cuefusion
 {
 namespace reconstruction
 {
+class TSDFVolume;
+
 /** \brief Parameters of KeyframeDatabase (defaults after InfiniTAM's relocaliser). */
 struct KeyframeDatabaseConfig
 {
@@ -83,19 +85,21 @@ public:
   void clear ();
 
   /** \brief Writes the configuration, the tests and every keyframe (pose and code) in a
-    * versioned little-endian binary format; atomic (temporary file, then rename). The
-    * tests are stored, not re-drawn from the seed, so a file reads back the same on any
-    * standard library. Throws cuefusion::Error naming the file.
+    * versioned little-endian binary format, with the voxel size and fingerprint of the
+    * \a volume the keyframes' poses are in (saved beside it); atomic (temporary file, then
+    * rename). The tests are stored, not re-drawn from the seed, so a file reads back the
+    * same on any standard library. Throws cuefusion::Error naming the file.
     */
   void
-  save (const std::string& path) const;
+  save (const std::string& path, const TSDFVolume& volume) const;
 
-  /** \brief Reads a database written by save(); throws cuefusion::Error naming the file
-    * when it is missing, of another format or version, truncated, or holds an invalid
-    * configuration, test, pose or code.
+  /** \brief Reads a database written by save() beside \a volume; throws cuefusion::Error
+    * naming the file when it is missing, of another format or version, truncated, holds
+    * an invalid configuration, test, pose or code, or was saved with another volume
+    * (another voxel size, another run's map: TSDFVolume::fingerprint).
     */
   static KeyframeDatabase
-  load (const std::string& path);
+  load (const std::string& path, const TSDFVolume& volume);
 
 private:
   struct Test

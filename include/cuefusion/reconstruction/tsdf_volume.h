@@ -209,6 +209,12 @@ public:
 
   std::size_t blockCount () const { return store_.size (); }
 
+  /** \brief An identity of the space the volume covers: its voxel size, truncation and the
+    * set of its blocks (in any order). Files saved beside a volume (KeyframeDatabase::save)
+    * record it, so that they are never loaded with another run's volume.
+    */
+  std::uint64_t fingerprint () const;
+
   /** \brief Bytes held by blocks and the hash table. */
   std::size_t memoryUsage () const;
 

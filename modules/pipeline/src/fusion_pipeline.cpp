@@ -129,7 +129,7 @@ FusionPipeline::saveVolume (const std::string& volume_path, const std::string& l
   reconstruction_.volume ().save (volume_path);
   labels_.save (labels_path, reconstruction_.volume (), [this] (std::uint32_t label) { return settledLabel (label, true); });
   if (!keyframes_path.empty ())
-    reconstruction_.keyframesForContinuing ().save (keyframes_path);
+    reconstruction_.keyframesForContinuing ().save (keyframes_path, reconstruction_.volume ());
 }
 
 PipelineFrameReport

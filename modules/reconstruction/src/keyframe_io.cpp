@@ -1,15 +1,18 @@
 // Keyframe database files: a fixed little-endian header, the fern tests, then every
-// keyframe's pose and code (beside volume.tsdf; `run --save-volume`, `--load-volume`).
+// keyframe's pose and code (beside volume.tsdf; `run --save-volume`, `--load-volume`). The
+// header names the volume the poses are in (voxel size, TSDFVolume::fingerprint).
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/pose_io.h>
 #include <cuefusion/reconstruction/keyframe_database.h>
+#include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <boost/filesystem.hpp>
 
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 
 namespace cuefusion
 {
@@ -18,7 +21,8 @@ namespace reconstruction
 namespace
 {
 constexpr char kMagic[8] = {'C', 'F', 'K', 'E', 'Y', 'F', '\r', '\n'};
-constexpr std::uint32_t kVersion = 1;
+// Version 1 did not name its volume; version 2 adds the volume's voxel size and fingerprint.
+constexpr std::uint32_t kVersion = 2;
 
 #pragma pack(push, 1)
 struct KeyframeHeader
@@ -30,6 +34,8 @@ struct KeyframeHeader
   std::uint64_t max_keyframes;
   std::uint32_t seed;
   std::uint64_t keyframes;
+  double voxel_size;                ///< the volume's (TSDFVolumeConfig::voxel_size)
+  std::uint64_t volume_fingerprint;  ///< TSDFVolume::fingerprint of the volume
 };
 struct TestRecord
 {
@@ -44,7 +50,7 @@ static_assert (sizeof (float) == 4 && sizeof (double) == 8, "keyframe files assu
 }  // namespace
 
 void
-KeyframeDatabase::save (const std::string& path) const
+KeyframeDatabase::save (const std::string& path, const TSDFVolume& volume) const
 {
   const FileContext context (path);
   KeyframeHeader header{};
@@ -59,6 +65,8 @@ KeyframeDatabase::save (const std::string& path) const
   header.max_keyframes = config_.max_keyframes;
   header.seed = config_.seed;
   header.keyframes = codes_.size ();
+  header.voxel_size = volume.getConfig ().voxel_size;
+  header.volume_fingerprint = volume.fingerprint ();
   io::writeFileAtomic (path, [&] (const std::string& temporary) {
     std::ofstream out (temporary, std::ios::binary);
     out.write (reinterpret_cast<const char*> (&header), sizeof header);
@@ -82,7 +90,7 @@ KeyframeDatabase::save (const std::string& path) const
 }
 
 KeyframeDatabase
-KeyframeDatabase::load (const std::string& path)
+KeyframeDatabase::load (const std::string& path, const TSDFVolume& volume)
 {
   const FileContext context (path);
   io::requireRegularFile (path);
@@ -93,6 +101,9 @@ KeyframeDatabase::load (const std::string& path)
   in.read (reinterpret_cast<char*> (&header), sizeof header);
   if (!in || std::memcmp (header.magic, kMagic, sizeof kMagic) != 0)
     throw Error (path, "not a cuefusion keyframe file");
+  if (header.version == 1)
+    throw Error (path, "keyframe file version 1 does not name its volume; this build reads version 2: save the "
+                       "volume again with this version");
   if (header.version != kVersion)
     throw Error (path, "keyframe file version " + std::to_string (header.version) + " (this build reads version " +
                          std::to_string (kVersion) + ")");
@@ -153,6 +164,17 @@ KeyframeDatabase::load (const std::string& path)
     database.codes_.push_back (std::move (code));
     database.poses_.push_back (p);
   }
+  // Checked last, so that a file's own damage is reported as such.
+  const double voxel_size = header.voxel_size, volume_voxel = volume.getConfig ().voxel_size;
+  if (voxel_size != volume_voxel)
+  {
+    std::ostringstream why;
+    why << "keyframe file was saved with a volume of " << voxel_size << " m voxels, its volume has " << volume_voxel << " m";
+    throw Error (path, why.str ());
+  }
+  if (header.volume_fingerprint != volume.fingerprint ())
+    throw Error (path, "keyframe file was saved with another volume (another run's map, or an earlier save): its poses "
+                       "would place the camera wrongly");
   return database;
 }
 }  // namespace reconstruction

@@ -91,6 +91,25 @@ TSDFVolume::reset ()
   stamp_ = 0;
 }
 
+std::uint64_t
+TSDFVolume::fingerprint () const
+{
+  // splitmix64's finaliser mixes each block's coordinates; the sum makes the identity
+  // independent of the blocks' allocation order.
+  const auto mix = [] (std::uint64_t z) {
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+  };
+  std::uint64_t sum = 0;
+  for (std::size_t id = 0; id < store_.size (); ++id)
+    sum += mix (packBlockIndex (store_.block (id).index));
+  std::uint64_t voxel_bits = 0, truncation_bits = 0;
+  std::memcpy (&voxel_bits, &config_.voxel_size, sizeof voxel_bits);
+  std::memcpy (&truncation_bits, &config_.truncation_voxels, sizeof truncation_bits);
+  return mix (sum ^ mix (voxel_bits) ^ mix (truncation_bits + 1) ^ store_.size ());
+}
+
 std::size_t
 TSDFVolume::memoryUsage () const
 {
