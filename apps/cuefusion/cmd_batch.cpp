@@ -23,6 +23,7 @@
 #include <ctime>
 #include <fstream>
 #include <iostream>
+#include <algorithm>
 #include <map>
 #include <set>
 #include <sstream>
@@ -174,11 +175,14 @@ expandSequences (const std::vector<std::string>& args)
 }
 
 /** A folder name per sequence: its own name, or as many parent names joined with '-' as
-  * it takes to tell it from the others (7-Scenes: chess-seq-01, redkitchen-seq-01). */
+  * it takes to tell it from the others (7-Scenes: chess-seq-01, redkitchen-seq-01), with
+  * characters other than letters, digits, '.', '_' and '-' replaced by '_'. Names that
+  * differ only in replaced characters ("a b", "a_b") are numbered instead: the one named
+  * as it is keeps its name, the others take -2, -3, ... in path order. */
 std::vector<std::string>
 sequenceNames (const std::vector<fs::path>& paths)
 {
-  const auto nameOf = [] (const fs::path& p, std::size_t depth) {
+  const auto rawName = [] (const fs::path& p, std::size_t depth) {
     std::vector<std::string> parts;
     for (const fs::path& part : p)
       if (part != "/")
@@ -186,6 +190,9 @@ sequenceNames (const std::vector<fs::path>& paths)
     std::string name;
     for (std::size_t i = parts.size () > depth ? parts.size () - depth : 0; i < parts.size (); ++i)
       name += (name.empty () ? "" : "-") + parts[i];
+    return name;
+  };
+  const auto folderName = [] (std::string name) {
     for (char& c : name)
       if (!(std::isalnum (static_cast<unsigned char> (c)) || c == '.' || c == '_' || c == '-'))
         c = '_';
@@ -194,13 +201,14 @@ sequenceNames (const std::vector<fs::path>& paths)
     return name;
   };
   std::vector<std::size_t> depth (paths.size (), 1);
-  std::vector<std::string> names (paths.size ());
+  std::vector<std::string> raw (paths.size ()), names (paths.size ());
+  // Parents are added while two paths have the same name as they are, until they differ.
   for (bool changed = true; changed;)
   {
     changed = false;
     std::map<std::string, std::vector<std::size_t>> users;
     for (std::size_t i = 0; i < paths.size (); ++i)
-      users[names[i] = nameOf (paths[i], depth[i])].push_back (i);
+      users[raw[i] = rawName (paths[i], depth[i])].push_back (i);
     for (const auto& [name, who] : users)
       if (who.size () > 1)
         for (const std::size_t i : who)
@@ -209,6 +217,24 @@ sequenceNames (const std::vector<fs::path>& paths)
             ++depth[i];
             changed = true;
           }
+  }
+  std::map<std::string, std::vector<std::size_t>> users;
+  for (std::size_t i = 0; i < paths.size (); ++i)
+    users[names[i] = folderName (raw[i])].push_back (i);
+  std::set<std::string> taken (names.begin (), names.end ());
+  for (auto& [name, who] : users)
+  {
+    std::sort (who.begin (), who.end (), [&] (std::size_t a, std::size_t b) {
+      const bool a_as_is = raw[a] == name, b_as_is = raw[b] == name;
+      return a_as_is != b_as_is ? a_as_is : paths[a] < paths[b];
+    });
+    for (std::size_t k = 1, suffix = 2; k < who.size (); ++k)
+    {
+      while (taken.count (name + "-" + std::to_string (suffix)))
+        ++suffix;
+      names[who[k]] = name + "-" + std::to_string (suffix);
+      taken.insert (names[who[k]]);
+    }
   }
   return names;
 }

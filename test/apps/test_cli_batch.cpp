@@ -252,6 +252,22 @@ TEST_F (BatchCli, NamesTellSequencesOfTheSameNameApart)
   EXPECT_EQ (plan["sequences"][1]["name"], "kitchen-seq-01");
   EXPECT_EQ (plan["sequences"][2]["name"], "seq1");
   EXPECT_NE (test::readFile (dir / "job.sh").find ("#SBATCH --array=0-2\n"), std::string::npos);
+
+  // Names that differ only in characters a folder name replaces ("x y", "x?y", "x_y"): the
+  // one named as it is keeps its name, the others are numbered, and every task can run.
+  for (const std::string name : {"x y", "x?y", "x_y"})
+    fs::create_directories (dir / ("p/" + name));
+  const test::CommandResult apart = run ("batch '" + (dir / "p/x y") + "' '" + (dir / "p/x?y") + "' " + (dir / "p/x_y") +
+                                         " --out " + (dir / "batch2") + " --slurm " + (dir / "job2.sh"));
+  ASSERT_EQ (apart.code, 0) << apart.err;
+  const nlohmann::json named = readJson (dir / "batch2/batch.json");
+  ASSERT_EQ (named["sequences"].size (), 3u);
+  std::map<std::string, std::string> folder_of;
+  for (const auto& s : named["sequences"])
+    folder_of[fs::path (s["path"].get<std::string> ()).filename ().string ()] = s["name"];
+  EXPECT_EQ (folder_of["x_y"], "x_y");
+  EXPECT_EQ (folder_of["x y"], "x_y-2");
+  EXPECT_EQ (folder_of["x?y"], "x_y-3");
 }
 
 TEST_F (BatchCli, BadUsageIsOneLine)
