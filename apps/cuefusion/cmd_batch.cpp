@@ -47,7 +47,10 @@ const char* kLogFile = "batch.log";
   * GNU parallel kills it (a large map's files take seconds; Slurm's KillWait is 30 s). */
 constexpr int kTaskStopGraceMs = 300000;
 /** Names in DIR that are batch's own: no sequence folder may take them. */
-const std::set<std::string> kReservedNames = {"batch.json", "summary.json", "summary.csv", "summary_plots", "joblog.txt", "eval"};
+const std::set<std::string> kReservedNames = {"batch.json",    "summary.json", "summary.csv", "summary_plots",
+                                              "joblog.txt",    "parallel.log", "eval"};
+/** Where GNU parallel's own messages go (ssh's too): batch's stderr keeps one line. */
+const char* kParallelLog = "parallel.log";
 
 /** What DIR/batch.json holds: everything a task needs, with absolute paths. */
 struct BatchPlan
@@ -522,6 +525,26 @@ sequencePaths (const std::vector<std::string>& args)
   return paths;
 }
 
+/** The message of GNU parallel's log \a log that says what went wrong: its first
+  * "parallel: Error:" line, else the bug id of its internal errors, else its first line. */
+std::string
+parallelMessage (const std::string& log)
+{
+  std::istringstream lines (io::readTextFile (log));
+  std::string line, first, bug;
+  while (std::getline (lines, line))
+  {
+    if (line.rfind ("parallel: Error: ", 0) == 0)
+      return line.substr (17);
+    const std::size_t id = line.find ("The bugid: ");
+    if (id != std::string::npos && bug.empty ())
+      bug = line.substr (id + 11);
+    if (first.empty () && !line.empty ())
+      first = line;
+  }
+  return !bug.empty () ? bug : !first.empty () ? first : std::string ("no message");
+}
+
 /** Runs the \a pending tasks of \a plan with GNU parallel (on \a hosts when given). */
 void
 runTasks (const BatchPlan& plan, const std::vector<std::size_t>& pending, unsigned jobs, const std::string& hosts, bool redo)
@@ -551,13 +574,18 @@ runTasks (const BatchPlan& plan, const std::vector<std::size_t>& pending, unsign
     argv.push_back (std::to_string (k));
   // A signal to batch goes on to parallel (which stops starting tasks and passes it on to
   // theirs); batch waits for them all and keeps its folder locked until then.
-  const ProcessResult r = runProcess (argv, Redirect (), Redirect (), std::string (), true);
+  const std::string log = (fs::path (plan.folder) / kParallelLog).string ();
+  const ProcessResult r = runProcess (argv, Redirect (), {log, false}, std::string (), true);
   if (r.forwarded)
     throw Error (plan.folder, std::string ("stopped by ") + (r.forwarded == SIGINT ? "SIGINT" : "SIGTERM") +
                                 " after its running sequences ended; run the same batch again to finish the rest");
-  // parallel's exit status counts the failed tasks; the summary tells which.
+  // parallel's exit status counts the failed tasks (the summary tells which); 255 is its
+  // own error (a hosts file it cannot parse, ...), which its log's first message names.
   if (!r.started || r.signal)
     throw Error ("parallel", r.describe ());
+  if (r.exit_code == 255)
+    throw Error (hosts.empty () ? std::string ("parallel") : hosts, "GNU parallel stopped: " + parallelMessage (log) +
+                                                                        " (all its messages: " + log + ")");
 }
 }  // namespace
 
@@ -682,8 +710,12 @@ runBatch (const std::vector<std::string>& args)
     failed += a["failed"].get<std::size_t> ();
   if (failed)
   {
+    const fs::path parallel_log = fs::path (plan.folder) / kParallelLog;
+    boost::system::error_code ec;
+    const bool parallel_said = fs::is_regular_file (parallel_log, ec) && fs::file_size (parallel_log, ec) > 0 && !ec;
     std::cerr << "cuefusion batch: " << failed << " of " << plan.sequences.size () << " sequence(s) failed or did not finish ("
-              << (fs::path (plan.folder) / "summary.csv").string () << " has their errors)\n";
+              << (fs::path (plan.folder) / "summary.csv").string () << " has their errors"
+              << (parallel_said ? ", " + parallel_log.string () + " has GNU parallel's and ssh's messages" : std::string ()) << ")\n";
     return 1;
   }
   return 0;

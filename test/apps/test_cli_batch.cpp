@@ -311,6 +311,15 @@ TEST_F (BatchCli, BadUsageIsOneLine)
     EXPECT_EQ (r.code, code) << args << "\n" << r.err;
     EXPECT_EQ (lineCount (r.err), 1u) << args << "\n" << r.err;
   }
+  // A hosts file GNU parallel cannot parse: one line of cuefusion's naming it, parallel's
+  // own report (several lines, a bug report request) kept in parallel.log.
+  test::writeFile (dir / "bad_hosts.txt", "bogus line with spaces ://\n");
+  const test::CommandResult hosts = run ("batch " + sequence (0) + " --out " + (dir / "bh") + " --hosts " + (dir / "bad_hosts.txt"));
+  EXPECT_EQ (hosts.code, 1) << hosts.err;
+  EXPECT_EQ (lineCount (hosts.err), 1u) << hosts.err;
+  EXPECT_NE (hosts.err.find ("bad_hosts.txt: GNU parallel stopped: "), std::string::npos) << hosts.err;
+  EXPECT_NE (test::readFile (dir / "bh/parallel.log").find ("parallel:"), std::string::npos);
+
   // A task index outside the plan names the index.
   ASSERT_EQ (run ("batch " + sequence (0) + out + " --slurm " + (dir / "job.sh")).code, 0);
   const test::CommandResult r = run ("batch-task " + (dir / "b") + " 7");
