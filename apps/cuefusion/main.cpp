@@ -5,6 +5,7 @@
 #include "plugin.h"
 
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/file_io.h>
 
 #include <pcl/console/print.h>
 
@@ -145,12 +146,12 @@ main (int argc, char** argv)
   }
   catch (const cuefusion::Error& e)
   {
-    std::cerr << "cuefusion " << command << ": " << e.what () << "\n";
+    std::cerr << "cuefusion " << command << ": " << cuefusion::io::OutputSet::finalPaths (e.what ()) << "\n";
     return 1;
   }
   catch (const std::exception& e)  // PCL's, the standard library's, out of memory: named by FileContext
   {
-    std::cerr << "cuefusion " << command << ": " << cuefusion::describeException (e) << "\n";
+    std::cerr << "cuefusion " << command << ": " << cuefusion::io::OutputSet::finalPaths (cuefusion::describeException (e)) << "\n";
     return 1;
   }
 }

@@ -327,4 +327,20 @@ TEST_F (EvalCli, AVideoCutShortByAFullDiskIsAnError)
   EXPECT_NE (r.err.find ("v.avi"), std::string::npos) << r.err;
   EXPECT_NE (r.err.find ("cut short"), std::string::npos) << r.err;
   EXPECT_TRUE (fs::is_empty (full));  // neither the video nor its temporary is left
+
+  // The outputs themselves: the error names the file where the user will look for it,
+  // never the staging folder it was being written in, and says why in cuefusion's words
+  // (PCL's own "Error during raw_fallocate ()!" says neither).
+  for (const std::string& command : {"run " + seq () + " --use-gt-poses --mode geometry --frames 4 --out " + full + "/o",
+                                     std::string ("synth --scene tabletop --frames 2 --size 64x48 --out ") + full + "/s"})
+  {
+    const auto w = run (command);
+    EXPECT_EQ (w.code, 1) << command << "\n" << w.err;
+    EXPECT_EQ (lineCount (w.err), 1) << w.err;
+    EXPECT_NE (w.err.find (full + (command[0] == 'r' ? "/o/" : "/s/")), std::string::npos) << w.err;
+    EXPECT_NE (w.err.find ("the disk is full"), std::string::npos) << w.err;
+    EXPECT_EQ (w.err.find ("staging"), std::string::npos) << w.err;
+    EXPECT_EQ (w.err.find (".tmp-"), std::string::npos) << w.err;
+  }
+  EXPECT_TRUE (fs::is_empty (full));  // nothing half-written left behind
 }

@@ -326,3 +326,20 @@ TEST (FileIO, ACommitKilledHalfWayGetsThePreviousSetBack)
   EXPECT_EQ (test::readFile (out + "/a.txt"), "old a");
   EXPECT_FALSE (boost::filesystem::exists (finished));
 }
+
+TEST (OutputSet, ErrorsNameTheFinalPathsNotTheStagingFolders)
+{
+  EXPECT_EQ (io::OutputSet::finalPaths ("/d/out/.cuefusion-staging-4321-0a9f3c/map.pcd: cannot write"),
+             "/d/out/map.pcd: cannot write");
+  EXPECT_EQ (io::OutputSet::finalPaths ("out/.cuefusion-staging-7-abcdef: cannot create"), "out: cannot create");
+  EXPECT_EQ (io::OutputSet::finalPaths ("/d/.seq.tmp-1b2c3d/gt_cloud.pcd: disk full"), "/d/seq/gt_cloud.pcd: disk full");
+  EXPECT_EQ (io::OutputSet::finalPaths ("/d/.quality.tmp-00ff00.png: x"), "/d/quality.png: x");
+  // Names that only look alike stay as they are.
+  for (const std::string kept : {"/d/.cuefusion-staging-notapid/x: y", "/d/seq.tmp-123456/x: y", "/d/.seq.tmp-XYZ123/x: y",
+                                 "no path at all"})
+    EXPECT_EQ (io::OutputSet::finalPaths (kept), kept);
+  // What a real set stages is named as its final path.
+  const test::TempDir dir;
+  io::OutputSet set (dir / "out", {"map.pcd"}, "map.pcd");
+  EXPECT_EQ (io::OutputSet::finalPaths (set.stagingPath ("map.pcd") + ": e"), set.finalPath ("map.pcd") + ": e");
+}

@@ -99,6 +99,12 @@ public:
   std::string
   finalPath (const std::string& name) const;
 
+  /** \a message with the staging folders of output sets (OutputSet, writeFolderAtomic)
+    * taken out of the paths it names: an error names the file as the user will find it
+    * ("out/map.pcd"), not where it was being written. */
+  static std::string
+  finalPaths (const std::string& message);
+
   /** Moves the staged set into place as described above; cuefusion::Error naming the
     * entry that could not be moved (the staging folder is removed either way). */
   void

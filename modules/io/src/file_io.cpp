@@ -18,6 +18,7 @@
 #include <fstream>
 #include <iostream>
 #include <mutex>
+#include <regex>
 #include <sstream>
 
 #include <fcntl.h>
@@ -169,6 +170,23 @@ refuseNonRegularTarget (const std::string& path)
 }
 }  // namespace
 
+namespace
+{
+/** Why a write into \a folder failed: a full disk when it is (libraries report that in
+  * their own words, or not at all: PCL's posix_fallocate leaves errno alone), else
+  * \a otherwise. */
+std::string
+writeFailure (const fs::path& folder, const std::string& otherwise)
+{
+  boost::system::error_code ec;
+  const fs::space_info space = fs::space (folder.empty () ? fs::path (".") : folder, ec);
+  constexpr std::uintmax_t kNearlyFull = 1u << 20;
+  if (!ec && space.available < kNearlyFull)
+    return "the disk is full (" + std::to_string (space.available / 1024) + " KiB free)";
+  return otherwise;
+}
+}  // namespace
+
 void
 writeFileAtomic (const std::string& path, const std::function<bool (const std::string& temporary)>& write)
 {
@@ -182,15 +200,27 @@ writeFileAtomic (const std::string& path, const std::function<bool (const std::s
   {
     written = write (tmp.string ());
   }
-  catch (...)  // a writer that throws (PCL's, out of memory) leaves no temporary file either
+  catch (const Error&)
   {
     fs::remove (tmp, ec);
     throw;
   }
+  catch (const std::bad_alloc&)
+  {
+    fs::remove (tmp, ec);
+    throw;
+  }
+  catch (const std::exception& e)  // a library's writer (PCL's): its message names no file, often not the cause
+  {
+    fs::remove (tmp, ec);
+    std::string said = e.what ();  // PCL's start ": [pcl::Class::method] "
+    said.erase (0, std::min (said.size (), said.find_first_not_of (": ")));
+    throw Error (path, "cannot write: " + writeFailure (target.parent_path (), said));
+  }
   if (!written)
   {
     fs::remove (tmp, ec);
-    throw Error (path, "write failed (folder missing or read-only, or disk full?)");
+    throw Error (path, "cannot write: " + writeFailure (target.parent_path (), "folder missing or read-only?"));
   }
   fs::rename (tmp, target, ec);
   if (ec)
@@ -360,6 +390,16 @@ OutputSet::~OutputSet ()
   if (!committed_ && created_)
     fs::remove (dir_, ec);  // only when still empty: a failed command leaves no trace
   ::close (lock_);
+}
+
+std::string
+OutputSet::finalPaths (const std::string& message)
+{
+  // OutputSet's "DIR/.cuefusion-staging-PID-XXXXXX/NAME" and writeFolderAtomic's
+  // "PARENT/.NAME.tmp-XXXXXX/FILE" (unique_path's '%' are lowercase hex digits).
+  static const std::regex set ("/\\.cuefusion-staging-[0-9]+-[0-9a-f]{6}");
+  static const std::regex folder ("/\\.([^/\\s:]+)\\.tmp-[0-9a-f]{6}");
+  return std::regex_replace (std::regex_replace (message, set, ""), folder, "/$1");
 }
 
 std::string

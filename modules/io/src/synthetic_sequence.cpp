@@ -164,8 +164,8 @@ writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout,
     }
     writer->finish ();
     const auto cloud = sequence.groundTruthCloud ();
-    if (pcl::io::savePCDFileBinaryCompressed ((staging / "gt_cloud.pcd").string (), *cloud) != 0)
-      throw Error ((staging / "gt_cloud.pcd").string (), "cannot write point cloud");
+    writeFileAtomic ((staging / "gt_cloud.pcd").string (),
+                     [&cloud] (const std::string& tmp) { return pcl::io::savePCDFileBinaryCompressed (tmp, *cloud) == 0; });
     writeTextAtomic ((staging / "scene.json").string (), sceneJson (sequence));
   });
 }
