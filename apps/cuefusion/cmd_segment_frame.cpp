@@ -32,6 +32,7 @@
 #include <iomanip>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -203,13 +204,6 @@ struct FrameTimes
   double segmentation () const { return smoothing_ms + normals_ms + edges_ms + labeling_ms; }
 };
 
-std::string
-outputPath (const std::string& out, bool folder, const std::string& input, const std::string& extension)
-{
-  if (!folder)
-    return out;
-  return (fs::path (out) / fs::path (input).stem ()).string () + extension;
-}
 
 /** In folder mode a companion file (--rgb) for \a input: same stem, any image extension. */
 std::string
@@ -235,6 +229,69 @@ struct SegmentFrameSettings
   segmentation::SurfacePreprocessingConfig pre;
   segmentation::GeometricSegmentationConfig geo;
   segmentation::SupportPlaneRemovalConfig plane;
+};
+
+/** Folder mode's outputs: each output folder (--out, --png, --edges-png; one when two
+  * name the same) is one io::OutputSet, so that an error at any frame leaves every folder
+  * as it was, and a completed call replaces the previous call's files of these inputs as
+  * a whole. Each input writes STEM.pcd (+ STEM.json) and STEM.png; two inputs of one stem
+  * (a.pcd and a.png) would overwrite each other's outputs and are refused. */
+class FolderOutputs
+{
+public:
+  FolderOutputs (const SegmentFrameSettings& s, const std::vector<std::string>& inputs)
+  {
+    std::map<std::string, std::string> stems;  // stem → input
+    for (const std::string& input : inputs)
+    {
+      const auto [it, fresh] = stems.emplace (fs::path (input).stem ().string (), input);
+      if (!fresh)
+        throw Error (input, "has the stem of " + fs::path (it->second).filename ().string () +
+                                ": both would write the same output files");
+    }
+    const std::string last = fs::path (inputs.back ()).stem ().string ();
+    std::map<std::string, std::pair<std::vector<std::string>, std::string>> wanted;  // folder → owned names, marker
+    const auto want = [&] (const std::string& folder, const std::vector<std::string>& extensions) {
+      if (folder.empty ())
+        return;
+      auto& [owned, marker] = wanted[key (folder)];
+      for (const auto& stem : stems)
+        for (const std::string& extension : extensions)
+          owned.push_back (stem.first + extension);
+      if (marker.empty ())
+        marker = last + extensions.front ();  // the last input's first output: written last
+    };
+    want (s.out, {".pcd", ".json"});
+    want (s.png, {".png"});
+    want (s.edges_png, {".png"});
+    for (auto& [folder, names] : wanted)
+      sets_.emplace (folder, std::make_unique<io::OutputSet> (folder, names.first, names.second));
+  }
+
+  /** Where \a input's output of \a extension for the folder \a folder goes now (staged). */
+  std::string
+  path (const std::string& folder, const std::string& input, const std::string& extension) const
+  {
+    return sets_.at (key (folder))->stagingPath (fs::path (input).stem ().string () + extension);
+  }
+
+  void
+  commit ()
+  {
+    for (auto& [folder, set] : sets_)
+      set->commit ();
+  }
+
+private:
+  static std::string
+  key (const std::string& folder)
+  {
+    boost::system::error_code ec;
+    const fs::path canonical = fs::weakly_canonical (folder, ec);
+    return ec ? folder : canonical.string ();
+  }
+
+  std::map<std::string, std::unique_ptr<io::OutputSet>> sets_;
 };
 
 /** Parses and checks segment-frame's command line; false when --help was given. */
@@ -329,7 +386,8 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
 class FrameSegmenter
 {
 public:
-  FrameSegmenter (const SegmentFrameSettings& s, bool folder);
+  /** \a outputs: folder mode's output sets (nullptr for a single input). */
+  FrameSegmenter (const SegmentFrameSettings& s, const FolderOutputs* outputs);
 
   /** Segments \a path (input number \a index) and writes its outputs; its report entry. */
   nlohmann::json segment (const std::string& path, std::size_t index, double& segmentation_ms);
@@ -342,7 +400,15 @@ private:
   void write (const std::string& path, const Cloud& cloud, const cv::Mat& label_image,
               const std::vector<segmentation::SegmentInstance>& segments) const;
 
+  /** Where \a input's output of \a extension for the option's value \a given goes. */
+  std::string
+  outputPath (const std::string& given, const std::string& input, const std::string& extension) const
+  {
+    return outputs_ ? outputs_->path (given, input, extension) : given;
+  }
+
   const SegmentFrameSettings& s_;
+  const FolderOutputs* outputs_;
   const bool folder_;
   std::unique_ptr<recognition::InstanceSegmenter> source_;
   const segmentation::InstanceGuidedRegionMerge merger_;
@@ -354,15 +420,15 @@ private:
   segmentation::SurfacePlanes planes_;
 };
 
-FrameSegmenter::FrameSegmenter (const SegmentFrameSettings& s, bool folder)
-  : s_ (s), folder_ (folder), merger_ (s.merge), preprocessor_ (s.pre), segmenter_ (s.geo), plane_removal_ (s.plane)
+FrameSegmenter::FrameSegmenter (const SegmentFrameSettings& s, const FolderOutputs* outputs)
+  : s_ (s), outputs_ (outputs), folder_ (outputs != nullptr), merger_ (s.merge), preprocessor_ (s.pre), segmenter_ (s.geo), plane_removal_ (s.plane)
 {
   boost::system::error_code ec;
   if (!s.masks.empty ())
   {
-    if (folder != fs::is_directory (s.masks, ec))
-      throw Error (s.masks, folder ? "folder input needs a folder of masks" : "a single input needs a single mask PNG");
-    if (folder)
+    if (folder_ != fs::is_directory (s.masks, ec))
+      throw Error (s.masks, folder_ ? "folder input needs a folder of masks" : "a single input needs a single mask PNG");
+    if (folder_)
       source_ = std::make_unique<recognition::MaskFolderSegmenter> (s.masks);
   }
   else if (!s.onnx.model_path.empty ())
@@ -427,15 +493,15 @@ FrameSegmenter::write (const std::string& path, const Cloud& cloud, const cv::Ma
 {
   pcl::PointCloud<pcl::PointXYZRGBL> labelled;
   segmentation::toLabelledCloud (cloud, label_image, labelled);  // original, unsmoothed points
-  io::saveMapPCD (outputPath (s_.out, folder_, path, ".pcd"), labelled);
   if (!s_.png.empty ())
-    io::writeImageAtomic (outputPath (s_.png, folder_, path, ".png"), colorizeLabels (label_image));
+    io::writeImageAtomic (outputPath (s_.png, path, ".png"), colorizeLabels (label_image));
   if (!segments.empty ())
-    io::writeTextAtomic (folder_ ? outputPath (s_.out, true, path, ".json") : fs::path (s_.out).replace_extension (".json").string (),
+    io::writeTextAtomic (folder_ ? outputPath (s_.out, path, ".json") : fs::path (s_.out).replace_extension (".json").string (),
                          segmentsJson (segments, label_image));
   if (!s_.edges_png.empty ())
-    io::writeImageAtomic (outputPath (s_.edges_png, folder_, path, ".png"),
+    io::writeImageAtomic (outputPath (s_.edges_png, path, ".png"),
                           edgePicture (segmenter_.getConcavityEdges (), segmenter_.getDiscontinuityEdges (), cloud));
+  io::saveMapPCD (outputPath (s_.out, path, ".pcd"), labelled);  // last: in folder mode the last input's is the set's marker
 }
 
 nlohmann::json
@@ -522,15 +588,15 @@ runSegmentFrame (const std::vector<std::string>& args)
   const std::vector<std::string> inputs = listInputs (s.input, {".pcd", ".png"});
   if (inputs.empty ())
     throw Error (s.input, "folder holds no .pcd or .png file");
+  std::unique_ptr<FolderOutputs> outputs;
   if (folder)
   {
-    if (fs::exists (s.out, ec) && !fs::is_directory (s.out, ec))
-      throw Error (s.out, "exists and is not a folder (folder input needs an output folder)");
     for (const std::string& dir : {s.out, s.png, s.edges_png})
-      if (!dir.empty () && !fs::create_directories (dir, ec) && ec)
-        throw Error (dir, "cannot create folder: " + ec.message ());
+      if (!dir.empty () && fs::exists (dir, ec) && !fs::is_directory (dir, ec))
+        throw Error (dir, "exists and is not a folder (folder input needs an output folder)");
+    outputs = std::make_unique<FolderOutputs> (s, inputs);
   }
-  FrameSegmenter segmenter (s, folder);
+  FrameSegmenter segmenter (s, outputs.get ());
   nlohmann::json frames = nlohmann::json::array ();
   std::vector<double> totals;
   for (std::size_t i = 0; i < inputs.size (); ++i)
@@ -539,6 +605,8 @@ runSegmentFrame (const std::vector<std::string>& args)
     frames.push_back (segmenter.segment (inputs[i], i, segmentation_ms));
     totals.push_back (segmentation_ms);
   }
+  if (outputs)
+    outputs->commit ();
   if (!s.timings_path.empty ())
     io::writeTextAtomic (s.timings_path,
                          io::jsonText (nlohmann::json ({{"segmentation_ms", timingSummary (totals)}, {"frames", frames}}), 1) + "\n");

@@ -241,3 +241,43 @@ TEST_F (SegmentFrame, FolderMasksMatchedByStemMissingMeansGeometry)
   view.labels = readLabels (dir / "out/other.pcd", cloud);  // geometry only
   EXPECT_GE (test::scoreObject (view, 3).best_iou, 0.75);
 }
+
+TEST_F (SegmentFrame, FolderModeWritesEveryOutputOrNone)
+{
+  // A first call fills out/ and png/; the user keeps a file of their own in out/.
+  const std::string command = "segment-frame " + (dir / "in") + " --out " + (dir / "out") + " --png " + (dir / "png");
+  ASSERT_EQ (test::runCuefusion (command, dir).code, 0);
+  test::writeFile (dir / "out/notes.txt", "mine");
+  const std::string first_pcd = test::readFile (dir / "out/view.pcd"), first_png = test::readFile (dir / "png/view.png");
+
+  // A second call whose last input is damaged: one line naming it, and both folders as
+  // the first call left them (no view.pcd of the second call beside the first's files).
+  test::writeFile (dir / "in/zz_damaged.pcd", "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                              "WIDTH 2\nHEIGHT 2\nPOINTS 4\nDATA binary\n");
+  const auto damaged = test::runCuefusion (command, dir);
+  EXPECT_EQ (damaged.code, 1) << damaged.err;
+  EXPECT_NE (damaged.err.find ("zz_damaged.pcd"), std::string::npos) << damaged.err;
+  EXPECT_EQ (std::count (damaged.err.begin (), damaged.err.end (), '\n'), 1) << damaged.err;
+  EXPECT_EQ (test::readFile (dir / "out/view.pcd"), first_pcd);
+  EXPECT_EQ (test::readFile (dir / "png/view.png"), first_png);
+  EXPECT_EQ (test::readFile (dir / "out/notes.txt"), "mine");
+  for (const char* folder : {"out", "png"})
+    for (boost::filesystem::directory_iterator it (dir / folder), end; it != end; ++it)
+    {
+      const std::string name = it->path ().filename ().string ();
+      EXPECT_TRUE (name == "view.pcd" || name == "view.png" || name == "notes.txt") << folder << "/" << name << " left behind";
+    }
+  // Into folders that did not exist: none is created.
+  const auto fresh = test::runCuefusion ("segment-frame " + (dir / "in") + " --out " + (dir / "new") + " --png " + (dir / "newpng"), dir);
+  EXPECT_EQ (fresh.code, 1) << fresh.err;
+  EXPECT_FALSE (boost::filesystem::exists (dir / "new"));
+  EXPECT_FALSE (boost::filesystem::exists (dir / "newpng"));
+
+  // Two inputs of one stem would write one output file twice: refused by name.
+  boost::filesystem::remove (dir / "in/zz_damaged.pcd");
+  boost::filesystem::copy_file (dir / "in/view.pcd", dir / "in/view.png");
+  const auto twins = test::runCuefusion (command, dir);
+  EXPECT_EQ (twins.code, 1) << twins.err;
+  EXPECT_NE (twins.err.find ("both would write the same output files"), std::string::npos) << twins.err;
+  EXPECT_EQ (test::readFile (dir / "out/view.pcd"), first_pcd);
+}
