@@ -349,6 +349,7 @@ private:
   RunOutputs result_;
   std::mutex mutex_;
   std::string callback_error_;
+  bool callback_error_named_ = false;  ///< callback_error_ names its file (else: the sequence's)
   ProgressReporter progress_;
   std::chrono::steady_clock::time_point t0_;
   // What writeOutputs found, for printSummary.
@@ -490,6 +491,20 @@ RunSession::onFrame (const RGBDFrame::ConstPtr& frame)
     return;
   try
   {
+    // The sequence's own pose, integrated as it is: beyond the volume's reach it is the
+    // pose file's fault, and the error names that file and the frame.
+    if (s_.use_gt_poses && frame->pose && !fusion_.reconstruction ().volume ().reaches (*frame->pose))
+    {
+      const Eigen::Vector3d t = frame->pose->translation ();
+      std::ostringstream why;
+      why << "frame " << frame->name << " puts the camera at (" << t.x () << ", " << t.y () << ", " << t.z ()
+          << ") m, outside the volume's addressable range (±" << fusion_.reconstruction ().volume ().addressableReach ()
+          << " m from the origin at --voxel " << fusion_.reconstruction ().volume ().getConfig ().voxel_size << " m)";
+      const std::string pose_file = dataset_ && frame->index < dataset_->size () ? dataset_->records ()[frame->index].pose_path : "";
+      callback_error_ = Error (pose_file.empty () ? s_.source : pose_file, why.str ()).what ();
+      callback_error_named_ = true;
+      return;
+    }
     std::vector<Instance> instances;
     const bool have_masks = masksFor (*frame, instances);
     const pipeline::PipelineFrameReport full = fusion_.process (*frame, have_masks ? &instances : nullptr);
@@ -606,7 +621,7 @@ RunSession::run ()
   connection.disconnect ();
   progress_.finish ();
   if (!callback_error_.empty ())
-    throw Error (s_.source, callback_error_);
+    throw callback_error_named_ ? Error (callback_error_) : Error (s_.source, callback_error_);
   if (!grabber_->lastError ().empty ())
     throw Error (s_.source, grabber_->lastError ());
   if (result_.reports.empty ())

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -249,6 +250,22 @@ TEST_F (BadInputCli, EveryCaseIsOneLineNamingTheCulpritAndWritesNothing)
      "run {D}/seq --out {D}/o", 1, ".png"},
     {"tum list garbage", seqCopy ([] (const std::string& seq) { write (seq + "/depth.txt", "1.0 depth/missing.png\nrubbish\n"); }), "run {D}/seq --out {D}/o", 1, "depth"},
     {"ground truth poses garbage", seqCopy ([] (const std::string& seq) { write (seq + "/groundtruth.txt", "1.0 1 2 3\n"); }), "run {D}/seq --out {D}/o", 1, "groundtruth.txt"},
+    {"ground truth poses 100 km away", seqCopy ([] (const std::string& seq) {
+       std::istringstream in (test::readFile (seq + "/groundtruth.txt"));
+       std::string line, moved;
+       while (std::getline (in, line))
+       {
+         std::istringstream fields (line);
+         double stamp = 0, x = 0;
+         std::string rest;
+         if (line.empty () || line[0] == '#' || !(fields >> stamp >> x) || !std::getline (fields, rest))
+           moved += line + "\n";
+         else
+           moved += std::to_string (stamp) + " " + std::to_string (x + 1e5) + rest + "\n";
+       }
+       write (seq + "/groundtruth.txt", moved);
+     }),
+     "run {D}/seq --out {D}/o --use-gt-poses", 1, "groundtruth.txt: frame"},
     {"scene.json not JSON", seqCopy ([] (const std::string& seq) { write (seq + "/scene.json", "{"); }), "eval --run {R} --gt {D}/seq --out {D}/rep --no-plots", 1, "scene.json"},
     // --- outputs
     {"run --out is a file", file ("o", "x"), "run {S} --out {D}/o", 1, "/o"},

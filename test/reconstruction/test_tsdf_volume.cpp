@@ -450,6 +450,7 @@ TEST (TSDFVolume, TheAddressableRangeIsOneLimitForAllocationExtractionAndCameras
     TSDFVolume volume (config);
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
     pose.translation () = at;
+    EXPECT_TRUE (volume.reaches (pose));
     volume.integrate (depth, cv::Mat (), camera, pose);
     for (const Eigen::Vector3i& index : volume.store ().blockIndices ())
       ASSERT_TRUE (inBlockRange (index));
@@ -468,6 +469,7 @@ TEST (TSDFVolume, TheAddressableRangeIsOneLimitForAllocationExtractionAndCameras
     TSDFVolume volume (config);
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
     pose.translation ().x () = x;
+    EXPECT_FALSE (volume.reaches (pose));
     test::expectError ([&] { volume.integrate (depth, cv::Mat (), camera, pose); }, "integrate", "addressable range");
     EXPECT_EQ (volume.blockCount (), 0u);
   }

@@ -209,6 +209,16 @@ public:
 
   std::size_t blockCount () const { return store_.size (); }
 
+  /** \brief How far from the origin, along each axis, a camera may be for its whole depth
+    * range (max_depth and the truncation band) to lie inside the addressable range of
+    * voxel coordinates (kVoxelCoordinateLimit voxels); integrate() refuses a camera
+    * beyond it (its frame would be dropped block by block, an empty map unsaid).
+    */
+  double addressableReach () const;
+
+  /** \brief Whether a camera at \a pose lies within addressableReach() (and is finite). */
+  bool reaches (const Eigen::Isometry3d& pose) const;
+
   /** \brief An identity of the space the volume covers: its voxel size, truncation and the
     * set of its blocks (in any order). Files saved beside a volume (KeyframeDatabase::save)
     * record it, so that they are never loaded with another run's volume.

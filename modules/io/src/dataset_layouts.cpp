@@ -235,7 +235,10 @@ TumGrabber::TumGrabber (const std::string& root, const Config& config) : Dataset
     r.depth_path = (dir / depth[di].file).string ();
     r.name = fs::path (rgb[ri].file).stem ().string ();
     if (!groundtruth.empty ())
+    {
       r.pose = interpolatePose (groundtruth, r.timestamp);
+      r.pose_path = gt_path.string ();
+    }
     r.instance_path = optionalFile (dir / "instance" / (r.name + ".png"));
     r.class_path = optionalFile (dir / "label" / (r.name + ".png"));
     records_.push_back (r);
@@ -288,7 +291,10 @@ RedwoodGrabber::RedwoodGrabber (const std::string& root, const Config& config) :
                                      "/ (a frame's images share a name, or the number before '-')");
     r.color_path = c->second.string ();
     if (!poses.empty ())
+    {
       r.pose = poses[i];
+      r.pose_path = log.string ();
+    }
     r.instance_path = siblingImage (dir / "instance", r.name);
     r.class_path = siblingImage (dir / "label", r.name);
     records_.push_back (r);

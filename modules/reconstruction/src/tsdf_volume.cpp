@@ -91,6 +91,19 @@ TSDFVolume::reset ()
   stamp_ = 0;
 }
 
+double
+TSDFVolume::addressableReach () const
+{
+  // voxel_block_hash.h's limit, less the farthest a frame's blocks reach from its camera.
+  return std::max (0.0, kVoxelCoordinateLimit * config_.voxel_size - config_.max_depth - config_.truncation ());
+}
+
+bool
+TSDFVolume::reaches (const Eigen::Isometry3d& pose) const
+{
+  return pose.matrix ().allFinite () && pose.translation ().cwiseAbs ().maxCoeff () <= addressableReach ();
+}
+
 std::uint64_t
 TSDFVolume::fingerprint () const
 {
@@ -212,14 +225,11 @@ TSDFVolume::integrate (const cv::Mat& depth, const cv::Mat& color, const Pinhole
     throw Error ("TSDFVolume::integrate", "colour must be CV_8UC3 of the depth's size (or empty)");
   if (!pose.matrix ().allFinite ())
     throw Error ("TSDFVolume::integrate", "pose is not finite");
-  // A camera whose whole depth range lies inside the addressable range (voxel_block_hash.h);
-  // farther out its frame would be dropped block by block, leaving an empty map unsaid.
-  const double reach = kVoxelCoordinateLimit * config_.voxel_size - config_.max_depth - config_.truncation ();
-  if (!(pose.translation ().cwiseAbs ().maxCoeff () <= reach))
+  if (!reaches (pose))
   {
     std::ostringstream msg;
     msg << "the camera at (" << pose.translation ().x () << ", " << pose.translation ().y () << ", " << pose.translation ().z ()
-        << ") m is outside the volume's addressable range (±" << std::max (0.0, reach) << " m from the origin at "
+        << ") m is outside the volume's addressable range (±" << addressableReach () << " m from the origin at "
         << config_.voxel_size << " m voxels)";
     throw Error ("TSDFVolume::integrate", msg.str ());
   }
