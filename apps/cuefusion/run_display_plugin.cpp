@@ -6,7 +6,9 @@
 #include <cuefusion/visualization/live_viewer.h>
 
 #include <boost/filesystem.hpp>
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/videoio.hpp>
+#include <opencv2/videoio/registry.hpp>
 
 #include <cstdint>
 #include <cstring>
@@ -87,6 +89,9 @@ public:
       throw Error (path, "a video must end in .avi or .mp4, not '" + ext + "'");
     const fs::path target (path);
     boost::system::error_code ec;
+    if (!target.parent_path ().empty () && !fs::is_directory (target.parent_path (), ec) &&
+        (!fs::create_directories (target.parent_path (), ec) || ec))
+      throw Error (path, "cannot create its folder" + (ec ? ": " + ec.message () : std::string ()));
     const fs::file_status status = fs::status (target, ec);
     if (fs::exists (status) && !fs::is_regular_file (status))  // renaming over it would replace a device or folder
       throw Error (path, "exists and is not a regular file; refusing to replace it");
@@ -106,7 +111,23 @@ public:
   {
     if (!writer_.isOpened ())
     {
-      if (!writer_.open (temporary_, fourcc_, fps_, image.size ()))
+      // A backend of OpenCV's own for Motion-JPEG, FFmpeg's for MPEG-4: never GStreamer,
+      // whose messages (and OpenCV's about it) would precede or replace cuefusion's line.
+      const bool mjpeg = fourcc_ == cv::VideoWriter::fourcc ('M', 'J', 'P', 'G');
+      const int backend = mjpeg ? cv::CAP_OPENCV_MJPEG
+                                : (cv::videoio_registry::hasBackend (cv::CAP_FFMPEG) ? cv::CAP_FFMPEG : cv::CAP_ANY);
+      const cv::utils::logging::LogLevel before = cv::utils::logging::setLogLevel (cv::utils::logging::LOG_LEVEL_SILENT);
+      bool opened = false;
+      try
+      {
+        opened = writer_.open (temporary_, backend, fourcc_, fps_, image.size ());
+      }
+      catch (const cv::Exception&)
+      {
+        opened = false;
+      }
+      cv::utils::logging::setLogLevel (before);
+      if (!opened)
         throw Error (path_, "OpenCV cannot write this video format here");
       size_ = image.size ();
     }

@@ -269,6 +269,7 @@ TEST_F (BadInputCli, EveryCaseIsOneLineNamingTheCulpritAndWritesNothing)
     {"scene.json not JSON", seqCopy ([] (const std::string& seq) { write (seq + "/scene.json", "{"); }), "eval --run {R} --gt {D}/seq --out {D}/rep --no-plots", 1, "scene.json"},
     // --- outputs
     {"run --out is a file", file ("o", "x"), "run {S} --out {D}/o", 1, "/o"},
+    {"run --video in a folder that cannot be made", file ("f", "x"), "run {S} --out {D}/o --video {D}/f/v.mp4", 1, "v.mp4"},
     {"segment-frame --out /dev/null", file ("c.pcd", pcd ()), "segment-frame {D}/c.pcd --out /dev/null", 1, "/dev/null"},
     {"segment-frame --out a folder", [&] (const std::string& d) {
        write (d + "/c.pcd", pcd ());
