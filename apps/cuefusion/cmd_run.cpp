@@ -500,7 +500,7 @@ RunSession::onFrame (const RGBDFrame::ConstPtr& frame)
       why << "frame " << frame->name << " puts the camera at (" << t.x () << ", " << t.y () << ", " << t.z ()
           << ") m, outside the volume's addressable range (±" << fusion_.reconstruction ().volume ().addressableReach ()
           << " m from the origin at --voxel " << fusion_.reconstruction ().volume ().getConfig ().voxel_size << " m)";
-      const std::string pose_file = dataset_ && frame->index < dataset_->size () ? dataset_->records ()[frame->index].pose_path : "";
+      const std::string pose_file = dataset_ && frame->index < dataset_->size () ? dataset_->records ()[frame->index].pose_source : "";
       callback_error_ = Error (pose_file.empty () ? s_.source : pose_file, why.str ()).what ();
       callback_error_named_ = true;
       return;

@@ -22,7 +22,8 @@ struct FrameRecord
   std::string color_path;
   std::string depth_path;
   std::optional<Eigen::Isometry3d> pose;   ///< poses a layout keeps in one file (TUM, Redwood)
-  std::string pose_path;                   ///< the file of the pose: one per frame (read with the frame when pose is unset) or the layout's pose list
+  std::string pose_path;                   ///< or one file per frame, read with the frame
+  std::string pose_source;                 ///< the file the pose comes from (either kind), for messages
   std::string instance_path;               ///< optional CV_16U instance ids
   std::string class_path;                  ///< optional CV_16U class ids
 };

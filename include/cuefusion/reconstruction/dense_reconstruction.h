@@ -7,6 +7,7 @@
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -43,6 +44,15 @@ struct DenseReconstructionConfig
   /// (CameraTrackerConfig::max_translation, max_rotation_deg) then bounds the change
   /// against the prediction. Off: ICP always starts at the last pose (KinectFusion).
   bool motion_model = true;
+  /// The motion model is carried through lost frames (a blackout, a hand over the lens,
+  /// frames that fail) for at most this many seconds since the last tracked frame: the
+  /// last tracked motion repeated once per frame interval is ICP's start and the first
+  /// relocalisation candidate ("motion model") when the view comes back. 0 = not carried.
+  double max_prediction_gap = 2.0;
+  /// Candidate poses verified per lost frame (each costs a raycast and an ICP): a lost
+  /// stretch goes round-robin over its candidates instead of trying all on every frame,
+  /// so it runs at no less than about half the tracked frame rate. 0 = all on every frame.
+  std::size_t relocalisation_candidates_per_frame = 2;
 
   void validate () const;
 };
@@ -66,7 +76,7 @@ struct FrameReport
   bool tracked = false;          ///< the pose was accepted and the frame fused
   std::string failure;           ///< why not, when !tracked
   bool relocalised = false;      ///< tracking failed and a verified relocalisation placed it
-  std::string relocalised_from;  ///< which candidate: "ICP estimate" or "keyframe K"
+  std::string relocalised_from;  ///< which candidate: "motion model", "ICP estimate" or "keyframe K"
   ICPResult icp;
   StageTimings timings;
 };
@@ -146,11 +156,26 @@ private:
   /** A candidate pose for relocalisation and where it came from. */
   using Candidate = std::pair<Eigen::Isometry3d, std::string>;
 
-  /** Relocalises the current frame (its pyramid is built): candidates are \a first (ICP's
-    * rejected pose when worth verifying, a loaded run's reference pose), then the keyframes
-    * most similar to \a code; fills \a report when one passes. */
+  /** Relocalises the current frame (its pyramid is built): candidates are \a first (the
+    * motion model's prediction, ICP's rejected pose when worth verifying, a loaded run's
+    * reference pose), then the keyframes most similar to \a code; at most
+    * relocalisation_candidates_per_frame of them, taken round-robin over a lost stretch;
+    * fills \a report when one passes. */
   void
   relocalise (const RGBDFrame& frame, std::vector<Candidate> first, const KeyframeDatabase::Code& code, FrameReport& report);
+
+  /** The motion model's pose for a frame, and whether it spans lost or dropped frames. */
+  struct Prediction
+  {
+    Eigen::Isometry3d pose;
+    bool across_gap = false;
+  };
+
+  /** The motion model's pose for \a frame: the last tracked pose moved on by the last
+    * tracked motion once per frame interval since (through lost frames, and dropped ones
+    * the stamps show, up to max_prediction_gap); none without a motion. */
+  std::optional<Prediction>
+  predictedPose (const RGBDFrame& frame) const;
 
   DenseReconstructionConfig config_;
   DepthPreprocessor preprocessor_;
@@ -167,7 +192,11 @@ private:
   std::size_t tracked_frames_ = 0;
   Eigen::Isometry3d last_good_pose_ = Eigen::Isometry3d::Identity ();
   Eigen::Isometry3d velocity_ = Eigen::Isometry3d::Identity ();  ///< last tracked frame-to-frame motion
-  bool velocity_valid_ = false;       ///< the last two frames were tracked one after the other
+  bool velocity_valid_ = false;       ///< a motion of two frames tracked one after the other is known
+  double velocity_seconds_ = 0.0;     ///< the time velocity_ took (0: the frames had no usable stamps)
+  double last_tracked_timestamp_ = 0.0;
+  std::size_t frames_since_tracked_ = 0;  ///< lost frames since the last tracked one
+  std::size_t lost_streak_ = 0;           ///< relocalisation rounds in this lost stretch (the round-robin's phase)
   bool last_frame_tracked_ = false;
   bool initialized_ = false;
   bool awaiting_placement_ = false;  ///< continueFrom: the first frame is relocalised

@@ -38,6 +38,7 @@ struct ICPResult
   int iterations = 0;                ///< summed over the levels
   std::size_t source_points = 0;     ///< valid source pixels at the finest level
   std::size_t inliers = 0;           ///< accepted correspondences at the last finest iteration
+  std::size_t associated = 0;        ///< source points that met a model point there (before the gates)
   double rmse = 0.0;                 ///< point-to-plane RMS of those (metres)
   /** λ_min / λ_max of the (weighted) Σ n nᵀ of the matches on the coarsest level: how
     * well the matched normals constrain the three translations (0 for a plane, which
@@ -45,6 +46,21 @@ struct ICPResult
     * pixels, so their noise does not fake constraints: a noisy plane seen by Kinect
     * gives ≤ 0.005 there (0.01–0.02 at the finest level, as much as real rooms). */
   double translation_conditioning = 0.0;
+  /** The same ratio for all of the frame's own points on the coarsest level, matched or
+    * not (ownTranslationConditioning): how well the surfaces in view could constrain the
+    * translations. Low with a low translation_conditioning: the view is a plane or a
+    * corridor; high: the frame is fine and only its overlap with the model at the guessed
+    * pose is small. Computed by CameraTracker for degenerate systems only (0 otherwise). */
+  double source_conditioning = 0.0;
+
+  /** Inliers as a share of the points that met a model point (0 without any): how well
+    * the frame agrees with the model where both exist. A right pose in a view the model
+    * covers only in part agrees well; a wrong pose does not. */
+  double
+  agreement () const
+  {
+    return associated ? static_cast<double> (inliers) / static_cast<double> (associated) : 0.0;
+  }
 
   /** Inliers as a share of the frame's valid points (0 without any). */
   double
@@ -53,6 +69,12 @@ struct ICPResult
     return source_points ? static_cast<double> (inliers) / static_cast<double> (source_points) : 0.0;
   }
 };
+
+/** \brief λ_min / λ_max of Σ w n nᵀ over every valid point of \a level (w: the inverse
+  * noise variance when \a noise_weighting, as ICP weights its terms): how well the
+  * surfaces of one frame constrain the three translations, matched or not. */
+double
+ownTranslationConditioning (const PyramidLevel& level, bool noise_weighting);
 
 /** \brief Frame-to-model projective point-to-plane ICP, coarse to fine (§4.1.3).
   *

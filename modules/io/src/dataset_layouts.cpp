@@ -237,7 +237,7 @@ TumGrabber::TumGrabber (const std::string& root, const Config& config) : Dataset
     if (!groundtruth.empty ())
     {
       r.pose = interpolatePose (groundtruth, r.timestamp);
-      r.pose_path = gt_path.string ();
+      r.pose_source = gt_path.string ();
     }
     r.instance_path = optionalFile (dir / "instance" / (r.name + ".png"));
     r.class_path = optionalFile (dir / "label" / (r.name + ".png"));
@@ -293,7 +293,7 @@ RedwoodGrabber::RedwoodGrabber (const std::string& root, const Config& config) :
     if (!poses.empty ())
     {
       r.pose = poses[i];
-      r.pose_path = log.string ();
+      r.pose_source = log.string ();
     }
     r.instance_path = siblingImage (dir / "instance", r.name);
     r.class_path = siblingImage (dir / "label", r.name);
@@ -328,6 +328,7 @@ SevenScenesGrabber::SevenScenesGrabber (const std::string& root, const Config& c
     if (r.color_path.empty ())
       throw Error ((dir / (r.name + ".color.png")).string (), "missing colour image for " + file);
     r.pose_path = optionalFile (dir / (r.name + ".pose.txt"));
+    r.pose_source = r.pose_path;
     r.instance_path = optionalFile (dir / (r.name + ".instance.png"));
     r.class_path = optionalFile (dir / (r.name + ".label.png"));
     records_.push_back (r);
@@ -354,6 +355,7 @@ ScanNetGrabber::ScanNetGrabber (const std::string& root, const Config& config) :
     if (r.color_path.empty ())
       throw Error ((dir / "color" / (r.name + ".jpg")).string (), "missing colour image for " + d.string ());
     r.pose_path = optionalFile (dir / "pose" / (r.name + ".txt"));
+    r.pose_source = r.pose_path;
     r.instance_path = optionalFile (dir / "instance-filt" / (r.name + ".png"));
     r.class_path = optionalFile (dir / "label-filt" / (r.name + ".png"));
     records_.push_back (r);

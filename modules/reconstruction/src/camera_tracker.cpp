@@ -1,6 +1,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/reconstruction/camera_tracker.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -42,9 +43,19 @@ CameraTracker::track (const FramePyramid& frame, const FramePyramid& model, cons
   const double rotation_deg = Eigen::AngleAxisd (motion.rotation ()).angle () * 180.0 / M_PI;
   const double fraction = icp.inlierShare ();
 
+  // A degenerate system names its cause: the frame's own surfaces (a plane, a corridor)
+  // or its overlap with the model at the guess (the frame is fine, the matches are few).
+  const bool degenerate = !icp.solved || icp.translation_conditioning < config_.min_translation_conditioning;
+  if (degenerate && icp.source_points >= config_.min_inliers)  // the frame's own normals, only when asked
+    result.icp.source_conditioning = ownTranslationConditioning (frame[config_.icp.iterations.size () - 1], config_.icp.noise_weighting);
+  const bool frame_constrains = icp.source_conditioning >= std::max (config_.min_translation_conditioning, 1e-6);
   std::ostringstream why;
   if (icp.source_points < config_.min_inliers)
     why << "too little valid depth (" << icp.source_points << " points)";
+  else if (degenerate && frame_constrains)
+    why << "no overlap with the model at the predicted pose (" << icp.inliers << " of " << icp.source_points
+        << " points matched; the frame's own surfaces constrain every direction, conditioning " << icp.source_conditioning
+        << ", its matches " << icp.translation_conditioning << ")";
   else if (!icp.solved)
     why << "ICP system degenerate (too few or ill-conditioned correspondences)";
   else if (icp.translation_conditioning < config_.min_translation_conditioning)

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 namespace cuefusion
@@ -27,6 +28,32 @@ public:
 private:
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now ();
 };
+
+const char* const kMotionModel = "motion model";
+
+/** \a motion applied \a steps times (a real number: the rotation about the same axis and
+  * the translation scaled for the fraction; repeated squaring for the whole part). */
+Eigen::Isometry3d
+repeatMotion (const Eigen::Isometry3d& motion, double steps)
+{
+  Eigen::Isometry3d result = Eigen::Isometry3d::Identity (), power = motion;
+  for (auto whole = static_cast<std::uint64_t> (std::floor (steps)); whole > 0; whole >>= 1)
+  {
+    if (whole & 1u)
+      result = result * power;
+    power = power * power;
+  }
+  const double fraction = steps - std::floor (steps);
+  if (fraction > 0.0)
+  {
+    const Eigen::AngleAxisd rotation (motion.rotation ());
+    Eigen::Isometry3d part = Eigen::Isometry3d::Identity ();
+    part.linear () = Eigen::AngleAxisd (rotation.angle () * fraction, rotation.axis ()).toRotationMatrix ();
+    part.translation () = motion.translation () * fraction;
+    result = result * part;
+  }
+  return result;
+}
 }  // namespace
 
 void
@@ -48,6 +75,10 @@ DenseReconstructionConfig::validate () const
     throw ParameterError ("DenseReconstructionConfig::min_inlier_share_ratio", "must lie in [0, 1]");
   if (!(relocalisation_min_inlier_fraction >= 0.0 && relocalisation_min_inlier_fraction <= 1.0))
     throw ParameterError ("DenseReconstructionConfig::relocalisation_min_inlier_fraction", "must lie in [0, 1]");
+  if (!(max_prediction_gap >= 0.0 && max_prediction_gap <= 60.0))
+    throw ParameterError ("DenseReconstructionConfig::max_prediction_gap", "must lie in [0, 60] seconds");
+  if (relocalisation_candidates_per_frame > 100)
+    throw ParameterError ("DenseReconstructionConfig::relocalisation_candidates_per_frame", "must lie in [0, 100]");
 }
 
 DenseReconstruction::DenseReconstruction (const DenseReconstructionConfig& config)
@@ -72,7 +103,33 @@ DenseReconstruction::reset ()
   last_good_pose_ = Eigen::Isometry3d::Identity ();
   velocity_ = Eigen::Isometry3d::Identity ();
   velocity_valid_ = last_frame_tracked_ = false;
+  velocity_seconds_ = last_tracked_timestamp_ = 0.0;
+  frames_since_tracked_ = lost_streak_ = 0;
   initialized_ = awaiting_placement_ = false;
+}
+
+std::optional<DenseReconstruction::Prediction>
+DenseReconstruction::predictedPose (const RGBDFrame& frame) const
+{
+  if (!velocity_valid_)
+    return std::nullopt;
+  const double elapsed = frame.timestamp - last_tracked_timestamp_;
+  const bool stamped = velocity_seconds_ > 0.0 && elapsed > 0.0 && std::isfinite (elapsed);
+  // The frame after a tracked one, its stamp not showing frames dropped: the motion once
+  // (stamps jitter by milliseconds; 1.5 intervals is a dropped frame).
+  if (frames_since_tracked_ == 0 && !(stamped && elapsed > 1.5 * velocity_seconds_))
+    return Prediction{last_good_pose_ * velocity_, false};
+  // Through lost or dropped frames: once per frame interval, by the stamps when usable.
+  double steps = static_cast<double> (frames_since_tracked_ + 1);
+  double seconds = velocity_seconds_ > 0.0 ? steps * velocity_seconds_ : 0.0;
+  if (stamped)
+  {
+    steps = elapsed / velocity_seconds_;
+    seconds = elapsed;
+  }
+  if (seconds > config_.max_prediction_gap || steps > 1e4)
+    return std::nullopt;
+  return Prediction{last_good_pose_ * repeatMotion (velocity_, steps), true};
 }
 
 KeyframeDatabase
@@ -103,6 +160,17 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, std::vector<Candidate> 
 {
   for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
     candidates.emplace_back (m.pose, "keyframe " + std::to_string (m.keyframe));
+  // A time budget: a few candidates a frame, the next few on the next lost frame.
+  const std::size_t budget = config_.relocalisation_candidates_per_frame;
+  if (budget > 0 && candidates.size () > budget)
+  {
+    std::vector<Candidate> chosen;
+    const std::size_t start = (lost_streak_ * budget) % candidates.size ();
+    for (std::size_t k = 0; k < budget; ++k)
+      chosen.push_back (candidates[(start + k) % candidates.size ()]);
+    candidates = std::move (chosen);
+  }
+  ++lost_streak_;
   RaycastResult view;
   FramePyramid view_pyramid;
   for (const auto& [candidate, source] : candidates)
@@ -113,7 +181,11 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, std::vector<Candidate> 
     buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
                        static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
     const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate, candidate);
-    if (!verified.tracked || verified.icp.inlierShare () < config_.relocalisation_min_inlier_fraction)
+    // The motion model's candidate has the motion behind it: the frame must agree with the
+    // model where the model exists (a view that moved on into space the map has not seen
+    // yet overlaps it in part). The others must agree over most of the frame.
+    const double verified_share = source == kMotionModel ? verified.icp.agreement () : verified.icp.inlierShare ();
+    if (!verified.tracked || verified_share < config_.relocalisation_min_inlier_fraction)
       continue;
     report.pose = verified.pose;
     report.tracked = true;
@@ -171,9 +243,9 @@ DenseReconstruction::process (const RGBDFrame& frame)
   }
   else
   {
-    const bool predict = config_.motion_model && velocity_valid_;
-    TrackingResult tracking =
-      tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, predict ? last_good_pose_ * velocity_ : last_good_pose_);
+    const std::optional<Prediction> prediction = config_.motion_model ? predictedPose (frame) : std::nullopt;
+    const bool predict = prediction.has_value ();
+    TrackingResult tracking = tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, predict ? prediction->pose : last_good_pose_);
     if (!tracking.tracked && predict)
     {
       // The camera stopped or turned: the prediction misled ICP; start from the last pose.
@@ -183,7 +255,9 @@ DenseReconstruction::process (const RGBDFrame& frame)
     }
     if (!tracking.tracked)
       tracking.pose = last_good_pose_;
-    const double share = tracking.icp.inlierShare ();
+    // Agreement where frame and model overlap, not the share of the whole frame: a camera
+    // turning into space the map has not seen yet overlaps it less, rightly.
+    const double share = tracking.icp.agreement ();
     bool verify_estimate = tracking.implausible_motion;  // ICP itself was fine
     if (tracking.tracked && config_.min_inlier_share_ratio > 0.0 && recent_shares_.size () >= 3)
     {
@@ -193,7 +267,8 @@ DenseReconstruction::process (const RGBDFrame& frame)
       if (share < config_.min_inlier_share_ratio * median)
       {
         std::ostringstream why;
-        why << "inlier share dropped to " << std::lround (100.0 * share) << " % (recent frames " << std::lround (100.0 * median) << " %)";
+        why << "agreement with the model dropped to " << std::lround (100.0 * share) << " % of the matched points (recent frames "
+            << std::lround (100.0 * median) << " %)";
         tracking.tracked = false;
         tracking.failure = why.str ();
         tracking.pose = last_good_pose_;
@@ -209,6 +284,8 @@ DenseReconstruction::process (const RGBDFrame& frame)
     {
       code = keyframes_.encode (frame.depth);
       std::vector<Candidate> first;
+      if (predict && prediction->across_gap)  // the model seen from where the motion leads
+        first.emplace_back (prediction->pose, kMotionModel);
       if (verify_estimate)
         first.emplace_back (tracking.estimate, "ICP estimate");
       relocalise (frame, std::move (first), code, report);
@@ -220,9 +297,13 @@ DenseReconstruction::process (const RGBDFrame& frame)
     // The next raycast may be far from the last: it searches every hole (the last
     // raycast's empty holes, which would become its skip mask, are dropped).
     model_.empty_holes.release ();
-    velocity_valid_ = last_frame_tracked_ = false;
+    // The motion stays known (predictedPose carries it through the gap); the next frame
+    // is not the one after a tracked frame.
+    last_frame_tracked_ = false;
+    ++frames_since_tracked_;
     return report;
   }
+  lost_streak_ = 0;
 
   if (report.relocalised)
   {
@@ -231,14 +312,22 @@ DenseReconstruction::process (const RGBDFrame& frame)
   }
   if (!config_.use_reference_poses && initialized_)
   {
-    recent_shares_.push_back (report.icp.inlierShare ());
+    recent_shares_.push_back (report.icp.agreement ());
     if (recent_shares_.size () > 10)
       recent_shares_.erase (recent_shares_.begin ());
   }
-  velocity_valid_ = initialized_ && last_frame_tracked_ && !report.relocalised;
-  if (velocity_valid_)
+  if (report.relocalised && report.relocalised_from != kMotionModel)
+    velocity_valid_ = false;  // placed elsewhere: the motion before says nothing about here
+  else if (initialized_ && last_frame_tracked_ && !report.relocalised)
+  {
     velocity_ = last_good_pose_.inverse () * report.pose;
+    const double seconds = frame.timestamp - last_tracked_timestamp_;
+    velocity_seconds_ = seconds > 0.0 && std::isfinite (seconds) ? seconds : 0.0;
+    velocity_valid_ = true;
+  }
   last_frame_tracked_ = true;
+  frames_since_tracked_ = 0;
+  last_tracked_timestamp_ = frame.timestamp;
   last_good_pose_ = report.pose;
   initialized_ = true;
   // With reference poses too: a later run may continue this volume (continueFrom).

@@ -19,12 +19,13 @@ namespace reconstruction
 {
 namespace
 {
-/** \brief Upper triangle of J^T J (21), J^T r (6), Σ r², the pair count and the number
-  * of valid source points.
+/** \brief Upper triangle of J^T J (21), J^T r (6), Σ r², the pair count, the number of
+  * valid source points and the number of those associated with a valid model point
+  * (before the distance and normal gates).
   */
-using Accumulator = std::array<double, 30>;
+using Accumulator = std::array<double, 31>;
 /** \brief The same for one image row, in float (cheap; a row holds < 10^4 terms). */
-using RowAccumulator = std::array<float, 30>;
+using RowAccumulator = std::array<float, 31>;
 
 /** \brief Weight of a term at model depth \a z: the inverse variance of the axial noise
   * there, relative to a point at 1 m (1 when \a weighted is false).
@@ -40,13 +41,14 @@ noiseWeight (float z, bool weighted)
 
 /** \brief Projective association of one source vertex; on success the point-to-plane
   * residual r = n·(p' − q) and its Jacobian row J = [(p' × n)^T, n^T] for a left update,
-  * and its noiseWeight.
+  * and its noiseWeight. \a associated: it projected onto a valid model point (gated or not).
   */
 inline bool
 pointToPlaneTerm (const Eigen::Vector3f& p, const Eigen::Vector3f& n_src, const Eigen::Matrix3f& R,
                   const Eigen::Vector3f& t, const PyramidLevel& target, float max_distance_sq, float min_cos,
-                  bool weighted, float& residual, Eigen::Matrix<float, 6, 1>& J, float& weight)
+                  bool weighted, float& residual, Eigen::Matrix<float, 6, 1>& J, float& weight, bool& associated)
 {
+  associated = false;
   const Eigen::Vector3f p_t = R * p + t;
   int u, v;
   if (!target.camera.projectToPixel (p_t, u, v))
@@ -55,6 +57,7 @@ pointToPlaneTerm (const Eigen::Vector3f& p, const Eigen::Vector3f& n_src, const 
   const Eigen::Vector3f& n = vertexAt (target.normals, u, v);
   if (!isValidVertex (q) || !isValidVertex (n))
     return false;
+  associated = true;
   const Eigen::Vector3f diff = p_t - q;
   if (diff.squaredNorm () > max_distance_sq)
     return false;
@@ -163,6 +166,7 @@ accumulateRowAvx2 (const PyramidLevel& source, const PyramidLevel& target, int y
     avx2::gatherXyz8 (tgt_v, vertex_offsets, gx, gy, gz);
     avx2::gatherXyz8 (tgt_n, normal_offsets, hx, hy, hz);
     ok = _mm256_and_ps (ok, _mm256_and_ps (_mm256_cmp_ps (gx, gx, _CMP_ORD_Q), _mm256_cmp_ps (hx, hx, _CMP_ORD_Q)));
+    row[30] += static_cast<float> (__builtin_popcount (static_cast<unsigned> (_mm256_movemask_ps (ok))));
     const __m256 dx = _mm256_sub_ps (qx, gx), dy = _mm256_sub_ps (qy, gy), dz = _mm256_sub_ps (qz, gz);
     const __m256 dist_sq = _mm256_fmadd_ps (dx, dx, _mm256_fmadd_ps (dy, dy, _mm256_mul_ps (dz, dz)));
     const __m256 cos_angle = _mm256_fmadd_ps (mx, hx, _mm256_fmadd_ps (my, hy, _mm256_mul_ps (mz, hz)));
@@ -243,8 +247,10 @@ buildSystem (const PyramidLevel& source, const PyramidLevel& target, const Eigen
         row[29] += 1.f;
         float r, w;
         Eigen::Matrix<float, 6, 1> J;
-        if (pointToPlaneTerm (p, n, R, t, target, max_distance_sq, min_cos, weighted, r, J, w))
+        bool associated = false;
+        if (pointToPlaneTerm (p, n, R, t, target, max_distance_sq, min_cos, weighted, r, J, w, associated))
           accumulate (row, J, r, w);
+        row[30] += associated ? 1.f : 0.f;
       }
       for (std::size_t i = 0; i < local.size (); ++i)
         local[i] += static_cast<double> (row[i]);
@@ -283,6 +289,23 @@ twistToIsometry (const Eigen::Matrix<double, 6, 1>& xi)
   return T;
 }
 }  // namespace
+
+double
+ownTranslationConditioning (const PyramidLevel& level, bool noise_weighting)
+{
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero ();
+  for (int y = 0; y < level.vertices.rows; ++y)
+    for (int x = 0; x < level.vertices.cols; ++x)
+    {
+      const Eigen::Vector3f& p = vertexAt (level.vertices, x, y);
+      const Eigen::Vector3f& n = vertexAt (level.normals, x, y);
+      if (isValidVertex (p) && isValidVertex (n))
+        sum += static_cast<double> (noiseWeight (p.z (), noise_weighting)) * (n.cast<double> () * n.cast<double> ().transpose ());
+    }
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero ();
+  A.bottomRightCorner<3, 3> () = sum;
+  return translationConditioning (A);
+}
 
 void
 ProjectiveICPConfig::validate () const
@@ -326,6 +349,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
         finest_measured = true;
         result.source_points = static_cast<std::size_t> (acc[29]);
         result.inliers = static_cast<std::size_t> (acc[28]);
+        result.associated = static_cast<std::size_t> (acc[30]);
         result.rmse = acc[28] > 0 ? std::sqrt (acc[27] / acc[28]) : 0.0;
       }
       if (acc[28] < 6)
@@ -371,6 +395,7 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
                                          static_cast<float> (config_.max_distance), min_cos, config_.noise_weighting);
     result.source_points = static_cast<std::size_t> (acc[29]);
     result.inliers = static_cast<std::size_t> (acc[28]);
+    result.associated = static_cast<std::size_t> (acc[30]);
     result.rmse = acc[28] > 0 ? std::sqrt (acc[27] / acc[28]) : 0.0;
   }
   // Re-orthonormalise: many small left updates drift off SO(3) in floating point.
