@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iterator>
 #include <random>
+#include <tuple>
 
 using namespace cuefusion;
 using namespace cuefusion::reconstruction;
@@ -435,17 +436,19 @@ trackSequence (const io::SyntheticSequence& sequence, const DenseReconstructionC
 
 TEST (MotionModel, AFastOrbitIsTrackedFromTheConstantVelocityPrediction)
 {
-  // The tabletop orbit in 12 frames: ~16 cm and 7° per frame, more than ICP converges
-  // over from the last pose.
-  const io::SyntheticSequence sequence = tabletopSequence (12, true);
+  // The tabletop orbit in 11 frames: ~18 cm and 8° per frame, more than ICP converges
+  // over from the last pose (12 frames, 7°, converge since the normal gate follows the
+  // noise and the plausibility check the agreement).
+  const io::SyntheticSequence sequence = tabletopSequence (11, true);
   DenseReconstructionConfig config;
   config.tracking.icp.noise_weighting = false;  // the prediction alone
   config.motion_model = false;
+  config.relocalise = false;  // ICP from the last pose alone (relocalisation places some of these frames)
   const auto still = trackSequence (sequence, config);
   EXPECT_LT (still.first, 12u) << "the case is not fast enough to need the prediction";
   config.motion_model = true;
   const auto predicted = trackSequence (sequence, config);
-  EXPECT_EQ (predicted.first, 12u);
+  EXPECT_EQ (predicted.first, 11u);
   EXPECT_LT (predicted.second, 0.005);
 }
 
@@ -806,4 +809,37 @@ TEST (CameraTracker, AFrameThatMissesTheModelIsNoOverlapNotDegenerate)
   const TrackingResult plane = CameraTracker ().track (floor_frame, model, model_pose, model_pose);
   EXPECT_FALSE (plane.tracked);
   EXPECT_NE (plane.failure.find ("degenerate"), std::string::npos) << plane.failure;
+}
+
+TEST (RoomRange, ANoisyTableSeenFromAcrossTheRoomIsTracked)
+{
+  // The tabletop from 2.4 and 3.2 m (orbits of that radius, ~2.5 cm of camera motion a
+  // frame, Kinect noise): the normals' noise there is twice that at 1.5 m, and the fixed
+  // 20° normal gate took most points for outliers (every frame after the first lost).
+  std::string text = test::readFile (test::tabletopScenePath ());
+  const std::size_t line = text.find ("\ntrajectory ");
+  ASSERT_NE (line, std::string::npos);
+  const std::size_t line_end = text.find ('\n', line + 1);
+  for (const auto& [radius, sweep, seed] : {std::tuple<double, double, std::uint64_t>{2.4, 18.0, 5}, {3.2, 14.0, 6}})
+  {
+    SCOPED_TRACE ("radius " + std::to_string (radius) + " m");
+    const std::string scene_text = text.substr (0, line) + "\ntrajectory target=0,0,0.8 radius=" + std::to_string (radius) +
+                                   " height=0.9 start=200 sweep=" + std::to_string (sweep) + " bob=0.03" + text.substr (line_end);
+    io::SyntheticSequenceConfig config;
+    config.frames = 30;  // at the Kinect's 640×480: at 320×240 a pixel spans 1.2 cm at 3 m
+    config.noise.enabled = true;
+    config.seed = seed;
+    const io::SyntheticSequence sequence (io::SyntheticScene::parse (scene_text, "far tabletop"), config);
+    DenseReconstruction fusion;
+    const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, config.frames));
+    EXPECT_GE (trackedShareFrom (run, 0), 0.95);
+    EXPECT_LT (trackedRmse (run), 0.01);
+    EXPECT_GT (run.back ().report.icp.normal_gate_deg, 25.0);
+
+    DenseReconstructionConfig fixed_gate;
+    fixed_gate.tracking.icp.angle_reference_depth = 0.0;
+    DenseReconstruction fixed (fixed_gate);
+    EXPECT_LT (trackedShareFrom (processInOrder (fixed, sequence, frameRange (0, config.frames)), 0), 0.5)
+      << "a case the fixed gate tracks does not test the noise-following gate";
+  }
 }

@@ -164,6 +164,12 @@ private:
   void
   relocalise (const RGBDFrame& frame, std::vector<Candidate> first, const KeyframeDatabase::Code& code, FrameReport& report);
 
+  /** min_inlier_share_ratio's check: refuses a tracked \a tracking (its pose back to the
+    * last good one, its failure said) whose agreement with the model fell below that
+    * ratio of the recent frames' median; true when it did. */
+  bool
+  refuseDroppedAgreement (TrackingResult& tracking) const;
+
   /** The motion model's pose for a frame, and whether it spans lost or dropped frames. */
   struct Prediction
   {

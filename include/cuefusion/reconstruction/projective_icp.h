@@ -17,7 +17,15 @@ struct ProjectiveICPConfig
   /** Iterations per pyramid level, finest level first (KinectFusion: 10, 5, 4). */
   std::vector<int> iterations{10, 5, 4};
   double max_distance = 0.05;           ///< correspondence rejection (metres)
-  double max_angle_deg = 20.0;          ///< between the two normals
+  double max_angle_deg = 20.0;          ///< between the two normals, for frames at angle_reference_depth or nearer
+  /** The normal gate follows the frame's normal noise: a normal from depth differences
+    * over a fixed pixel step has an angular noise ∝ σ_z(z) / z (σ_z: KinectNoiseModel),
+    * so for a frame whose median depth z lies beyond angle_reference_depth the gate is
+    * max_angle_deg × (σ_z(z)/z) / (σ_z(z_ref)/z_ref), at most max_angle_limit_deg. At
+    * 3 m that is 40° (a 20° gate took 83 % of a noisy 3 m view's points for outliers and
+    * lost it from its second frame). 0 = a fixed max_angle_deg. */
+  double angle_reference_depth = 1.5;
+  double max_angle_limit_deg = 60.0;    ///< the widest gate (front and back faces stay apart)
   double convergence_translation = 1e-4;  ///< stop a level when the update is smaller (m)
   double convergence_rotation = 1e-4;     ///< ... and (rad)
   /** Each point-to-plane term is weighted by the inverse variance of the Kinect axial
@@ -30,6 +38,11 @@ struct ProjectiveICPConfig
   void validate () const;
 };
 
+/** \brief The normal gate (degrees) ProjectiveICP uses for a frame whose median depth is
+  * \a median_depth (ProjectiveICPConfig::angle_reference_depth). */
+double
+normalGateDeg (const ProjectiveICPConfig& config, double median_depth);
+
 /** \brief Outcome of ProjectiveICP::align. */
 struct ICPResult
 {
@@ -39,6 +52,7 @@ struct ICPResult
   std::size_t source_points = 0;     ///< valid source pixels at the finest level
   std::size_t inliers = 0;           ///< accepted correspondences at the last finest iteration
   std::size_t associated = 0;        ///< source points that met a model point there (before the gates)
+  double normal_gate_deg = 0.0;      ///< the normal gate used (normalGateDeg of the frame's median depth)
   double rmse = 0.0;                 ///< point-to-plane RMS of those (metres)
   /** λ_min / λ_max of the (weighted) Σ n nᵀ of the matches on the coarsest level: how
     * well the matched normals constrain the three translations (0 for a plane, which

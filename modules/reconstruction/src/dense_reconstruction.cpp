@@ -197,6 +197,28 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, std::vector<Candidate> 
   }
 }
 
+bool
+DenseReconstruction::refuseDroppedAgreement (TrackingResult& tracking) const
+{
+  if (!tracking.tracked || !(config_.min_inlier_share_ratio > 0.0) || recent_shares_.size () < 3)
+    return false;
+  // Agreement where frame and model overlap, not the share of the whole frame: a camera
+  // turning into space the map has not seen yet overlaps it less, rightly.
+  const double share = tracking.icp.agreement ();
+  std::vector<double> sorted = recent_shares_;
+  std::nth_element (sorted.begin (), sorted.begin () + static_cast<long> (sorted.size () / 2), sorted.end ());
+  const double median = sorted[sorted.size () / 2];
+  if (share >= config_.min_inlier_share_ratio * median)
+    return false;
+  std::ostringstream why;
+  why << "agreement with the model dropped to " << std::lround (100.0 * share) << " % of the matched points (recent frames "
+      << std::lround (100.0 * median) << " %)";
+  tracking.tracked = false;
+  tracking.failure = why.str ();
+  tracking.pose = last_good_pose_;
+  return true;
+}
+
 FrameReport
 DenseReconstruction::process (const RGBDFrame& frame)
 {
@@ -255,26 +277,8 @@ DenseReconstruction::process (const RGBDFrame& frame)
     }
     if (!tracking.tracked)
       tracking.pose = last_good_pose_;
-    // Agreement where frame and model overlap, not the share of the whole frame: a camera
-    // turning into space the map has not seen yet overlaps it less, rightly.
-    const double share = tracking.icp.agreement ();
-    bool verify_estimate = tracking.implausible_motion;  // ICP itself was fine
-    if (tracking.tracked && config_.min_inlier_share_ratio > 0.0 && recent_shares_.size () >= 3)
-    {
-      std::vector<double> sorted = recent_shares_;
-      std::nth_element (sorted.begin (), sorted.begin () + static_cast<long> (sorted.size () / 2), sorted.end ());
-      const double median = sorted[sorted.size () / 2];
-      if (share < config_.min_inlier_share_ratio * median)
-      {
-        std::ostringstream why;
-        why << "agreement with the model dropped to " << std::lround (100.0 * share) << " % of the matched points (recent frames "
-            << std::lround (100.0 * median) << " %)";
-        tracking.tracked = false;
-        tracking.failure = why.str ();
-        tracking.pose = last_good_pose_;
-        verify_estimate = true;
-      }
-    }
+    // ICP itself was fine: its motion, or its agreement with the model, was not.
+    const bool verify_estimate = tracking.implausible_motion || refuseDroppedAgreement (tracking);
     report.pose = tracking.pose;
     report.tracked = tracking.tracked;
     report.failure = tracking.failure;

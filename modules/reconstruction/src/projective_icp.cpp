@@ -8,6 +8,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -291,6 +292,16 @@ twistToIsometry (const Eigen::Matrix<double, 6, 1>& xi)
 }  // namespace
 
 double
+normalGateDeg (const ProjectiveICPConfig& config, double median_depth)
+{
+  const double z_ref = config.angle_reference_depth;
+  if (!(z_ref > 0.0) || !(median_depth > z_ref))
+    return config.max_angle_deg;
+  const auto relative_noise = [] (double z) { return KinectNoiseModel::atNormalIncidence (static_cast<float> (z)) / z; };
+  return std::min (config.max_angle_limit_deg, config.max_angle_deg * relative_noise (median_depth) / relative_noise (z_ref));
+}
+
+double
 ownTranslationConditioning (const PyramidLevel& level, bool noise_weighting)
 {
   Eigen::Matrix3d sum = Eigen::Matrix3d::Zero ();
@@ -319,6 +330,10 @@ ProjectiveICPConfig::validate () const
     throw ParameterError ("ProjectiveICPConfig::max_distance", "must be positive");
   if (!(max_angle_deg > 0.0 && max_angle_deg <= 180.0))
     throw ParameterError ("ProjectiveICPConfig::max_angle_deg", "must lie in (0, 180] degrees");
+  if (!(max_angle_limit_deg >= max_angle_deg && max_angle_limit_deg <= 180.0))
+    throw ParameterError ("ProjectiveICPConfig::max_angle_limit_deg", "must lie in [max_angle_deg, 180] degrees");
+  if (!(angle_reference_depth >= 0.0 && angle_reference_depth <= 20.0))
+    throw ParameterError ("ProjectiveICPConfig::angle_reference_depth", "must lie in [0, 20] metres");
 }
 
 ProjectiveICP::ProjectiveICP (const ProjectiveICPConfig& config) : config_ (config)
@@ -335,7 +350,25 @@ ProjectiveICP::align (const FramePyramid& source, const FramePyramid& target, co
   ICPResult result;
   result.transform = guess;
   result.solved = true;
-  const float min_cos = static_cast<float> (std::cos (config_.max_angle_deg * M_PI / 180.0));
+  // The frame's median depth (coarsest level: a sixteenth of the points) sets the normal gate.
+  std::vector<float> depths;
+  const PyramidLevel& coarsest = source[levels - 1];
+  depths.reserve (coarsest.vertices.total ());
+  for (int y = 0; y < coarsest.vertices.rows; ++y)
+    for (int x = 0; x < coarsest.vertices.cols; ++x)
+    {
+      const Eigen::Vector3f& p = vertexAt (coarsest.vertices, x, y);
+      if (isValidVertex (p))
+        depths.push_back (p.z ());
+    }
+  double median_depth = 0.0;
+  if (!depths.empty ())
+  {
+    std::nth_element (depths.begin (), depths.begin () + static_cast<long> (depths.size () / 2), depths.end ());
+    median_depth = depths[depths.size () / 2];
+  }
+  result.normal_gate_deg = normalGateDeg (config_, median_depth);
+  const float min_cos = static_cast<float> (std::cos (result.normal_gate_deg * M_PI / 180.0));
   bool finest_measured = false;
   Eigen::Matrix<double, 6, 6> coarsest_system = Eigen::Matrix<double, 6, 6>::Zero ();  // its last iteration's
   for (std::size_t l = levels; l-- > 0;)
