@@ -51,8 +51,10 @@ struct DenseReconstructionConfig
   double max_prediction_gap = 2.0;
   /// Candidate poses verified per lost frame (each costs a raycast and an ICP): a lost
   /// stretch goes round-robin over its candidates instead of trying all on every frame,
-  /// so it runs at no less than about half the tracked frame rate. 0 = all on every frame.
-  std::size_t relocalisation_candidates_per_frame = 2;
+  /// so it runs at no less than about half the tracked frame rate (one candidate and its
+  /// depth-started raycast: ~1.25× a tracked frame's loop, docs/reconstruction.md). 0 = all
+  /// on every frame.
+  std::size_t relocalisation_candidates_per_frame = 1;
 
   void validate () const;
 };
