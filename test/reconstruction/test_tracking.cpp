@@ -709,6 +709,14 @@ trackedShareFrom (const std::vector<Processed>& run, std::size_t from)
     tracked += run[k].report.tracked ? 1 : 0;
   return run.size () > from ? static_cast<double> (tracked) / static_cast<double> (run.size () - from) : 0.0;
 }
+
+/** A generated orbit with a gap in it: \a gap frames blank or cut. */
+struct OrbitGap
+{
+  const char* scene;
+  std::size_t frames, gap;
+  std::uint64_t seed;
+};
 }  // namespace
 
 TEST (MotionModel, ABlackoutIsBridgedByThePrediction)
@@ -716,35 +724,26 @@ TEST (MotionModel, ABlackoutIsBridgedByThePrediction)
   // Orbits of 1.5–1.75° a frame; the depth goes blank for 10 or 25 frames (a hand over the
   // lens, 15–44° of orbit) while the camera keeps its speed. No keyframe lies ahead of the
   // camera: the motion carried through the gap finds it (before: every later frame lost).
-  struct Case
+  for (const OrbitGap& c : {OrbitGap{"tabletop", 54, 10, 1}, OrbitGap{"clutter", 40, 25, 2}})
   {
-    const char* scene;
-    std::size_t frames, blackout;
-    std::uint64_t seed;
-  };
-  for (const Case& c : {Case{"tabletop", 54, 10, 1}, Case{"clutter", 40, 25, 2}})
-  {
-    SCOPED_TRACE (std::string (c.scene) + ", " + std::to_string (c.blackout) + " frames blank");
+    SCOPED_TRACE (std::string (c.scene) + ", " + std::to_string (c.gap) + " frames blank");
     const io::SyntheticSequence sequence = noisyOrbit (c.scene, c.frames, c.seed);
-    DenseReconstruction fusion;
-    const std::size_t begin = 8, end = begin + c.blackout;
-    const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, c.frames), [&] (std::size_t i, RGBDFrame& frame) {
+    const std::size_t begin = 8, end = begin + c.gap;
+    const auto blank = [&] (std::size_t i, RGBDFrame& frame) {
       if (i >= begin && i < end)
         frame.depth.setTo (0.f);
-    });
+    };
+    DenseReconstruction fusion;
+    const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, c.frames), blank);
     for (std::size_t k = begin; k < end; ++k)
       EXPECT_FALSE (run[k].report.tracked) << "frame " << k;
     EXPECT_GE (trackedShareFrom (run, end), 0.9);
-    if (c.blackout > 10)  // a case that needs the motion carried through the gap
+    if (c.gap > 10)  // a case that needs the motion carried through the gap
     {
       DenseReconstructionConfig uncarried;
       uncarried.max_prediction_gap = 0.0;
       DenseReconstruction without (uncarried);
-      const std::vector<Processed> lost = processInOrder (without, sequence, frameRange (0, c.frames), [&] (std::size_t i, RGBDFrame& frame) {
-        if (i >= begin && i < end)
-          frame.depth.setTo (0.f);
-      });
-      EXPECT_LT (trackedShareFrom (lost, end), 0.5);
+      EXPECT_LT (trackedShareFrom (processInOrder (without, sequence, frameRange (0, c.frames), blank), end), 0.5);
     }
     EXPECT_TRUE (run[end].report.tracked || run[end + 1].report.tracked) << run[end].report.failure;
     EXPECT_LT (trackedRmse (run), 0.005);
@@ -755,19 +754,13 @@ TEST (MotionModel, AJumpOfCutFramesIsBridgedByThePrediction)
 {
   // 19 or 14 frames cut out of 1.5–1.75° a frame orbits (a 28° or 25° jump between two
   // processed frames; their stamps keep the time that passed).
-  struct Case
+  for (const OrbitGap& c : {OrbitGap{"tabletop", 54, 19, 3}, OrbitGap{"clutter", 40, 14, 4}})
   {
-    const char* scene;
-    std::size_t frames, cut;
-    std::uint64_t seed;
-  };
-  for (const Case& c : {Case{"tabletop", 54, 19, 3}, Case{"clutter", 40, 14, 4}})
-  {
-    SCOPED_TRACE (std::string (c.scene) + ", " + std::to_string (c.cut) + " frames cut");
+    SCOPED_TRACE (std::string (c.scene) + ", " + std::to_string (c.gap) + " frames cut");
     const io::SyntheticSequence sequence = noisyOrbit (c.scene, c.frames, c.seed);
     DenseReconstruction fusion;
     std::vector<std::size_t> order = frameRange (0, 6);
-    const std::vector<std::size_t> after = frameRange (6 + c.cut, c.frames);
+    const std::vector<std::size_t> after = frameRange (6 + c.gap, c.frames);
     order.insert (order.end (), after.begin (), after.end ());
     const std::vector<Processed> run = processInOrder (fusion, sequence, order);
     EXPECT_GE (trackedShareFrom (run, 6), 0.9);
