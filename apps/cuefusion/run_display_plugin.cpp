@@ -3,10 +3,10 @@
 #include "run_display.h"
 
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/quiet_opencv_log.h>
 #include <cuefusion/visualization/live_viewer.h>
 
 #include <boost/filesystem.hpp>
-#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/videoio.hpp>
 #include <opencv2/videoio/registry.hpp>
 
@@ -116,17 +116,16 @@ public:
       const bool mjpeg = fourcc_ == cv::VideoWriter::fourcc ('M', 'J', 'P', 'G');
       const int backend = mjpeg ? cv::CAP_OPENCV_MJPEG
                                 : (cv::videoio_registry::hasBackend (cv::CAP_FFMPEG) ? cv::CAP_FFMPEG : cv::CAP_ANY);
-      const cv::utils::logging::LogLevel before = cv::utils::logging::setLogLevel (cv::utils::logging::LOG_LEVEL_SILENT);
       bool opened = false;
       try
       {
+        const QuietOpenCVLog quiet;
         opened = writer_.open (temporary_, backend, fourcc_, fps_, image.size ());
       }
       catch (const cv::Exception&)
       {
         opened = false;
       }
-      cv::utils::logging::setLogLevel (before);
       if (!opened)
         throw Error (path_, "OpenCV cannot write this video format here");
       size_ = image.size ();

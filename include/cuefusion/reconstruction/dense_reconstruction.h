@@ -203,9 +203,8 @@ private:
   bool velocity_valid_ = false;       ///< a motion of two frames tracked one after the other is known
   double velocity_seconds_ = 0.0;     ///< the time velocity_ took (0: the frames had no usable stamps)
   double last_tracked_timestamp_ = 0.0;
-  std::size_t frames_since_tracked_ = 0;  ///< lost frames since the last tracked one
+  std::size_t frames_since_tracked_ = 0;  ///< lost frames since the last tracked one (0: the last frame was tracked)
   std::size_t lost_streak_ = 0;           ///< relocalisation rounds in this lost stretch (the round-robin's phase)
-  bool last_frame_tracked_ = false;
   bool initialized_ = false;
   bool awaiting_placement_ = false;  ///< continueFrom: the first frame is relocalised
 };

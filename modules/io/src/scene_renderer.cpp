@@ -1,3 +1,4 @@
+#include <cuefusion/common/hash.h>
 #include <cuefusion/common/parallel.h>
 #include <cuefusion/common/pinhole_camera.h>
 #include <cuefusion/io/scene_renderer.h>
@@ -12,10 +13,7 @@ namespace io
 std::uint64_t
 mixSeed (std::uint64_t seed, std::uint64_t counter)
 {
-  std::uint64_t z = seed + 0x9e3779b97f4a7c15ULL * (counter + 1);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
+  return splitMix64 (seed + 0x9e3779b97f4a7c15ULL * (counter + 1));
 }
 
 SceneRenderer::SceneRenderer (const SyntheticScene& scene) : scene_ (scene)

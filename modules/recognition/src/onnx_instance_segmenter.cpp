@@ -1,10 +1,10 @@
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/quiet_opencv_log.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/recognition/onnx_model_check.h>
 
 #include <boost/filesystem.hpp>
 
-#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -444,13 +444,8 @@ OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxInstanceSegmenterConfig&
   };
   // OpenCV DNN logs a refused input shape on stderr before it throws: silent while we
   // probe (the error that matters comes back as one line).
-  struct QuietDnn
   {
-    cv::utils::logging::LogLevel before = cv::utils::logging::setLogLevel (cv::utils::logging::LOG_LEVEL_SILENT);
-    ~QuietDnn () { cv::utils::logging::setLogLevel (before); }
-  };
-  {
-    const QuietDnn quiet;
+    const QuietOpenCVLog quiet;
     try
     {
       const cv::Mat blank (config_.input_size, config_.input_size, CV_8UC3, cv::Scalar (114, 114, 114));

@@ -102,7 +102,7 @@ DenseReconstruction::reset ()
   tracked_frames_ = 0;
   last_good_pose_ = Eigen::Isometry3d::Identity ();
   velocity_ = Eigen::Isometry3d::Identity ();
-  velocity_valid_ = last_frame_tracked_ = false;
+  velocity_valid_ = false;
   velocity_seconds_ = last_tracked_timestamp_ = 0.0;
   frames_since_tracked_ = lost_streak_ = 0;
   initialized_ = awaiting_placement_ = false;
@@ -303,9 +303,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
     // The next raycast may be far from the last: it searches every hole (the last
     // raycast's empty holes, which would become its skip mask, are dropped).
     model_.empty_holes.release ();
-    // The motion stays known (predictedPose carries it through the gap); the next frame
-    // is not the one after a tracked frame.
-    last_frame_tracked_ = false;
+    // The motion stays known (predictedPose carries it through the gap).
     ++frames_since_tracked_;
     return report;
   }
@@ -324,14 +322,13 @@ DenseReconstruction::process (const RGBDFrame& frame)
   }
   if (report.relocalised && report.relocalised_from != kMotionModel)
     velocity_valid_ = false;  // placed elsewhere: the motion before says nothing about here
-  else if (initialized_ && last_frame_tracked_ && !report.relocalised)
+  else if (initialized_ && frames_since_tracked_ == 0 && !report.relocalised)  // the frame before was tracked
   {
     velocity_ = last_good_pose_.inverse () * report.pose;
     const double seconds = frame.timestamp - last_tracked_timestamp_;
     velocity_seconds_ = seconds > 0.0 && std::isfinite (seconds) ? seconds : 0.0;
     velocity_valid_ = true;
   }
-  last_frame_tracked_ = true;
   frames_since_tracked_ = 0;
   last_tracked_timestamp_ = frame.timestamp;
   last_good_pose_ = report.pose;

@@ -4,6 +4,7 @@
 #include <cuefusion/common/avx2.h>
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/hash.h>
 #include <cuefusion/common/parallel.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
@@ -107,20 +108,14 @@ TSDFVolume::reaches (const Eigen::Isometry3d& pose) const
 std::uint64_t
 TSDFVolume::fingerprint () const
 {
-  // splitmix64's finaliser mixes each block's coordinates; the sum makes the identity
-  // independent of the blocks' allocation order.
-  const auto mix = [] (std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  };
+  // Each block's coordinates mixed (splitMix64), summed: independent of the allocation order.
   std::uint64_t sum = 0;
   for (std::size_t id = 0; id < store_.size (); ++id)
-    sum += mix (packBlockIndex (store_.block (id).index));
+    sum += splitMix64 (packBlockIndex (store_.block (id).index));
   std::uint64_t voxel_bits = 0, truncation_bits = 0;
   std::memcpy (&voxel_bits, &config_.voxel_size, sizeof voxel_bits);
   std::memcpy (&truncation_bits, &config_.truncation_voxels, sizeof truncation_bits);
-  return mix (sum ^ mix (voxel_bits) ^ mix (truncation_bits + 1) ^ store_.size ());
+  return splitMix64 (sum ^ splitMix64 (voxel_bits) ^ splitMix64 (truncation_bits + 1) ^ store_.size ());
 }
 
 std::size_t
