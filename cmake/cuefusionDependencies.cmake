@@ -16,7 +16,7 @@ cuefusion_find_dependency(PCL 1.13 COMPONENTS common io filters features sample_
 set(CUEFUSION_PCL_INCLUDE_DIRS ${PCL_INCLUDE_DIRS})
 set(CUEFUSION_PCL_LIBRARIES ${PCL_LIBRARIES})
 set(CUEFUSION_PCL_DEFINITIONS ${PCL_DEFINITIONS})
-cuefusion_find_dependency(OpenCV COMPONENTS core imgproc imgcodecs videoio dnn)
+cuefusion_find_dependency(OpenCV COMPONENTS core imgproc imgcodecs videoio dnn features2d)
 cuefusion_find_dependency(Eigen3 3.3 NO_MODULE)
 cuefusion_find_dependency(Boost COMPONENTS program_options filesystem)
 cuefusion_find_dependency(Threads)

@@ -1,6 +1,14 @@
 #!/usr/bin/python3
 """Tracking against exact poses on generated sequences, with the events that break it.
 
+First the stress matrix (issue 38; `--seeds N`, `--scenes A,B`, `--stress-size WxH`,
+`--stress-only`): per bundled scene and seed, with every object printed (texture=print) and
+Kinect noise, one of each event drawn at random over its range -- a jump of 10-45 deg cut
+out of the orbit (stamps showing the gap, and stamps hiding it), a sudden 90 deg turn, a
+blackout of 5-60 frames, fast shaking, robot-arm views 10-15 deg and 5-10 cm apart, a table
+seen from 2-4 m -- reported per run and as medians and worst cases per event, beside Open3D's
+RGB-D odometry. Then the fixed cases below.
+
 `cuefusion synth` renders the tabletop orbit with Kinect depth noise (TUM layout), and the
 script derives the cases from it by editing the frame lists (the renders are exact, so the
 truth is too):
@@ -26,8 +34,11 @@ docs/benchmarks.md.
 import argparse
 import datetime
 import json
+import math
 import os
+import random
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -40,9 +51,9 @@ from bench_reconstruction import ate_rmse, machine, read_tum, run_open3d  # noqa
 BINARY = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "build", "apps", "cuefusion")
 
 
-def synth(out, frames, size, scene="tabletop"):
-    subprocess.run([BINARY, "synth", "--scene", scene, "--frames", str(frames), "--noise", "--size", size, "--out", out],
-                   check=True, stdout=subprocess.DEVNULL)
+def synth(out, frames, size, scene="tabletop", seed=1):
+    subprocess.run([BINARY, "synth", "--scene", scene, "--frames", str(frames), "--noise", "--size", size, "--out", out,
+                    "--seed", str(seed)], check=True, stdout=subprocess.DEVNULL)
 
 
 PLANAR_SCENE = """scene planar
@@ -58,10 +69,11 @@ def listing(root, name):
     return [l for l in lines if l.startswith("#")], [l for l in lines if l.strip() and not l.startswith("#")]
 
 
-def derive(base, out, order, blank=()):
+def derive(base, out, order, blank=(), restamp=False):
     """A copy of the TUM folder `base` whose frames are base's frames in `order` (repeats get
     new timestamps 100 s later per pass, with their true poses); frames in `blank` get depth
-    images of zeros."""
+    images of zeros. `restamp`: the frames get the stamps of base's first len(order) frames,
+    so the stamps do not show frames cut out (a jump nothing foretold)."""
     shutil.copytree(base, out)
     heads = {}
     rows = {}
@@ -69,12 +81,13 @@ def derive(base, out, order, blank=()):
         heads[name], rows[name] = listing(base, name)
     seen = {}
     new = {name: [] for name in rows}
-    for i in order:
+    for k, i in enumerate(order):
         shift = 100.0 * seen.get(i, 0)
         seen[i] = seen.get(i, 0) + 1
         for name in ("depth.txt", "rgb.txt", "groundtruth.txt"):
             v = rows[name][i].split()
-            new[name].append(" ".join(["%.6f" % (float(v[0]) + shift)] + v[1:]))
+            stamp = float(rows[name][k].split()[0]) if restamp else float(v[0]) + shift
+            new[name].append(" ".join(["%.6f" % stamp] + v[1:]))
     for name in new:
         open(os.path.join(out, name), "w").write("\n".join(heads[name] + new[name]) + "\n")
     if blank:
@@ -85,7 +98,7 @@ def derive(base, out, order, blank=()):
             cv2.imwrite(path, np.zeros_like(depth))
 
 
-def evaluate(seq, out, event, extra=()):
+def evaluate(seq, out, event, extra=(), settle=5):
     shutil.rmtree(out, ignore_errors=True)
     proc = subprocess.run([BINARY, "run", seq, "--out", out, "--mode", "geometry"] + list(extra), capture_output=True, text=True)
     if proc.returncode != 0:
@@ -99,13 +112,15 @@ def evaluate(seq, out, event, extra=()):
     frames = tracking["frames"]
     after = None
     if event is not None:
-        window = [i for i in range(event + 5, frames)]
+        window = [i for i in range(event + settle, frames)]
         after = sum(1 for i in window if i not in lost) / float(len(window)) if window else float("nan")
     loop = json.load(open(os.path.join(out, "timings.json")))["stages"]
     return {"frames": frames, "tracked": tracking["tracked"], "lost": len(lost), "relocalised": len(tracking.get("relocalised", [])),
             "ate": ate_rmse([est[k] for k in keys], [ref[k] for k in keys]) if len(keys) >= 3 else float("nan"),
             "max_error": max(errors) if errors else float("nan"), "after": after,
-            "reloc_ms": loop.get("relocalise (lost frames only)", {}).get("median")}
+            "reloc_ms": loop.get("relocalise (lost frames only)", {}).get("median"),
+            "lost_ms": loop.get("lost frame (preprocess+track+relocalise)", {}).get("median"),
+            "loop_ms": loop.get("whole loop", {}).get("median")}
 
 
 BEFORE = ["--no-motion-model", "--no-noise-weighting"]  # the tracker before issue 23's second part
@@ -120,15 +135,156 @@ def mm(value):
     return "-" if value is None or value != value else "%.1f" % value
 
 
+# ---------------------------------------------------------------- the stress matrix
+
+SCENES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "scenes")
+
+
+def printed_scene(scene, out, radius=None, height=None, start=0.0, sweep=80.0, bob=0.0):
+    """The bundled `scene` with its orbit replaced (same target) and every object printed
+    (texture=print: the texture real rooms have, which features are found on)."""
+    lines = []
+    for line in open(os.path.join(SCENES, scene + ".scene")).read().splitlines():
+        if line.startswith("trajectory "):
+            fields = dict(f.split("=", 1) for f in line.split()[1:])
+            fields.update({"start": "%.3f" % start, "sweep": "%.4f" % sweep, "bob": "%.3f" % bob})
+            if radius is not None:
+                fields["radius"] = "%.4f" % radius
+            if height is not None:
+                fields["height"] = "%.4f" % height
+            line = "trajectory " + " ".join("%s=%s" % kv for kv in fields.items())
+        elif line.startswith("object "):
+            line = line.replace(" texture=checker", "") + " texture=print"
+        lines.append(line)
+    open(out, "w").write("\n".join(lines) + "\n")
+    return out
+
+
+def stress_cases(scene, seed, work, size):
+    """The events of issue 38 drawn at random for one scene and seed: (name, parameter, folder,
+    index in the frame list where the event ends, frames after it that may settle)."""
+    rng = random.Random(1000 * seed + sum(map(ord, scene)))
+    tag = "%s-%d" % (scene, seed)
+    cases = []
+
+    def orbit(name, frames, **trajectory):
+        path = os.path.join(work, "%s-%s" % (tag, name))
+        synth(path, frames, size, printed_scene(scene, path + ".scene", **trajectory), seed)
+        return path
+
+    # A jump: 10-45 deg of a 1.5 deg/frame orbit cut out, the stamps showing the gap or not.
+    rate = 1.5
+    jump = rng.uniform(10.0, 45.0)
+    cut = int(round(jump / rate))
+    frames = 10 + cut + 30
+    base = orbit("jump", frames, start=rng.uniform(0, 360), sweep=rate * (frames - 1), bob=0.03)
+    order = list(range(10)) + list(range(10 + cut, frames))
+    for restamp, label in ((False, "jump, stamps show the gap"), (True, "jump, stamps hide it")):
+        out = base + ("-hidden" if restamp else "-cut")
+        derive(base, out, order, restamp=restamp)
+        cases.append((label, "%.0f deg" % (cut * rate), out, 10, 0))
+    # A sudden 90 deg turn (stamps hide it: one frame to the next).
+    cut = int(round(90.0 / rate))
+    frames = 10 + cut + 30
+    base = orbit("turn", frames, start=rng.uniform(0, 360), sweep=rate * (frames - 1), bob=0.03)
+    derive(base, base + "-cut", list(range(10)) + list(range(10 + cut, frames)), restamp=True)
+    cases.append(("sudden 90 deg turn", "90 deg", base + "-cut", 10, 0))
+    # A blackout of 5-60 frames while the camera keeps its speed (1-2 deg/frame).
+    gap = rng.randint(5, 60)
+    rate_b = rng.uniform(1.0, 2.0)
+    frames = 10 + gap + 30
+    base = orbit("blackout", frames, start=rng.uniform(0, 360), sweep=rate_b * (frames - 1), bob=0.03)
+    derive(base, base + "-blank", list(range(frames)), blank=range(10, 10 + gap))
+    cases.append(("blackout", "%d frames, %.0f deg" % (gap, gap * rate_b), base + "-blank", 10 + gap, 0))
+    # Fast shaking: the orbit visited out of order, each frame 0-4 frames (of 1 deg) off.
+    frames = 60
+    base = orbit("shake", frames, start=rng.uniform(0, 360), sweep=frames - 1.0, bob=0.05)
+    order = [min(frames - 1, max(0, i + rng.randint(-4, 4))) for i in range(frames)]
+    order[0] = 0
+    derive(base, base + "-shaken", order, restamp=True)
+    cases.append(("fast shaking", "+-4 deg a frame", base + "-shaken", 0, 0))
+    # A robot arm: 15 views 10-15 deg and 5-10 cm apart, 0.6-0.9 m from the target.
+    step = rng.uniform(10.0, 15.0)
+    chord = rng.uniform(0.05, 0.10)
+    radius = chord / (2 * math.sin(math.radians(step) / 2))
+    distance = max(radius + 0.2, rng.uniform(0.6, 0.9))
+    path = orbit("arm", 15, radius=radius, height=math.sqrt(distance ** 2 - radius ** 2), start=rng.uniform(0, 360),
+                 sweep=step * 14)
+    cases.append(("robot arm views", "%.0f deg, %.0f cm apart" % (step, 100 * chord), path, 0, 0))
+    # Across the room: 2-4 m, 2.4 cm of camera motion a frame.
+    radius = rng.uniform(2.0, 4.0)
+    path = orbit("far", 30, radius=radius, height=0.9, start=rng.uniform(0, 360),
+                 sweep=math.degrees(0.024 / radius) * 29, bob=0.03)
+    cases.append(("seen from 2-4 m", "%.1f m" % radius, path, 0, 0))
+    return cases
+
+
+def stress(args, work):
+    rows = []
+    for scene in args.scenes.split(","):
+        for seed in range(1, args.seeds + 1):
+            for name, parameter, seq, event, settle in stress_cases(scene, seed, work, args.stress_size):
+                r = evaluate(seq, seq + "-run", event, settle=settle)
+                odometry, _ = open3d_ate("odometry", seq)
+                rows.append(dict(r, case=name, parameter=parameter, scene=scene, seed=seed, odometry=odometry))
+                sys.stderr.write("%s %s %d: %s\n" % (name, scene, seed, json.dumps({k: r[k] for k in ("after", "ate", "lost")})))
+    print("Stress cases of issue 38: `scripts/bench tracking --seeds %d --scenes %s` (%s; %s)\n"
+          % (args.seeds, args.scenes, machine(), datetime.date.today().isoformat()))
+    print("Each scene's objects printed (texture=print), rendered by `cuefusion synth` at %s with Kinect depth noise, "
+          "exact poses; each event drawn at random per scene and seed over the range the issue names. cuefusion "
+          "`run --mode geometry` as shipped. after: share of the frames after the event that are tracked (every frame "
+          "for the cases without one); ATE over the frames reported tracked (aligned RMSE); lost/loop: median ms of a "
+          "lost frame (preprocess, track, relocalise) over the median whole loop of a tracked frame; Open3D 0.16 RGB-D "
+          "odometry (frame to frame, hybrid term) ATE over every frame of the same list.\n" % args.stress_size)
+
+    def med(values):
+        values = [v for v in values if v is not None and v == v]
+        return statistics.median(values) if values else float("nan")
+
+    def ratio(r):
+        return r["lost_ms"] / r["loop_ms"] if r["lost_ms"] and r["loop_ms"] else None
+
+    print("| event | runs | after: median | after: worst | ATE mm: median | ATE mm: worst | lost/loop: median | lost/loop: worst | Open3D odometry ATE mm: median |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for case in dict.fromkeys(r["case"] for r in rows):
+        group = [r for r in rows if r["case"] == case]
+        afters = [r["after"] if r["after"] is not None else r["tracked"] / float(r["frames"]) for r in group]
+        ates = [1000 * r["ate"] for r in group]
+        ratios = [x for x in map(ratio, group) if x is not None]
+        print("| %s | %d | %.0f %% | %.0f %% | %s | %s | %s | %s | %s |"
+              % (case, len(group), 100 * med(afters), 100 * min(afters), mm(med(ates)),
+                 mm(max((a for a in ates if a == a), default=float("nan"))),
+                 "%.2f" % med(ratios) if ratios else "-", "%.2f" % max(ratios) if ratios else "-",
+                 mm(med([r["odometry"] for r in group]))))
+    print("\n| event | scene | seed | drawn | frames | tracked | relocalised | after | ATE (mm) | lost ms | loop ms | Open3D odometry ATE (mm) |")
+    print("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        after = r["after"] if r["after"] is not None else r["tracked"] / float(r["frames"])
+        print("| %s | %s | %d | %s | %d | %d | %d | %.0f %% | %s | %s | %s | %s |"
+              % (r["case"], r["scene"], r["seed"], r["parameter"], r["frames"], r["tracked"], r["relocalised"], 100 * after,
+                 mm(1000 * r["ate"]), "-" if r["lost_ms"] is None else "%.0f" % r["lost_ms"],
+                 "-" if r["loop_ms"] is None else "%.0f" % r["loop_ms"], mm(r["odometry"])))
+    print()
+
+
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", default="320x240")
     ap.add_argument("--real", nargs="*", default=[os.path.join(here, "..", "..", "shared", "data", d)
                                                   for d in ("7scenes-redkitchen", "icl-livingroom1")])
+    ap.add_argument("--seeds", type=int, default=3, help="stress matrix: seeds per scene")
+    ap.add_argument("--scenes", default="tabletop,clutter", help="stress matrix: bundled scenes")
+    ap.add_argument("--stress-size", default="640x480", help="stress matrix: image size")
+    ap.add_argument("--stress-only", action="store_true", help="only the stress matrix")
+    ap.add_argument("--keep", action="store_true", help="keep the generated sequences and runs (their folder is printed)")
     args = ap.parse_args()
     work = tempfile.mkdtemp(prefix="cuefusion-bench-tracking-")
     try:
+        if args.seeds > 0:
+            stress(args, work)
+        if args.stress_only:
+            return
         synth(os.path.join(work, "orbit240"), 240, args.size)
         synth(os.path.join(work, "orbit120"), 120, args.size)
         synth(os.path.join(work, "orbit40"), 40, args.size)
@@ -184,7 +340,10 @@ def main():
                   % (name, r["frames"], r["tracked"], mm(r["ate"] * 1000), mm(before["ate"] * 1000), mm(f2m), mm(odometry),
                      "-" if not f2m else "%.2f" % (r["ate"] * 1000 / f2m), ms))
     finally:
-        shutil.rmtree(work, ignore_errors=True)
+        if args.keep:
+            sys.stderr.write("sequences and runs kept in %s\n" % work)
+        else:
+            shutil.rmtree(work, ignore_errors=True)
 
 
 if __name__ == "__main__":

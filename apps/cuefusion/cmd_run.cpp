@@ -144,7 +144,7 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
              const std::vector<pipeline::SegmentationTimings>& segmentation, const std::vector<std::size_t>& volume_bytes,
              const std::vector<double>& loop_ms)
 {
-  std::vector<double> pre, track, integrate, raycast, core, relocalise;
+  std::vector<double> pre, track, integrate, raycast, core, relocalise, lost;
   nlohmann::json frames = nlohmann::json::array ();
   for (std::size_t k = 0; k < reports.size (); ++k)
   {
@@ -156,7 +156,10 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
     if (t.relocalise_ms > 0.0)  // frames whose tracking failed, relocalised or not
       relocalise.push_back (t.relocalise_ms);
     if (!r.tracked)
+    {
+      lost.push_back (t.preprocess_ms + t.track_ms + t.relocalise_ms);  // all a lost frame costs
       continue;
+    }
     pre.push_back (t.preprocess_ms);
     track.push_back (t.track_ms);
     integrate.push_back (t.integrate_ms);
@@ -176,6 +179,7 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
   return {{"stages", {{"preprocess", timingSummary (pre)}, {"track", timingSummary (track)}, {"integrate", timingSummary (integrate)},
                       {"raycast", timingSummary (raycast)}, {"track+integrate+raycast", timingSummary (core)},
                       {"relocalise (lost frames only)", timingSummary (relocalise)},
+                      {"lost frame (preprocess+track+relocalise)", timingSummary (lost)},
                       {"geometric segmentation", timingSummary (geometry)}, {"instance merge", timingSummary (instances)},
                       {"propagation", timingSummary (propagation)}, {"segment merging", timingSummary (merging)},
                       {"label update", timingSummary (update)}, {"segmentation", timingSummary (segmentation_total)},

@@ -53,6 +53,9 @@ struct SceneObject
   std::array<std::uint8_t, 3> rgb{{128, 128, 128}};
   bool detectable = true;                    ///< a network would report it (not floor/walls)
   bool checker = false;                      ///< checkerboard texture (floors)
+  /// printed texture: grey levels of 5 cm and 1.5 cm cubes of space (a print, wood, a
+  /// poster: what features are found on in real scenes; flat shading has almost none)
+  bool print = false;
   std::vector<Primitive> parts;
 };
 
@@ -91,7 +94,8 @@ struct OrbitTrajectory
   *   sphere center=-0.3,0,0.8 radius=0.06
   * \endcode
   * "_" in class names stands for a space. "detectable=no" marks stuff a detector does
-  * not report (floor, walls), "texture=checker" a checkerboard. World z is up.
+  * not report (floor, walls), "texture=checker" a checkerboard, "texture=print" a printed pattern
+  * (SceneObject::print). World z is up.
   */
 struct SyntheticScene
 {

@@ -56,6 +56,18 @@ SceneRenderer::shade (const SceneObject& object, const Eigen::Vector3d& p, const
   double k = 0.45 + 0.55 * std::max (0.0, n.dot (light));
   if (object.checker && (static_cast<long> (std::floor (p.x () / 0.25)) + static_cast<long> (std::floor (p.y () / 0.25))) % 2)
     k *= 0.75;
+  if (object.print)
+  {
+    // Two scales of cubes of space, each a grey level from a hash of its cell and the
+    // object (the same point looks the same from every view).
+    const auto level = [&] (double cell, std::uint64_t salt) {
+      const auto c = [&] (double x) { return static_cast<std::uint64_t> (static_cast<std::int64_t> (std::floor (x / cell))); };
+      const std::uint64_t h = splitMix64 (c (p.x ()) * 0x9E3779B97F4A7C15ull ^ splitMix64 (c (p.y ()) + salt) ^
+                                          splitMix64 (c (p.z ()) * 0xC2B2AE3D27D4EB4Full + object.id));
+      return static_cast<double> (h >> 40) / static_cast<double> (1ull << 24);
+    };
+    k *= 0.4 + 0.35 * level (0.05, 1) + 0.25 * level (0.015, 2);
+  }
   auto channel = [k] (std::uint8_t c) { return static_cast<std::uint8_t> (std::min (255.0, std::round (c * k))); };
   return cv::Vec3b (channel (object.rgb[2]), channel (object.rgb[1]), channel (object.rgb[0]));
 }

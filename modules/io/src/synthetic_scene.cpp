@@ -450,9 +450,10 @@ SyntheticScene::parse (const std::string& text, const std::string& source)
       }
       o.detectable = p.flag ("detectable", true);
       const std::string texture = p.text ("texture", "plain");
-      if (texture != "plain" && texture != "checker")
-        throw Error (where, "texture must be plain or checker");
+      if (texture != "plain" && texture != "checker" && texture != "print")
+        throw Error (where, "texture must be plain, checker or print");
       o.checker = texture == "checker";
+      o.print = texture == "print";
       scene.objects.push_back (o);
     }
     else if (kind == "box" || kind == "cylinder" || kind == "sphere")

@@ -77,13 +77,16 @@ DenseReconstructionConfig::validate () const
     throw ParameterError ("DenseReconstructionConfig::relocalisation_min_inlier_fraction", "must lie in [0, 1]");
   if (!(max_prediction_gap >= 0.0 && max_prediction_gap <= 60.0))
     throw ParameterError ("DenseReconstructionConfig::max_prediction_gap", "must lie in [0, 60] seconds");
+  if (!(relocalisation_min_overlap >= 0.0 && relocalisation_min_overlap <= 1.0))
+    throw ParameterError ("DenseReconstructionConfig::relocalisation_min_overlap", "must lie in [0, 1]");
   if (relocalisation_candidates_per_frame > 100)
     throw ParameterError ("DenseReconstructionConfig::relocalisation_candidates_per_frame", "must lie in [0, 100]");
+  features.validate ();
 }
 
 DenseReconstruction::DenseReconstruction (const DenseReconstructionConfig& config)
   : config_ (config), preprocessor_ (config.preprocessing), tracker_ (config.tracking), volume_ (config.volume),
-    keyframes_ (config.keyframes)
+    keyframes_ (config.keyframes), features_ (config.features)
 {
   config_.validate ();
 }
@@ -97,6 +100,7 @@ DenseReconstruction::reset ()
   frame_pyramid_.clear ();
   model_pyramid_.clear ();
   keyframes_.clear ();
+  features_.clear ();
   last_fused_depth_.release ();
   recent_shares_.clear ();
   tracked_frames_ = 0;
@@ -104,7 +108,7 @@ DenseReconstruction::reset ()
   velocity_ = Eigen::Isometry3d::Identity ();
   velocity_valid_ = false;
   velocity_seconds_ = last_tracked_timestamp_ = 0.0;
-  frames_since_tracked_ = lost_streak_ = 0;
+  frames_since_tracked_ = lost_streak_ = round_robin_ = feature_rounds_ = 0;
   initialized_ = awaiting_placement_ = false;
 }
 
@@ -154,26 +158,56 @@ DenseReconstruction::continueFrom (TSDFVolume volume, KeyframeDatabase keyframes
   awaiting_placement_ = !config_.use_reference_poses;
 }
 
+std::optional<DenseReconstruction::Candidate>
+DenseReconstruction::featureCandidate (const RGBDFrame& frame, const KeyframeDatabase::Code& code)
+{
+  // Beside the last tracked frame one keyframe a round (a match costs ~10 ms): the most like
+  // the frame by its fern code, and on every other round the next one round-robin.
+  std::vector<std::size_t> views;
+  const std::vector<std::size_t> stored = features_.keyframeIds ();
+  if (feature_rounds_ % 2 == 0)
+  {
+    for (const KeyframeDatabase::Match& m : keyframes_.query (code, 1))
+      views.push_back (m.keyframe);
+  }
+  else if (!stored.empty ())
+    views.push_back (stored[(feature_rounds_ / 2) % stored.size ()]);
+  ++feature_rounds_;
+  const std::optional<FeatureRelocaliser::Estimate> found = features_.relocalise (frame.color, frame.depth, frame.camera, views);
+  if (!found)
+    return std::nullopt;
+  return Candidate{found->pose, "features (" + found->view + ")", true};
+}
+
 void
-DenseReconstruction::relocalise (const RGBDFrame& frame, std::vector<Candidate> candidates, const KeyframeDatabase::Code& code,
-                                 FrameReport& report)
+DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vector<Candidate> candidates,
+                                 const KeyframeDatabase::Code& code, FrameReport& report)
 {
   for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
-    candidates.emplace_back (m.pose, "keyframe " + std::to_string (m.keyframe));
+    candidates.push_back ({m.pose, "keyframe " + std::to_string (m.keyframe), false});
+  // Features on every other lost frame, the first of a stretch included (not while the view
+  // is blank, a hand over the lens: nothing to describe). They cost about what verifying a
+  // candidate does, so on their rounds they take one candidate's place in the budget.
+  const bool feature_round = features && config_.feature_relocalisation && !frame.color.empty () && lost_streak_ % 2 == 0 &&
+                             cv::countNonZero (frame_pyramid_.back ().depth > 0.f) >= 100;
+  const std::optional<Candidate> found = feature_round ? featureCandidate (frame, code) : std::nullopt;
   // A time budget: a few candidates a frame, the next few on the next lost frame.
   const std::size_t budget = config_.relocalisation_candidates_per_frame;
-  if (budget > 0 && candidates.size () > budget)
+  if (budget > 0 && !candidates.empty ())
   {
+    const std::size_t take = std::min (candidates.size (), budget - (feature_round ? 1 : 0));
     std::vector<Candidate> chosen;
-    const std::size_t start = (lost_streak_ * budget) % candidates.size ();
-    for (std::size_t k = 0; k < budget; ++k)
-      chosen.push_back (candidates[(start + k) % candidates.size ()]);
+    for (std::size_t k = 0; k < take; ++k)
+      chosen.push_back (candidates[(round_robin_ + k) % candidates.size ()]);
+    round_robin_ += take;
     candidates = std::move (chosen);
   }
+  if (found)
+    candidates.insert (candidates.begin (), *found);
   ++lost_streak_;
   RaycastResult view;
   FramePyramid view_pyramid;
-  for (const auto& [candidate, source] : candidates)
+  for (const auto& [candidate, source, evidenced] : candidates)
   {
     // The model as seen from the candidate, and the frame aligned to it from there: a
     // right candidate converges close by with most points agreeing.
@@ -183,11 +217,13 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, std::vector<Candidate> 
     buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
                        static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
     const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate, candidate);
-    // The motion model's candidate has the motion behind it: the frame must agree with the
-    // model where the model exists (a view that moved on into space the map has not seen
-    // yet overlaps it in part). The others must agree over most of the frame.
-    const double verified_share = source == kMotionModel ? verified.icp.agreement () : verified.icp.inlierShare ();
-    if (!verified.tracked || verified_share < config_.relocalisation_min_inlier_fraction)
+    // The motion model's and the features' candidates have evidence of their own: the frame
+    // must agree with the model where the model exists (a view that moved on into space the
+    // map has not seen yet overlaps it in part). The others must agree over most of the frame.
+    // Both must explain a fair share of the frame (relocalisation_min_overlap).
+    const double verified_share = evidenced ? verified.icp.agreement () : verified.icp.inlierShare ();
+    if (!verified.tracked || verified_share < config_.relocalisation_min_inlier_fraction ||
+        verified.icp.inlierShare () < config_.relocalisation_min_overlap)
       continue;
     report.pose = verified.pose;
     report.tracked = true;
@@ -250,9 +286,9 @@ DenseReconstruction::process (const RGBDFrame& frame)
     // A loaded volume: the frame must be found in it before anything is fused.
     std::vector<Candidate> first;
     if (frame.pose)
-      first.emplace_back (*frame.pose, "reference pose");
+      first.push_back ({*frame.pose, "reference pose", false});
     code = keyframes_.encode (frame.depth);
-    relocalise (frame, std::move (first), code, report);
+    relocalise (frame, false, std::move (first), code, report);
     report.timings.relocalise_ms = clock.lap ();
     if (!report.tracked)
       report.failure = "not placed in the loaded volume (no candidate pose verified by ICP)";
@@ -291,10 +327,10 @@ DenseReconstruction::process (const RGBDFrame& frame)
       code = keyframes_.encode (frame.depth);
       std::vector<Candidate> first;
       if (predict && prediction->across_gap)  // the model seen from where the motion leads
-        first.emplace_back (prediction->pose, kMotionModel);
+        first.push_back ({prediction->pose, kMotionModel, true});
       if (verify_estimate)
-        first.emplace_back (tracking.estimate, "ICP estimate");
-      relocalise (frame, std::move (first), code, report);
+        first.push_back ({tracking.estimate, "ICP estimate", false});
+      relocalise (frame, true, std::move (first), code, report);
       report.timings.relocalise_ms = clock.lap ();
     }
   }
@@ -307,7 +343,7 @@ DenseReconstruction::process (const RGBDFrame& frame)
     ++frames_since_tracked_;
     return report;
   }
-  lost_streak_ = 0;
+  lost_streak_ = round_robin_ = feature_rounds_ = 0;
 
   if (report.relocalised)
   {
@@ -340,10 +376,14 @@ DenseReconstruction::process (const RGBDFrame& frame)
     {
       if (code.empty ())
         code = keyframes_.encode (frame.depth);
-      keyframes_.addIfNovel (code, report.pose);
+      if (keyframes_.addIfNovel (code, report.pose) && config_.feature_relocalisation)
+        features_.addKeyframe (frame.color, frame.depth, frame.camera, report.pose, keyframes_.size () - 1);
     }
     // Coded only when saved (keyframesForContinuing): a copy costs a tenth of a coding.
     frame.depth.copyTo (last_fused_depth_);
+    // Described only when the next frame is lost.
+    if (config_.feature_relocalisation)
+      features_.rememberTracked (frame.color, frame.depth, frame.camera, report.pose);
   }
   volume_.integrate (frame.depth, frame.color, frame.camera, report.pose);
   report.timings.integrate_ms = clock.lap ();
