@@ -76,7 +76,7 @@ struct RunSettings
   std::string source, out, format = "auto", intrinsics;
   long long frames = 0, save_every = 0;  ///< signed: "-5" must not wrap to 2^64 - 5
   double voxel = 0.01, truncation = 4.0, max_depth = 5.0;
-  bool use_gt_poses = false, save_volume = false, no_motion_model = false, no_noise_weighting = false;
+  bool use_gt_poses = false, save_volume = false, no_motion_model = false, no_noise_weighting = false, no_features = false;
   std::string masks, mode;
   unsigned hole_refresh = 8;
   float color_split = segmentation::InstanceGuidedRegionMergeConfig ().color_split_distance;

@@ -236,6 +236,7 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("max-depth", po::value (&s.max_depth)->default_value (s.max_depth), "ignore depth beyond this (metres)")
     ("use-gt-poses", po::bool_switch (&s.use_gt_poses), "integrate with the sequence's own poses instead of tracking")
     ("no-motion-model", po::bool_switch (&s.no_motion_model), "tracking: start ICP at the last pose instead of the constant-velocity prediction")
+    ("no-features", po::bool_switch (&s.no_features), "relocalisation: no colour features (keyframes and the motion model only)")
     ("no-noise-weighting", po::bool_switch (&s.no_noise_weighting), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
     ("hole-refresh", po::value (&s.hole_refresh)->default_value (s.hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
     ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf), its voxels' labels as map.pcd's (volume.labels) and the relocalisation keyframes (volume.keyframes)")
@@ -301,6 +302,7 @@ runPipelineConfig (const RunSettings& s)
   config.use_reference_poses = s.use_gt_poses;
   config.hole_refresh_period = s.hole_refresh;
   config.motion_model = !s.no_motion_model;
+  config.feature_relocalisation = !s.no_features;
   config.tracking.icp.noise_weighting = !s.no_noise_weighting;
   pipeline_config.mode = chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path);
   pipeline_config.instance_merge.color_split_distance = s.color_split;

@@ -228,7 +228,7 @@ private:
   FramePyramid model_pyramid_;
   KeyframeDatabase keyframes_;
   FeatureRelocaliser features_;
-  cv::Mat last_fused_depth_;  ///< of the last fused frame (when relocalising), for keyframesForContinuing
+  cv::Mat last_fused_depth_;  ///< of the last fused frame (when relocalising), for keyframesForContinuing and features_
   std::vector<double> recent_shares_;  ///< inlier shares of the last tracked frames
   std::size_t tracked_frames_ = 0;
   Eigen::Isometry3d last_good_pose_ = Eigen::Isometry3d::Identity ();

@@ -86,7 +86,7 @@ public:
 
   const FeatureRelocaliserConfig& getConfig () const { return config_; }
 
-  /** \brief The features of an image (CV_8UC3 BGR) and its depth (CV_32F metres) seen by
+  /** \brief The features of an image (CV_8UC3 BGR or CV_8UC1 grey) and its depth (CV_32F metres) seen by
     * \a camera from \a pose. A keypoint is kept where its depth is valid and its 3×3
     * neighbourhood does not straddle a depth edge (the point would lie on either side). */
   FeatureView
@@ -97,8 +97,9 @@ public:
   std::optional<Estimate>
   estimate (const FeatureView& frame, const FeatureView& view) const;
 
-  /** \brief Keeps a copy of a tracked frame's images; its features are computed only if
-    * a lost frame asks for them (candidates). */
+  /** \brief Keeps a tracked frame's image (as grey) and \a depth; its features are
+    * computed only if a lost frame asks for them (relocalise). The depth is kept by
+    * reference, not copied: the caller leaves it unchanged until the next call. */
   void
   rememberTracked (const cv::Mat& color, const cv::Mat& depth, const PinholeCamera& camera, const Eigen::Isometry3d& pose);
 
@@ -128,7 +129,7 @@ private:
   std::vector<std::pair<std::size_t, FeatureView>> keyframes_;
   struct Remembered
   {
-    cv::Mat color, depth;
+    cv::Mat color, depth;  ///< grey; the caller's depth (rememberTracked)
     PinholeCamera camera;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
     std::optional<FeatureView> view;  ///< computed on first use

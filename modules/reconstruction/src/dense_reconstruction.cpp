@@ -381,9 +381,9 @@ DenseReconstruction::process (const RGBDFrame& frame)
     }
     // Coded only when saved (keyframesForContinuing): a copy costs a tenth of a coding.
     frame.depth.copyTo (last_fused_depth_);
-    // Described only when the next frame is lost.
-    if (config_.feature_relocalisation)
-      features_.rememberTracked (frame.color, frame.depth, frame.camera, report.pose);
+    // Described only when the next frame is lost; the depth is the copy just made.
+    if (config_.feature_relocalisation && !frame.color.empty ())
+      features_.rememberTracked (frame.color, last_fused_depth_, frame.camera, report.pose);
   }
   volume_.integrate (frame.depth, frame.color, frame.camera, report.pose);
   report.timings.integrate_ms = clock.lap ();

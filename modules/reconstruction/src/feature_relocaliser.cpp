@@ -63,10 +63,14 @@ FeatureRelocaliser::describe (const cv::Mat& color, const cv::Mat& depth, const 
 {
   FeatureView view;
   view.pose = pose;
-  if (color.empty () || depth.empty () || color.size () != depth.size () || color.type () != CV_8UC3 || depth.type () != CV_32F)
+  if (color.empty () || depth.empty () || color.size () != depth.size () || (color.type () != CV_8UC3 && color.type () != CV_8UC1) ||
+      depth.type () != CV_32F)
     return view;
   cv::Mat grey, descriptors;
-  cv::cvtColor (color, grey, cv::COLOR_BGR2GRAY);
+  if (color.type () == CV_8UC3)
+    cv::cvtColor (color, grey, cv::COLOR_BGR2GRAY);
+  else
+    grey = color;
   std::vector<cv::KeyPoint> keypoints;
   orb_->detectAndCompute (grey, cv::noArray (), keypoints, descriptors);
   std::vector<int> kept;
@@ -229,8 +233,11 @@ void
 FeatureRelocaliser::rememberTracked (const cv::Mat& color, const cv::Mat& depth, const PinholeCamera& camera,
                                      const Eigen::Isometry3d& pose)
 {
-  color.copyTo (last_.color);
-  depth.copyTo (last_.depth);
+  if (color.type () == CV_8UC3)
+    cv::cvtColor (color, last_.color, cv::COLOR_BGR2GRAY);  // a third of a copy of the colour
+  else
+    color.copyTo (last_.color);
+  last_.depth = depth;
   last_.camera = camera;
   last_.pose = pose;
   last_.view.reset ();
