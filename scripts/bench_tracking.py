@@ -219,6 +219,43 @@ def stress_cases(scene, seed, work, size):
     return cases
 
 
+def bin_of(row):
+    """The range of the issue's targets a drawn event falls in (jumps <= 30 deg, blackouts <=
+    30 frames, the table from 2.4-3.2 m), so its medians are read beside the target."""
+    number = float(row["parameter"].split()[0].lstrip("+-"))
+    if row["case"].startswith("jump"):
+        return "<= 30 deg" if number <= 30 else "> 30 deg"
+    if row["case"] == "blackout":
+        return "<= 30 frames" if number <= 30 else "> 30 frames"
+    if row["case"].startswith("seen from"):
+        return "2.4-3.2 m" if 2.4 <= number <= 3.2 else "2-2.4 or 3.2-4 m"
+    return "all"
+
+
+def summary(rows):
+    """Medians and worst cases per event and range."""
+    def med(values):
+        values = [v for v in values if v is not None and v == v]
+        return statistics.median(values) if values else float("nan")
+
+    def ratio(r):
+        return r["lost_ms"] / r["loop_ms"] if r["lost_ms"] and r["loop_ms"] else None
+
+    print("| event | range | runs | after: median | after: worst | ATE mm: median | ATE mm: worst | lost/loop: median | lost/loop: worst | Open3D odometry ATE mm: median |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    keys = list(dict.fromkeys((r["case"], bin_of(r)) for r in rows))
+    for case, group_bin in sorted(keys, key=lambda k: ([c for c, _ in keys].index(k[0]), k[1])):
+        group = [r for r in rows if r["case"] == case and bin_of(r) == group_bin]
+        afters = [r["after"] if r["after"] is not None else r["tracked"] / float(r["frames"]) for r in group]
+        ates = [1000 * r["ate"] for r in group]
+        ratios = [x for x in map(ratio, group) if x is not None]
+        print("| %s | %s | %d | %.0f %% | %.0f %% | %s | %s | %s | %s | %s |"
+              % (case, group_bin, len(group), 100 * med(afters), 100 * min(afters), mm(med(ates)),
+                 mm(max((a for a in ates if a == a), default=float("nan"))),
+                 "%.2f" % med(ratios) if ratios else "-", "%.2f" % max(ratios) if ratios else "-",
+                 mm(med([r["odometry"] for r in group]))))
+
+
 def stress(args, work):
     rows = []
     for scene in args.scenes.split(","):
@@ -237,25 +274,7 @@ def stress(args, work):
           "lost frame (preprocess, track, relocalise) over the median whole loop of a tracked frame; Open3D 0.16 RGB-D "
           "odometry (frame to frame, hybrid term) ATE over every frame of the same list.\n" % args.stress_size)
 
-    def med(values):
-        values = [v for v in values if v is not None and v == v]
-        return statistics.median(values) if values else float("nan")
-
-    def ratio(r):
-        return r["lost_ms"] / r["loop_ms"] if r["lost_ms"] and r["loop_ms"] else None
-
-    print("| event | runs | after: median | after: worst | ATE mm: median | ATE mm: worst | lost/loop: median | lost/loop: worst | Open3D odometry ATE mm: median |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for case in dict.fromkeys(r["case"] for r in rows):
-        group = [r for r in rows if r["case"] == case]
-        afters = [r["after"] if r["after"] is not None else r["tracked"] / float(r["frames"]) for r in group]
-        ates = [1000 * r["ate"] for r in group]
-        ratios = [x for x in map(ratio, group) if x is not None]
-        print("| %s | %d | %.0f %% | %.0f %% | %s | %s | %s | %s | %s |"
-              % (case, len(group), 100 * med(afters), 100 * min(afters), mm(med(ates)),
-                 mm(max((a for a in ates if a == a), default=float("nan"))),
-                 "%.2f" % med(ratios) if ratios else "-", "%.2f" % max(ratios) if ratios else "-",
-                 mm(med([r["odometry"] for r in group]))))
+    summary(rows)
     print("\n| event | scene | seed | drawn | frames | tracked | relocalised | after | ATE (mm) | lost ms | loop ms | Open3D odometry ATE (mm) |")
     print("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:

@@ -458,7 +458,8 @@ TEST_F (Cli, ASuddenTurnIsNeverFusedAtAWrongPose)
   // on from one frame to the next (the stamps hide it) and goes on. Carried through the
   // lost frames, the motion model led ICP to a pose near its prediction where 56 % of the
   // frame's matches agreed with the model (the table, the floor) but 25 % of its points:
-  // it was fused 0.7 m off and the map went wrong. No frame reported tracked may be off.
+  // it was fused 0.7 m off and the map went wrong (relocalisation_min_agreement and
+  // relocalisation_min_overlap refuse it). No frame reported tracked may be off.
   std::istringstream lines (test::readFile (test::tabletopScenePath ()));
   std::string scene, line;
   while (std::getline (lines, line))

@@ -691,18 +691,25 @@ TEST (ContinueVolume, KeyframeFilesReadBackExactlyAndBadOnesAreRefused)
 
 namespace
 {
-/** The scene's orbit in \a frames frames at 320×240 with Kinect noise drawn from \a seed. */
+/** \a scene's orbit in \a frames frames at \a width × 3/4 of it with Kinect noise drawn
+  * from \a seed. */
 io::SyntheticSequence
-noisyOrbit (const std::string& scene, std::size_t frames, std::uint64_t seed)
+noisyOrbit (const io::SyntheticScene& scene, std::size_t frames, std::uint64_t seed, int width = 320)
 {
   io::SyntheticSequenceConfig config;
   config.frames = frames;
-  config.width = 320;
-  config.height = 240;
+  config.width = width;
+  config.height = width * 3 / 4;
   config.noise.enabled = true;
   config.seed = seed;
-  return io::SyntheticSequence (io::SyntheticScene::load (std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/" + scene + ".scene"),
-                                config);
+  return io::SyntheticSequence (scene, config);
+}
+
+io::SyntheticSequence
+noisyOrbit (const std::string& scene, std::size_t frames, std::uint64_t seed)
+{
+  return noisyOrbit (io::SyntheticScene::load (std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/" + scene + ".scene"), frames,
+                     seed);
 }
 
 /** \a scene (a bundled scene's name) with every object printed (texture=print): the
@@ -908,13 +915,8 @@ TEST (FeatureRelocalisation, AThirtyDegreeJumpIsRelocalisedByFeatures)
   for (const OrbitGap& c : {OrbitGap{"tabletop", 54, 20, 7}, OrbitGap{"clutter", 40, 17, 8}})
   {
     SCOPED_TRACE (std::string (c.scene) + ", " + std::to_string (c.gap) + " frames cut");
-    io::SyntheticSequenceConfig orbit;
-    orbit.frames = c.frames;
-    orbit.width = 640;  // at 320×240 ORB finds too few keypoints for a 30° baseline
-    orbit.height = 480;
-    orbit.noise.enabled = true;
-    orbit.seed = c.seed;
-    const io::SyntheticSequence sequence (printedScene (c.scene), orbit);
+    // At 640×480: at 320×240 ORB finds too few keypoints for a 30° baseline.
+    const io::SyntheticSequence sequence = noisyOrbit (printedScene (c.scene), c.frames, c.seed, 640);
     std::vector<std::size_t> order = frameRange (0, 6);
     const std::vector<std::size_t> after = frameRange (6 + c.gap, c.frames);
     order.insert (order.end (), after.begin (), after.end ());

@@ -77,6 +77,8 @@ DenseReconstructionConfig::validate () const
     throw ParameterError ("DenseReconstructionConfig::relocalisation_min_inlier_fraction", "must lie in [0, 1]");
   if (!(max_prediction_gap >= 0.0 && max_prediction_gap <= 60.0))
     throw ParameterError ("DenseReconstructionConfig::max_prediction_gap", "must lie in [0, 60] seconds");
+  if (!(relocalisation_min_agreement >= 0.0 && relocalisation_min_agreement <= 1.0))
+    throw ParameterError ("DenseReconstructionConfig::relocalisation_min_agreement", "must lie in [0, 1]");
   if (!(relocalisation_min_overlap >= 0.0 && relocalisation_min_overlap <= 1.0))
     throw ParameterError ("DenseReconstructionConfig::relocalisation_min_overlap", "must lie in [0, 1]");
   if (relocalisation_candidates_per_frame > 100)
@@ -221,9 +223,10 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
     // must agree with the model where the model exists (a view that moved on into space the
     // map has not seen yet overlaps it in part). The others must agree over most of the frame.
     // Both must explain a fair share of the frame (relocalisation_min_overlap).
-    const double verified_share = evidenced ? verified.icp.agreement () : verified.icp.inlierShare ();
-    if (!verified.tracked || verified_share < config_.relocalisation_min_inlier_fraction ||
-        verified.icp.inlierShare () < config_.relocalisation_min_overlap)
+    const bool passed = evidenced ? verified.icp.agreement () >= config_.relocalisation_min_agreement &&
+                                      verified.icp.inlierShare () >= config_.relocalisation_min_overlap
+                                  : verified.icp.inlierShare () >= config_.relocalisation_min_inlier_fraction;
+    if (!verified.tracked || !passed)
       continue;
     report.pose = verified.pose;
     report.tracked = true;
