@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -134,6 +135,28 @@ inline std::string
 tabletopScenePath ()
 {
   return std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/tabletop.scene";
+}
+
+/** \brief The scene file \a path with every object printed (texture=print, in place of
+  * any checker): the texture real scenes have, which colour features are found on;
+  * \a trajectory, when given, replaces its trajectory line. */
+inline std::string
+printedSceneText (const std::string& path, const std::string& trajectory = "")
+{
+  std::istringstream lines (readFile (path));
+  std::string text, line;
+  while (std::getline (lines, line))
+  {
+    if (!trajectory.empty () && line.rfind ("trajectory ", 0) == 0)
+      line = trajectory;
+    else if (line.rfind ("object ", 0) == 0)
+    {
+      const std::size_t checker = line.find (" texture=checker");
+      line = (checker == std::string::npos ? line : line.erase (checker, 16)) + " texture=print";
+    }
+    text += line + "\n";
+  }
+  return text;
 }
 }  // namespace test
 }  // namespace cuefusion

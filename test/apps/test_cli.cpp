@@ -460,20 +460,9 @@ TEST_F (Cli, ASuddenTurnIsNeverFusedAtAWrongPose)
   // frame's matches agreed with the model (the table, the floor) but 25 % of its points:
   // it was fused 0.7 m off and the map went wrong (relocalisation_min_agreement and
   // relocalisation_min_overlap refuse it). No frame reported tracked may be off.
-  std::istringstream lines (test::readFile (test::tabletopScenePath ()));
-  std::string scene, line;
-  while (std::getline (lines, line))
-  {
-    if (line.rfind ("trajectory ", 0) == 0)
-      line = "trajectory target=0,0,0.8 radius=1.3 height=0.6 start=168.306 sweep=148.5 bob=0.03";
-    else if (line.rfind ("object ", 0) == 0)
-    {
-      const std::size_t checker = line.find (" texture=checker");
-      line = (checker == std::string::npos ? line : line.erase (checker, 16)) + " texture=print";
-    }
-    scene += line + "\n";
-  }
-  test::writeFile (dir / "turn.scene", scene);
+  test::writeFile (dir / "turn.scene",
+                   test::printedSceneText (test::tabletopScenePath (),
+                                           "trajectory target=0,0,0.8 radius=1.3 height=0.6 start=168.306 sweep=148.5 bob=0.03"));
   const std::string seq = dir / "seq";
   Result r = run ("synth --scene " + (dir / "turn.scene") + " --frames 100 --noise --seed 1 --out " + seq);
   ASSERT_EQ (r.code, 0) << r.err;

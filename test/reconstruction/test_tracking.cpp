@@ -10,7 +10,6 @@
 #include <fstream>
 #include <iterator>
 #include <random>
-#include <sstream>
 #include <tuple>
 
 using namespace cuefusion;
@@ -712,23 +711,12 @@ noisyOrbit (const std::string& scene, std::size_t frames, std::uint64_t seed)
                      seed);
 }
 
-/** \a scene (a bundled scene's name) with every object printed (texture=print): the
-  * texture real scenes have, which features are found on. */
+/** \a scene (a bundled scene's name) with every object printed (test::printedSceneText). */
 io::SyntheticScene
 printedScene (const std::string& scene)
 {
-  std::istringstream lines (test::readFile (std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/" + scene + ".scene"));
-  std::string text, line;
-  while (std::getline (lines, line))
-  {
-    if (line.rfind ("object ", 0) == 0)
-    {
-      const std::size_t checker = line.find (" texture=checker");
-      line = checker == std::string::npos ? line + " texture=print" : line.replace (checker, 16, " texture=print");
-    }
-    text += line + "\n";
-  }
-  return io::SyntheticScene::parse (text, scene + " printed");
+  return io::SyntheticScene::parse (
+    test::printedSceneText (std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/" + scene + ".scene"), scene + " printed");
 }
 
 /** Of the frames of \a run from position \a from on: the share tracked. */

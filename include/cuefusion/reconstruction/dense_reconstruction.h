@@ -68,10 +68,11 @@ struct DenseReconstructionConfig
   /// on their frames and add the verification of the pose they find. 0 = all on every frame.
   std::size_t relocalisation_candidates_per_frame = 1;
   /// When tracking fails: the pose from ORB features of the colour image matched to the
-  /// last tracked frame's and to keyframes' (FeatureRelocaliser: the keyframe most similar
-  /// by its fern code and one more, round-robin, per lost frame), verified by ICP like every
-  /// candidate and tried before them, outside the per-frame budget. Recovers from jumps
-  /// too wide for ICP and from views no keyframe is close to; needs colour.
+  /// last tracked frame's and to one keyframe's (FeatureRelocaliser: the keyframe most
+  /// similar by its fern code, on every other feature round the next one round-robin),
+  /// verified by ICP like every candidate and tried before them; on every other lost frame,
+  /// in place of one candidate of the per-frame budget. Recovers from jumps too wide for ICP
+  /// and from views no keyframe is close to; needs colour.
   bool feature_relocalisation = true;
   FeatureRelocaliserConfig features;
 

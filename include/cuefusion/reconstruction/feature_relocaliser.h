@@ -64,7 +64,8 @@ struct FeatureView
   *
   * Features are computed only when needed: a keyframe's when it is stored (a few a
   * minute), the last tracked frame's only when the next frame is lost (rememberTracked
-  * keeps a copy of its images, a fraction of a millisecond), a lost frame's once.
+  * keeps its image as grey and the caller's depth, a fraction of a millisecond), a lost
+  * frame's once.
   *
   * RANSAC is written here, not PCL's SampleConsensusModelRegistration: that model has one
   * distance threshold for every point, and the sensor's noise at 3 m is ten times that at
@@ -129,7 +130,7 @@ private:
   std::vector<std::pair<std::size_t, FeatureView>> keyframes_;
   struct Remembered
   {
-    cv::Mat color, depth;  ///< grey; the caller's depth (rememberTracked)
+    cv::Mat grey, depth;  ///< the image as grey; the caller's depth (rememberTracked)
     PinholeCamera camera;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
     std::optional<FeatureView> view;  ///< computed on first use

@@ -221,8 +221,8 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
     const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate, candidate);
     // The motion model's and the features' candidates have evidence of their own: the frame
     // must agree with the model where the model exists (a view that moved on into space the
-    // map has not seen yet overlaps it in part). The others must agree over most of the frame.
-    // Both must explain a fair share of the frame (relocalisation_min_overlap).
+    // map has not seen yet overlaps it in part) and still explain a fair share of the frame
+    // (relocalisation_min_overlap). The others must agree over most of the frame.
     const bool passed = evidenced ? verified.icp.agreement () >= config_.relocalisation_min_agreement &&
                                       verified.icp.inlierShare () >= config_.relocalisation_min_overlap
                                   : verified.icp.inlierShare () >= config_.relocalisation_min_inlier_fraction;

@@ -234,9 +234,9 @@ FeatureRelocaliser::rememberTracked (const cv::Mat& color, const cv::Mat& depth,
                                      const Eigen::Isometry3d& pose)
 {
   if (color.type () == CV_8UC3)
-    cv::cvtColor (color, last_.color, cv::COLOR_BGR2GRAY);  // a third of a copy of the colour
+    cv::cvtColor (color, last_.grey, cv::COLOR_BGR2GRAY);  // a third of a copy of the colour
   else
-    color.copyTo (last_.color);
+    color.copyTo (last_.grey);
   last_.depth = depth;
   last_.camera = camera;
   last_.pose = pose;
@@ -247,7 +247,7 @@ const FeatureView&
 FeatureRelocaliser::lastTrackedView ()
 {
   if (!last_.view)
-    last_.view = describe (last_.color, last_.depth, last_.camera, last_.pose);
+    last_.view = describe (last_.grey, last_.depth, last_.camera, last_.pose);
   return *last_.view;
 }
 
@@ -278,7 +278,7 @@ FeatureRelocaliser::relocalise (const cv::Mat& color, const cv::Mat& depth, cons
       best->view = name;
     }
   };
-  if (!last_.color.empty ())
+  if (!last_.grey.empty ())
     consider (lastTrackedView (), "last tracked frame");
   for (const std::size_t id : keyframes)
     for (const auto& [stored, view] : keyframes_)
