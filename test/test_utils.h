@@ -80,12 +80,13 @@ struct CommandResult
   std::string out, err;
 };
 
-/** Runs `cuefusion ARGS`, stdout and stderr captured into files of \a dir. */
+/** Runs `cuefusion ARGS`, stdout and stderr captured into files of \a dir; with
+  * \a in_dir, in \a dir as the working directory (for relative paths in ARGS). */
 inline CommandResult
-runCuefusion (const std::string& args, const TempDir& dir)
+runCuefusion (const std::string& args, const TempDir& dir, bool in_dir = false)
 {
-  const std::string cmd = std::string (CUEFUSION_BINARY) + " " + args + " >" + (dir / "out.txt") + " 2>" +
-                          (dir / "err.txt") + " </dev/null";
+  const std::string cmd = (in_dir ? "cd " + dir.str () + " && " : std::string ()) + std::string (CUEFUSION_BINARY) + " " +
+                          args + " >" + (dir / "out.txt") + " 2>" + (dir / "err.txt") + " </dev/null";
   const int status = std::system (cmd.c_str ());
   return {WIFEXITED (status) ? WEXITSTATUS (status) : -1, readFile (dir / "out.txt"), readFile (dir / "err.txt")};
 }

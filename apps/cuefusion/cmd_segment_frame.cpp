@@ -286,8 +286,10 @@ private:
   static std::string
   key (const std::string& folder)
   {
+    // Absolute first: Boost's weakly_canonical leaves a relative path whose first
+    // element does not exist yet as it is, so "out" would not find itself once created.
     boost::system::error_code ec;
-    const fs::path canonical = fs::weakly_canonical (folder, ec);
+    const fs::path canonical = fs::weakly_canonical (fs::absolute (folder), ec);
     return ec ? folder : canonical.string ();
   }
 

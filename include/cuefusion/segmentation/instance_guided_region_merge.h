@@ -34,6 +34,15 @@ struct InstanceGuidedRegionMergeConfig
     * still united. Above 0.5 it never applies.
     */
   float occlusion_split_share = 0.25f;
+  /** How far (pixels) a mask's boundary may be off: a piece the masks cover only in part
+    * (between 1 − min_overlap and min_overlap of it) is claimed when more than
+    * min_overlap of it lies inside its best instance's mask or within this many pixels of
+    * it. A network's masks are decoded at half resolution and grown, so their boundary is
+    * a pixel or two off; without this, the keys along a keyboard's rim, a lid's edge or a
+    * handle that the mask misses by a pixel stay segments of their own. A neighbour that
+    * a leaking mask overlaps keeps its pixels beyond the band and stays apart. 0 = off.
+    */
+  int mask_boundary_tolerance = 2;
   /** With the frame's colour: a mask is cut where the geometric segments it claims (more
     * than half of each inside it) fall into groups whose mean colours lie more than this
     * apart in rg chromaticity (r = R/(R+G+B), g = G/(R+G+B): shading scales all three

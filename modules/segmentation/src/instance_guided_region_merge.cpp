@@ -28,6 +28,8 @@ InstanceGuidedRegionMergeConfig::validate () const
     throw ParameterError ("InstanceGuidedRegionMergeConfig::split_min_pixels", "must be at least 1");
   if (!(std::isfinite (occlusion_split_share) && occlusion_split_share >= 0.f))
     throw ParameterError ("InstanceGuidedRegionMergeConfig::occlusion_split_share", "must be a share >= 0 (above 0.5: never)");
+  if (mask_boundary_tolerance < 0 || mask_boundary_tolerance > 16)
+    throw ParameterError ("InstanceGuidedRegionMergeConfig::mask_boundary_tolerance", "must lie in [0, 16] pixels (0: off)");
   if (!(std::isfinite (color_split_distance) && color_split_distance >= 0.f))
     throw ParameterError ("InstanceGuidedRegionMergeConfig::color_split_distance", "must be >= 0 (0: off)");
   if (!(std::isfinite (color_split_share) && color_split_share > 0.f && color_split_share <= 0.5f))
@@ -479,6 +481,63 @@ InstanceGuidedRegionMerge::split (const cv::Mat& geometric, const std::vector<In
   splitAlongMasks (geometric, given, pieces, segments, planes, color);
 }
 
+namespace
+{
+/** \brief splitAlongMasks(): pieces the masks cover only in part are claimed when more
+  * than min_overlap of them lies inside their best instance's mask or within
+  * mask_boundary_tolerance pixels of it (a mask's boundary is that uncertain).
+  */
+void
+claimWithinBoundaryTolerance (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& pieces, const cv::Mat& ids,
+                              const OverlapTable<int>& covered, const std::vector<Instance>& instances,
+                              std::vector<SegmentInstance>& info)
+{
+  const int t = config.mask_boundary_tolerance;
+  if (t <= 0)
+    return;
+  std::vector<int> candidate (info.size (), 0);  // per piece: the instance id to test, 0 = none
+  bool any = false;
+  for (std::size_t l = 1; l < covered.labels () && l < info.size (); ++l)
+    if (info[l].instance < 0 && info[l].coverage >= 1.f - config.min_overlap && covered.size[l] > 0)
+    {
+      candidate[l] = covered.best (l).first;
+      any = any || candidate[l] != 0;
+    }
+  if (!any)
+    return;
+  std::vector<int> near (info.size (), 0);
+  const int rows = pieces.rows, cols = pieces.cols;
+  for (int y = 0; y < rows; ++y)
+  {
+    const std::int32_t* p = pieces.ptr<std::int32_t> (y);
+    const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
+    for (int x = 0; x < cols; ++x)
+    {
+      const int l = p[x];
+      if (l <= 0 || candidate[static_cast<std::size_t> (l)] == 0)
+        continue;
+      const int id = candidate[static_cast<std::size_t> (l)];
+      bool found = s[x] == id;
+      for (int v = std::max (0, y - t); v <= std::min (rows - 1, y + t) && !found; ++v)
+      {
+        const std::uint16_t* row = ids.ptr<std::uint16_t> (v);
+        for (int u = std::max (0, x - t); u <= std::min (cols - 1, x + t) && !found; ++u)
+          found = row[u] == id;
+      }
+      near[static_cast<std::size_t> (l)] += found ? 1 : 0;
+    }
+  }
+  for (std::size_t l = 1; l < info.size (); ++l)
+    if (candidate[l] != 0 && static_cast<float> (near[l]) > config.min_overlap * static_cast<float> (covered.size[l]))
+    {
+      const float coverage = info[l].coverage;
+      info[l] = describe (instances, candidate[l]);
+      info[l].coverage = coverage;
+      info[l].geometric_segments = 1;
+    }
+}
+}  // namespace
+
 std::vector<Instance>
 InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, const std::vector<Instance>& given, cv::Mat& pieces,
                                             std::vector<SegmentInstance>* segments, const SurfacePlanes* planes,
@@ -594,6 +653,7 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
     info[l].coverage = coverage;
     info[l].geometric_segments = 1;
   }
+  claimWithinBoundaryTolerance (config_, pieces, ids, covered, instances, info);
   if (planes)
   {
     // The rim: 0-pixels with a point inside the mask of the instance claiming a piece
@@ -696,6 +756,32 @@ groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& i
   for (const auto& [pair, c] : contacts)
     if (divided.count (info[pair.first].instance) && !apart (pair.first, pair.second, c) && 2 * c.second < c.first)
       group[find (pair.second)] = find (pair.first);
+  // Only sizeable pieces are told apart: a part of a divided instance too small to be
+  // apart (a key raised on a keyboard, a knob) that no crease joins to a sizeable piece
+  // joins the group it touches most among those holding one. Without this every raised
+  // key of a keyboard whose body and key field meet along jumps was a segment of its own.
+  const auto sizeable = [&] (std::size_t l) { return static_cast<float> (size[l]) >= share * static_cast<float> (claimed[info[l].instance]); };
+  std::vector<char> holds_sizeable (n, 0);
+  for (std::size_t l = 1; l < n; ++l)
+    if (info[l].instance >= 0 && sizeable (l))
+      holds_sizeable[find (l)] = 1;
+  std::map<std::size_t, std::pair<int, std::size_t>> attach;  // small piece's root → (contacts, sizeable group)
+  for (const auto& [pair, c] : contacts)
+  {
+    if (!divided.count (info[pair.first].instance))
+      continue;
+    for (const auto& [small, other] : {pair, std::make_pair (pair.second, pair.first)})
+    {
+      const std::size_t from = find (small), to = find (other);
+      if (holds_sizeable[from] || !holds_sizeable[to])
+        continue;
+      auto& best = attach[from];
+      if (c.first > best.first || (c.first == best.first && to < best.second))
+        best = {c.first, to};
+    }
+  }
+  for (const auto& [from, best] : attach)
+    group[from] = best.second;
   for (std::size_t l = 0; l < n; ++l)
     group[l] = find (l);
   return group;
