@@ -12,6 +12,7 @@
 #include <cuefusion/io/sequence.h>
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/segmentation/fragmentation.h>
 #include <cuefusion/recognition/asynchronous_segmenter.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
@@ -123,7 +124,18 @@ segmentsJson (const std::vector<segmentation::SegmentRecord>& segments)
     entry["class_votes"] = votes;
     list.push_back (entry);
   }
-  return {{"segments", list}};
+  const segmentation::FragmentationReport f = segmentation::fragmentationReport (segments);
+  nlohmann::json classes = nlohmann::json::array ();
+  const char* names[] = {"below 100", "100 to 999", "1000 to 9999", "10000 or more"};
+  for (std::size_t k = 0; k < f.count_by_size.size (); ++k)
+    classes.push_back ({{"voxels", names[k]}, {"segments", f.count_by_size[k]}, {"share_of_surface", f.share_by_size[k]}});
+  const nlohmann::json fragmentation = {{"segments", f.segments},
+                                        {"voxels", f.voxels},
+                                        {"segments_at_least_100_voxels", f.segments_at_least_100 ()},
+                                        {"share_of_surface_below_100_voxels", f.shareBelow (100)},
+                                        {"share_of_surface_below_1000_voxels", f.shareBelow (1000)},
+                                        {"by_size", classes}};
+  return {{"segments", list}, {"fragmentation", fragmentation}};
 }
 
 /** The map's labels seen from the camera as a 16-bit id PNG (for `cuefusion eval`). */
@@ -732,6 +744,7 @@ RunSession::printSummary () const
 {
   const fs::path dir (s_.out);
   const reconstruction::TSDFVolume& volume = fusion_.reconstruction ().volume ();
+  const segmentation::FragmentationReport fragmentation = segmentation::fragmentationReport (segments_);
   std::cout << "processed " << result_.reports.size () << " frames of " << s_.source << " (" << grabber_->formatName ()
             << ") in " << std::fixed << std::setprecision (2) << seconds_ << " s; " << result_.trajectory.size ()
             << " fused" << std::defaultfloat;
@@ -750,6 +763,9 @@ RunSession::printSummary () const
                })
             << " with a class; mode " << pipeline::segmentationModeName (pipeline_config_.mode) << ", " << result_.merges
             << " merges)\n"
+            << "  fragments:  " << fragmentation.segments_at_least_100 () << " segments of >= 100 voxels; "
+            << std::fixed << std::setprecision (1) << 100.0 * fragmentation.shareBelow (1000)
+            << " % of the surface in segments below 1000 voxels\n" << std::defaultfloat
             << "  volume:     " << volume.blockCount () << " blocks, "
             << volume.memoryUsage () / (1024 * 1024) << " MiB\n";
 }

@@ -249,6 +249,22 @@ TEST_F (Cli, RunSegmentsWithMasks)
   }
   EXPECT_TRUE (classes.count ("sports ball")) << segments.dump ();
   EXPECT_TRUE (classes.count ("teddy bear")) << segments.dump ();
+  // The fragmentation report agrees with the list it sums up, and run prints it.
+  const auto fragmentation = nlohmann::json::parse (test::readFile (dir / "run/segments.json")).at ("fragmentation");
+  std::size_t large = 0, voxels = 0, small_voxels = 0;
+  for (const auto& s : segments)
+  {
+    const auto v = s.at ("voxels").get<std::size_t> ();
+    large += v >= 100 ? 1 : 0;
+    voxels += v;
+    small_voxels += v < 1000 ? v : 0;
+  }
+  EXPECT_EQ (fragmentation.at ("segments").get<std::size_t> (), segments.size ());
+  EXPECT_EQ (fragmentation.at ("voxels").get<std::size_t> (), voxels);
+  EXPECT_EQ (fragmentation.at ("segments_at_least_100_voxels").get<std::size_t> (), large);
+  EXPECT_NEAR (fragmentation.at ("share_of_surface_below_1000_voxels").get<double> (),
+               static_cast<double> (small_voxels) / static_cast<double> (voxels), 1e-9);
+  EXPECT_NE (r.out.find ("fragments:  " + std::to_string (large) + " segments of >= 100 voxels"), std::string::npos) << r.out;
   // The map's points carry segment labels that segments.json lists.
   pcl::PointCloud<pcl::PointXYZRGBL> map;
   ASSERT_EQ (pcl::io::loadPCDFile (dir / "run/map.pcd", map), 0);

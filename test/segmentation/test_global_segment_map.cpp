@@ -6,6 +6,7 @@
 #include <cuefusion/reconstruction/tsdf_volume.h>
 #include <cuefusion/reconstruction/vertex_maps.h>
 #include <cuefusion/segmentation/edge_operators.h>
+#include <cuefusion/segmentation/fragmentation.h>
 #include <cuefusion/segmentation/global_segment_map.h>
 #include <cuefusion/segmentation/segment_propagation.h>
 
@@ -558,4 +559,29 @@ TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)
   EXPECT_GT (result[0].fresh, 300);
   EXPECT_EQ (result[0].inherited, result[1].inherited);
   EXPECT_EQ (cv::countNonZero (result[0].labels != result[1].labels), 0);
+}
+
+TEST (FragmentationReport, CountsSegmentsAndSurfaceBySize)
+{
+  // Sizes on both sides of each bound: 99 | 100, 999 | 1000, 9999 | 10000; one empty.
+  std::vector<SegmentRecord> segments;
+  for (const std::size_t voxels : {0, 5, 99, 100, 999, 1000, 9999, 10000, 20000})
+  {
+    SegmentRecord r;
+    r.id = static_cast<std::uint32_t> (segments.size () + 1);
+    r.voxels = voxels;
+    segments.push_back (r);
+  }
+  const FragmentationReport f = fragmentationReport (segments);
+  const double total = 5 + 99 + 100 + 999 + 1000 + 9999 + 10000 + 20000;
+  EXPECT_EQ (f.segments, 8u);
+  EXPECT_EQ (f.voxels, static_cast<std::size_t> (total));
+  EXPECT_EQ (f.count_by_size, (std::array<std::size_t, 4>{2, 2, 2, 2}));
+  EXPECT_EQ (f.segments_at_least_100 (), 6u);
+  EXPECT_DOUBLE_EQ (f.shareBelow (100), 104 / total);
+  EXPECT_DOUBLE_EQ (f.shareBelow (1000), (104 + 1099) / total);
+  EXPECT_DOUBLE_EQ (f.shareBelow (10000), (104 + 1099 + 10999) / total);
+  EXPECT_THROW (f.shareBelow (500), ParameterError);
+  EXPECT_EQ (fragmentationReport ({}).segments, 0u);
+  EXPECT_EQ (fragmentationReport ({}).shareBelow (100), 0.0);
 }
