@@ -10,13 +10,19 @@ definition, class-agnostic), ATE, and how the map's segments cover the truth (se
 >= 100 voxels in segments.json against the scene's objects and stuff surfaces, objects
 over-segmented, segments holding two objects). Geometry mode does not read masks, so it
 runs once per scene and seed. `--compare-binary OLD` also runs the fused mode with another
-build on the same sequences (scored by this build's eval). Prints Markdown for
-docs/benchmarks.md: medians over seeds, with min-max.
+build on the same sequences (scored by this build's eval). `--distance MIN-MAX` views
+each scene from across a room instead: per scene and seed a distance drawn uniformly in
+[MIN, MAX] m and an elevation in 15-30 degrees (a hand-held camera looking at a table from
+standing height), the scene's own azimuths, and the runs given the true poses
+(`--use-gt-poses`: tracking is not the question). Prints Markdown for docs/benchmarks.md:
+medians over seeds, with min-max.
 """
 import argparse
 import datetime
 import json
+import math
 import os
+import random
 import statistics
 import subprocess
 import sys
@@ -41,6 +47,26 @@ LEVELS = [
     ("network", []),
 ]
 NETWORK = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "models", "xyz_instances.onnx")
+SCENE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "scenes")
+
+
+def far_scene(scene, seed, distance_range, out):
+    """The bundled `scene` seen from a distance drawn in `distance_range` (m) at an elevation of
+    15-30 degrees, on its own azimuths; returns (scene file, distance, elevation)."""
+    rng = random.Random("%s-%d" % (scene, seed))
+    distance = rng.uniform(*distance_range)
+    elevation = rng.uniform(15.0, 30.0)
+    lines = []
+    for line in open(os.path.join(SCENE_DIR, scene + ".scene")).read().splitlines():
+        if line.startswith("trajectory "):
+            fields = dict(f.split("=", 1) for f in line.split()[1:])
+            fields["radius"] = "%.4f" % (distance * math.cos(math.radians(elevation)))
+            fields["height"] = "%.4f" % (distance * math.sin(math.radians(elevation)))
+            line = "trajectory " + " ".join("%s=%s" % kv for kv in fields.items())
+        lines.append(line)
+    with open(out, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    return out, distance, elevation
 MODES = ["geometry", "masks", "fused"]
 
 
@@ -88,7 +114,10 @@ def main():
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--levels", default=",".join(name for name, _ in LEVELS))
+    parser.add_argument("--distance", help="MIN-MAX: view the scenes from this far (m, drawn per seed) with the true poses")
     args = parser.parse_args()
+    distance_range = tuple(float(v) for v in args.distance.split("-")) if args.distance else None
+    drawn = []
     scenes = args.scenes.split(",")
     levels = [(n, o) for n, o in LEVELS if n in args.levels.split(",")]
     modes = MODES + (["fused (before)"] if args.compare_binary else [])
@@ -100,7 +129,12 @@ def main():
                 geometry = None
                 for level, options in levels:
                     seq = os.path.join(tmp, f"seq-{scene}-{seed}-{level}")
-                    run([args.binary, "synth", "--scene", scene, "--frames", str(args.frames), "--layout", "redwood",
+                    scene_arg = scene
+                    if distance_range:
+                        scene_arg, distance, elevation = far_scene(scene, seed, distance_range, seq + ".scene")
+                        if level == levels[0][0]:
+                            drawn.append(f"{scene} seed {seed}: {distance:.2f} m, {elevation:.0f}°")
+                    run([args.binary, "synth", "--scene", scene_arg, "--frames", str(args.frames), "--layout", "redwood",
                          "--noise", "--seed", str(seed), "--out", seq] + options)
                     objects[scene] = scene_objects(seq)
                     for mode in modes:
@@ -109,7 +143,7 @@ def main():
                             continue
                         out = os.path.join(tmp, f"run-{scene}-{seed}-{level}-{mode.split()[0]}{'-before' if 'before' in mode else ''}")
                         binary = args.compare_binary if "before" in mode else args.binary
-                        cmd = [binary, "run", seq, "--out", out, "--mode", mode.split()[0]]
+                        cmd = [binary, "run", seq, "--out", out, "--mode", mode.split()[0]] + (["--use-gt-poses"] if distance_range else [])
                         if mode != "geometry":
                             cmd += ["--model", args.model] if level == "network" else ["--masks", os.path.join(seq, "detections")]
                         run(cmd)
@@ -123,8 +157,10 @@ def main():
                     subprocess.run(["rm", "-rf", seq] + [os.path.join(tmp, d) for d in os.listdir(tmp) if d.startswith("run-")])
     print("### Segmentation quality on generated sequences\n")
     only = "" if args.levels == ",".join(name for name, _ in LEVELS) else f" --levels {args.levels}"
-    print(f"Command: `scripts/bench quality {args.seeds}{only}` ({datetime.date.today()}, {machine()}). "
-          f"Scenes {', '.join(scenes)}; {args.frames} frames at 640×480 with Kinect depth noise, camera tracked by ICP; "
+    far = f" --distance {args.distance}" if distance_range else ""
+    print(f"Command: `scripts/bench quality {args.seeds}{only}{far}` ({datetime.date.today()}, {machine()}). "
+          f"Scenes {', '.join(scenes)}; {args.frames} frames at 640×480 with Kinect depth noise, "
+          + (f"seen from {args.distance} m ({'; '.join(drawn)}), the true poses given; " if distance_range else "camera tracked by ICP; ") +
           f"seeds 1–{args.seeds} (noise and detector errors). "
           "Scores: mean per-frame object IoU of the final map seen from the estimated poses; class-agnostic "
           "3D instance AP of map.pcd against gt_cloud.pcd (ScanNet definition); segments of ≥ 100 voxels in "

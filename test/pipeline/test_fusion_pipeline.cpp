@@ -213,15 +213,18 @@ const std::string kGroupingScene = "scene grouping\n"
                                    "  box center=0.15,-0.05,0.79 size=0.20,0.06,0.10\n"
                                    "  box center=0.08,-0.13,0.815 size=0.06,0.10,0.15\n";
 constexpr std::uint16_t kBoxA = 3, kBoxB = 4, kLBlock = 5;
-/** The same with box_b 3 cm further back: a concave seam shows, geometry keeps the boxes
-  * apart, and only the masks' word can unite them (in the map's evidence). With
+/** The same with box_b 3 cm further back and 2 cm lower: a concave seam shows on the front
+  * and along the top, geometry keeps the boxes apart, and only the masks' word can unite
+  * them (in the map's evidence). (Until 2026-11-26 box_b was as tall as box_a: their tops
+  * were one plane, which geometry kept apart only because the normals near the front step
+  * were missing; with normals on both sides the tops join, as they should.) With
   * \a same_color box_b is orange like box_a: the colour cannot tell them apart either
   * (InstanceGuidedRegionMergeConfig::color_split_distance). */
 std::string
 steppedBoxes (bool same_color)
 {
   std::string text = kGroupingScene;
-  const std::string flush = "box center=-0.08,0.10,0.82", stepped = "box center=-0.08,0.13,0.82";
+  const std::string flush = "box center=-0.08,0.10,0.82 size=0.12,0.08,0.16", stepped = "box center=-0.08,0.13,0.81 size=0.12,0.08,0.14";
   text.replace (text.find (flush), flush.size (), stepped);
   const std::string teal = "box_b class=box color=30,170,190", orange = "box_b class=box color=220,120,30";
   if (same_color)

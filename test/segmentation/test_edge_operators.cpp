@@ -359,3 +359,86 @@ TEST (NoiseAdaptiveBilateral, KeepsFlatDepthAndSteps)
   noiseAdaptiveBilateral (noisy, 5, 8.f, 4.5f, filtered);
   EXPECT_LT (std::abs (filtered.at<float> (20, 20) - 1.f), 0.001f);
 }
+
+namespace
+{
+/** Exact depth of the plane n·p = d (camera frame) at every pixel of a 160×120 view (fx =
+  * fy = 400, centre 79.5, 59.5; narrow, so that a plane at 75° stays short of the horizon). */
+cv::Mat
+planeDepth (const Eigen::Vector3f& n, float d, PinholeCamera& camera)
+{
+  camera.width = 160;
+  camera.height = 120;
+  camera.fx = camera.fy = 400;
+  camera.cx = 79.5;
+  camera.cy = 59.5;
+  cv::Mat depth (camera.height, camera.width, CV_32F);
+  for (int v = 0; v < depth.rows; ++v)
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      const Eigen::Vector3f ray ((u - 79.5f) / 400.f, (v - 59.5f) / 400.f, 1.f);
+      depth.at<float> (v, u) = d / n.dot (ray);
+    }
+  return depth;
+}
+}  // namespace
+
+TEST (SurfacePreprocessing, SmallHolesInsideASurfaceAreFilledOthersStay)
+{
+  // A plane seen at 70° incidence 3 m away, with holes: 1 px and a 3×3 block inside the
+  // plane (filled, exactly), a 3 px hole across a 30 cm step (stays), a 5×5 block (above
+  // 16 px: stays) and a hole touching the border (stays).
+  const Eigen::Vector3f n = Eigen::Vector3f (0.f, -std::cos (70.f * float (M_PI) / 180.f), -std::sin (70.f * float (M_PI) / 180.f)).normalized ();
+  PinholeCamera camera;
+  cv::Mat depth = planeDepth (-n, 3.f * std::cos (70.f * float (M_PI) / 180.f), camera);
+  const cv::Mat truth = depth.clone ();
+  for (int v = 0; v < depth.rows; ++v)
+    for (int u = 100; u < depth.cols; ++u)
+      depth.at<float> (v, u) -= 0.3f;  // a step of 0.3 m at u = 100
+  const auto hole = [&] (int u, int v, int w, int h) { depth (cv::Rect (u, v, w, h)).setTo (0.f); };
+  hole (20, 30, 1, 1);
+  hole (40, 60, 3, 3);
+  hole (99, 50, 3, 1);
+  hole (60, 20, 5, 5);
+  hole (0, 90, 2, 2);
+  SurfacePlanes planes;
+  planes.assignDepth (depth, camera.fx, camera.fy, camera.cx, camera.cy);
+  const SurfacePreprocessingConfig config;
+  EXPECT_EQ (fillSmallHoles (planes, config.max_hole_pixels, config.normals.max_depth_jump, false), 10u);
+  const auto z = [&] (int u, int v) { return planes.z[static_cast<std::size_t> (v * depth.cols + u)]; };
+  EXPECT_NEAR (z (20, 30), truth.at<float> (30, 20), 1e-4f);
+  for (int v = 60; v < 63; ++v)
+    for (int u = 40; u < 43; ++u)
+    {
+      EXPECT_NEAR (z (u, v), truth.at<float> (v, u), 1e-4f) << u << "," << v;
+      EXPECT_NEAR (planes.x[static_cast<std::size_t> (v * depth.cols + u)], (u - 79.5f) / 400.f * truth.at<float> (v, u), 1e-4f);
+    }
+  EXPECT_TRUE (std::isnan (z (100, 50)));  // across the step
+  EXPECT_TRUE (std::isnan (z (62, 22)));   // 25 px
+  EXPECT_TRUE (std::isnan (z (0, 90)));    // open to the border
+  EXPECT_EQ (fillSmallHoles (planes, 0, config.normals.max_depth_jump, false), 0u);
+}
+
+TEST (SurfacePreprocessing, APlaneSeenAtAGrazingAngleFarAwayHasNormalsEverywhere)
+{
+  // 75° incidence, 3 m away: over ±4 px the depth changes by more than 2 %, yet the three
+  // points lie on one plane, so every pixel away from the border gets the plane's normal.
+  const float tilt = 75.f * float (M_PI) / 180.f;
+  const Eigen::Vector3f n = Eigen::Vector3f (0.f, -std::sin (tilt), -std::cos (tilt));  // towards the camera
+  PinholeCamera camera;
+  const cv::Mat depth = planeDepth (-n, 3.f * std::cos (tilt), camera);
+  ASSERT_GT (std::abs (depth.at<float> (64, 80) - depth.at<float> (60, 80)), 0.02f * depth.at<float> (60, 80));
+  SurfacePlanes planes;
+  planes.assignDepth (depth, camera.fx, camera.fy, camera.cx, camera.cy);
+  computeNormalPlanes (planes, SurfacePreprocessingConfig::segmentationNormals ());
+  int checked = 0;
+  for (int v = 4; v < depth.rows - 4; ++v)
+    for (int u = 4; u < depth.cols - 4; ++u)
+    {
+      const std::size_t i = static_cast<std::size_t> (v * depth.cols + u);
+      ASSERT_TRUE (std::isfinite (planes.nx[i])) << u << "," << v;
+      ASSERT_GT (Eigen::Vector3f (planes.nx[i], planes.ny[i], planes.nz[i]).dot (n), std::cos (1.f * float (M_PI) / 180.f)) << u << "," << v;
+      ++checked;
+    }
+  EXPECT_GT (checked, 10000);
+}

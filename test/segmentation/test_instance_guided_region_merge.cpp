@@ -36,6 +36,25 @@ fuse (const test::SegmentedView& view, const std::vector<Instance>& instances, s
   InstanceGuidedRegionMerge ().merge (view.labels, instances, fused.labels, info);
   return fused;
 }
+
+/** Hand-built w×h frame: an upper piece (label 1) above a lower piece (label 2, the last
+  * \a lower_rows rows), planes of points at depth 1 m and \a lower_depth. */
+void
+upperAndLowerPiece (int w, int h, int lower_rows, float lower_depth, cv::Mat& geometric, segmentation::SurfacePlanes& planes)
+{
+  geometric = cv::Mat (h, w, CV_32S, cv::Scalar (0));
+  planes.width = w;
+  planes.height = h;
+  for (std::vector<float>* plane : {&planes.x, &planes.y, &planes.z, &planes.nx, &planes.ny, &planes.nz})
+    plane->assign (static_cast<std::size_t> (w * h), 0.f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+    {
+      const bool lower = y >= h - lower_rows;
+      geometric.at<std::int32_t> (y, x) = lower ? 2 : 1;
+      planes.z[static_cast<std::size_t> (y * w + x)] = lower ? lower_depth : 1.f;
+    }
+}
 }  // namespace
 
 TEST (InstanceGuidedRegionMerge, ReunitesAnObjectGeometrySplit)
@@ -138,19 +157,9 @@ TEST (InstanceGuidedRegionMerge, PiecesOfOneMaskMeetingAlongADepthJumpStayApartW
   // a plane of points; the lower piece stands \a jump metres nearer than the upper one.
   const auto run = [] (float jump, int lower_rows, bool with_points) {
     const int w = 40, h = 40;
-    cv::Mat geometric (h, w, CV_32S, cv::Scalar (0));
+    cv::Mat geometric;
     segmentation::SurfacePlanes planes;
-    planes.width = w;
-    planes.height = h;
-    for (std::vector<float>* plane : {&planes.x, &planes.y, &planes.z, &planes.nx, &planes.ny, &planes.nz})
-      plane->assign (static_cast<std::size_t> (w * h), 0.f);
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-      {
-        const bool lower = y >= h - lower_rows;
-        geometric.at<std::int32_t> (y, x) = lower ? 2 : 1;
-        planes.z[static_cast<std::size_t> (y * w + x)] = lower ? 1.f - jump : 1.f;
-      }
+    upperAndLowerPiece (w, h, lower_rows, 1.f - jump, geometric, planes);
     Instance both;
     both.mask = cv::Mat (h, w, CV_8U, cv::Scalar (255));
     both.score = 0.9f;
@@ -383,19 +392,9 @@ TEST (InstanceGuidedRegionMerge, SmallRaisedPartsOfADividedMaskJoinTheirObject)
   // (labels 3…) stand 5 cm proud of the upper piece, so they meet it only along depth
   // jumps — the keys of a keyboard. Each stud belongs to the piece it stands on.
   const int w = 40, h = 40, lower_rows = 12;
-  cv::Mat geometric (h, w, CV_32S, cv::Scalar (0));
+  cv::Mat geometric;
   segmentation::SurfacePlanes planes;
-  planes.width = w;
-  planes.height = h;
-  for (std::vector<float>* plane : {&planes.x, &planes.y, &planes.z, &planes.nx, &planes.ny, &planes.nz})
-    plane->assign (static_cast<std::size_t> (w * h), 0.f);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-    {
-      const bool lower = y >= h - lower_rows;
-      geometric.at<std::int32_t> (y, x) = lower ? 2 : 1;
-      planes.z[static_cast<std::size_t> (y * w + x)] = lower ? 0.9f : 1.f;
-    }
+  upperAndLowerPiece (w, h, lower_rows, 0.9f, geometric, planes);
   std::vector<cv::Point> studs;
   for (int y = 4; y + 2 < h - lower_rows; y += 6)
     for (int x = 4; x + 2 < w; x += 6)

@@ -37,6 +37,18 @@ struct SurfacePreprocessingConfig
   /// is across an edge (IntegralImage uses that factor too)
   reconstruction::NormalMapConfig normals = segmentationNormals ();
   float integral_smoothing = 10.f;    ///< IntegralImage only: normal smoothing size (pixels)
+  /** Holes of missing depth of at most this many pixels are filled before smoothing when
+    * they lie inside one surface: the valid pixels around the hole fit a plane (inverse
+    * depth linear in the pixel coordinates) within normals.max_depth_jump × z. Sensors
+    * drop single pixels and small clusters on surfaces seen at grazing angles and far
+    * away (a table top at 3 m), and a missing neighbour is a depth edge: unfilled, every
+    * dropout ringed itself with edges, the closings joined them and a far table fell
+    * apart. A hole across a depth jump (an object's shadow) does not fit a plane and stays.
+    * Default: the normals' span squared (4 × 4 px); 0 = off. Filled pixels have points
+    * and normals in SurfacePreprocessing's output (so GeometricSegmentation, given that
+    * output, sees the same surface) and may carry a segment label.
+    */
+  int max_hole_pixels = 16;
   void validate () const;
 
   /** \brief The segmentation's default normals: ±4 pixels, depth jumps of 2 %. */
@@ -123,6 +135,16 @@ protected:
 void
 preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& config, double* smoothing_ms = nullptr,
                   double* normal_ms = nullptr);
+
+/** \brief Fills holes of missing depth (connected, 8-neighbourhood) of at most
+  * \a max_hole_pixels pixels that lie inside one surface: the valid pixels around the
+  * hole fit a plane (inverse depth and the rays linear in the pixel coordinates) within
+  * \a max_depth_jump × z. Holes open to the image border stay. With \a fill_normals, filled
+  * pixels also get the mean normal of the pixels around the hole (for planes whose normals
+  * are already computed). Returns the pixels filled. SurfacePreprocessingConfig::max_hole_pixels.
+  */
+std::size_t
+fillSmallHoles (SurfacePlanes& planes, int max_hole_pixels, float max_depth_jump, bool fill_normals);
 
 /** \brief The noise-adaptive bilateral filter (declared in reconstruction/preprocessing.h:
   * tracking's preprocessing can use it too, and the pipeline smooths once for both).

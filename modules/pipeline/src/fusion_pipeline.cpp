@@ -157,7 +157,13 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
     // (On images too small for tracking to use the segmentation's span, level 0 has ±1 px
     // normals, and the segmentation computes its own.)
     if (sharesNormals (config_) && reconstruction_.getConfig ().preprocessing.levelZeroUsesNormals (level.depth.cols))
+    {
       planes_.assignNormals (level.normals);
+      // Tracking keeps the sensor's holes; the segmentation fills the small ones inside a
+      // surface (SurfacePreprocessingConfig::max_hole_pixels) with the normals around them.
+      segmentation::fillSmallHoles (planes_, config_.preprocessing.max_hole_pixels,
+                                    config_.preprocessing.normals.max_depth_jump, true);
+    }
     else
     {
       segmentation::SurfacePreprocessingConfig normals_only = config_.preprocessing;

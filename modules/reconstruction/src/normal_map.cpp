@@ -18,6 +18,17 @@ namespace reconstruction
 {
 namespace
 {
+/** Whether depths a, b, c, d, e of five evenly spaced pixels (b, d half-way) lie on one
+  * plane: inverse depth linear across them to \a jump relative to c's — |c/a + c/e − 2| and
+  * the half-way points' |2/b − 1/a − 1/c| · (a or e side's) within it, multiplied out so
+  * that the loop needs no division (depths are positive; NaN: false). */
+inline bool
+onOnePlane (float a, float b, float c, float d, float e, float jump)
+{
+  return std::abs (c * (a + e) - 2.f * a * e) < jump * a * e && std::abs (2.f * a * c - b * c - b * a) < jump * a * b &&
+         std::abs (2.f * e * c - d * c - d * e) < jump * e * d;
+}
+
 /** Normals of columns [step, w − step) of one row (see computeNormalMap): the pixels
   * ±step apart in the row, and the rows above and below at ∓\a offset floats from the
   * row's pointers. A function of its own with everything passed by value, so that GCC
@@ -34,6 +45,11 @@ normalRow (const float* __restrict X, const float* __restrict Y, const float* __
   const float* __restrict Xd = X + offset;
   const float* __restrict Yd = Y + offset;
   const float* __restrict Zd = Z + offset;
+  // Half-way points (step / 2 px; at step 1 the pixel itself), for the plane test below.
+  const int half = step / 2;
+  const std::ptrdiff_t half_offset = offset / step * half;
+  const float* __restrict Zuh = Z - half_offset;
+  const float* __restrict Zdh = Z + half_offset;
   for (int x = step; x + step < w; ++x)
   {
     // All loads first, then selects: no branches in the loop.
@@ -43,11 +59,20 @@ normalRow (const float* __restrict X, const float* __restrict Y, const float* __
     const float ux = Xu[x], uy = Yu[x], uz = Zu[x];
     const float dx = Xd[x], dy = Yd[x], dz = Zd[x];
     // Horizontal difference: central when both sides continue the surface, else one-sided.
-    const bool l = std::abs (lz - z) < limit, r = std::abs (rz - z) < limit;  // NaN: false
+    // Both sides also continue it when the five points at 0, ±step/2 and ±step lie on one
+    // plane — inverse depth linear across them, to max_depth_jump —, however much the
+    // depth changes: a surface seen at a grazing angle far away (a table top at 3 m
+    // changes depth by more than 2 % over ±4 px) had no normal, and every pixel without
+    // one is a depth edge. The half-way points keep a narrow face between two others (the
+    // side of a box standing before another) from passing for a plane.
+    const float lhz = Z[x - half], rhz = Z[x + half];
+    const bool h_plane = onOnePlane (lz, lhz, z, rhz, rz, max_depth_jump);
+    const bool l = std::abs (lz - z) < limit || h_plane, r = std::abs (rz - z) < limit || h_plane;  // NaN: false
     const float hx = (r ? rx : px) - (l ? lx : px);
     const float hy = (r ? ry : py) - (l ? ly : py);
     const float hz = (r ? rz : z) - (l ? lz : z);
-    const bool u = std::abs (uz - z) < limit, d = std::abs (dz - z) < limit;
+    const bool v_plane = onOnePlane (uz, Zuh[x], z, Zdh[x], dz, max_depth_jump);
+    const bool u = std::abs (uz - z) < limit || v_plane, d = std::abs (dz - z) < limit || v_plane;
     const float vx = (d ? dx : px) - (u ? ux : px);
     const float vy = (d ? dy : py) - (u ? uy : py);
     const float vz = (d ? dz : z) - (u ? uz : z);

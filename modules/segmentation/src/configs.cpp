@@ -63,6 +63,7 @@ SurfacePreprocessingConfig::validate () const
            "must lie in (0, 100] noise units: the segmentation's smoothing follows the sensor noise");
   normals.validate ("SurfacePreprocessingConfig::normals");
   require (std::isfinite (integral_smoothing) && integral_smoothing >= 1.f, "SurfacePreprocessingConfig::integral_smoothing", "must be at least 1");
+  require (max_hole_pixels >= 0 && max_hole_pixels <= 1024, "SurfacePreprocessingConfig::max_hole_pixels", "must lie in [0, 1024] (0: off)");
 }
 
 void

@@ -22,6 +22,7 @@ preprocessPlanes (SurfacePlanes& planes, const SurfacePreprocessingConfig& confi
   config.validate ();
   const int w = planes.width, h = planes.height;
   pcl::StopWatch watch;
+  fillSmallHoles (planes, config.max_hole_pixels, config.normals.max_depth_jump, false);
   if (config.bilateral.enabled)
   {
     const cv::Mat depth (h, w, CV_32F, planes.z.data ());  // NaN = invalid

@@ -124,7 +124,9 @@ toLabelledCloud (const pcl::PointCloud<PointT>& cloud, const cv::Mat& labels, pc
       else
         p.r = p.g = p.b = 255;
       p.a = 255;
-      p.label = static_cast<std::uint32_t> (labels.at<std::int32_t> (y, x));
+      // A point without coordinates has no segment (the label image may label a small
+      // hole the preprocessing filled: SurfacePreprocessingConfig::max_hole_pixels).
+      p.label = std::isfinite (p.z) ? static_cast<std::uint32_t> (labels.at<std::int32_t> (y, x)) : 0u;
     }
 }
 }  // namespace segmentation
