@@ -99,6 +99,24 @@ TEST (MeshRasterizer, OrbitViewsLookAtTheMesh)
     EXPECT_GT (cv::countNonZero (rasterizer.render (mesh, camera, pose).labels), 100);
   }
   EXPECT_THROW (visualization::orbitViews (mesh, camera, 0), ParameterError);
+
+  // A stray speck 20 m off (1 % of the vertices) does not set the framing: the map still
+  // fills a fair part of every view (with the plain bounding box it was a dot of < 1 %).
+  io::TriangleMesh with_speck;
+  for (int k = 0; k < 100; ++k)
+    addSquare (with_speck, 0.5f, 2.0f, 7);
+  with_speck.vertices.emplace_back (20.f, 0.f, 2.f);
+  with_speck.vertices.emplace_back (20.01f, 0.f, 2.f);
+  with_speck.vertices.emplace_back (20.f, 0.01f, 2.f);
+  with_speck.vertices.emplace_back (20.f, 0.f, 2.01f);
+  for (int k = 0; k < 4; ++k)
+  {
+    with_speck.labels.push_back (9);
+    with_speck.colors.push_back ({10, 10, 10});
+  }
+  with_speck.triangles.emplace_back (400, 401, 402);
+  for (const auto& pose : visualization::orbitViews (with_speck, camera, 4))
+    EXPECT_GT (cv::countNonZero (rasterizer.render (with_speck, camera, pose).labels == 7), camera.width * camera.height / 20);
 }
 
 TEST (MeshRasterizer, RenderedMapMatchesARaycastOfTheSameMap)

@@ -53,8 +53,9 @@ private:
 
 /** \brief Camera poses on a circle around \a mesh looking at its centre from 30° above
   * the plane orthogonal to \a up, for overview renders; \a views ≥ 1. The circle's
-  * radius fits the bounding sphere of the mesh's labelled vertices (all vertices when
-  * none is labelled) into \a camera's narrower field of view.
+  * radius fits the sphere around the box of the mesh's labelled vertices (all vertices
+  * when none is labelled), from the 2nd to the 98th percentile on each axis so that a few
+  * stray surfaces far off do not set the framing, into \a camera's narrower field of view.
   */
 std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
 orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views,

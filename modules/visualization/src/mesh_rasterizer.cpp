@@ -121,13 +121,31 @@ orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views
     throw ParameterError ("orbitViews views", "must be at least 1");
   if (mesh.vertices.empty ())
     throw Error ("orbitViews", "the mesh has no vertices");
-  Eigen::AlignedBox3f box;
-  for (std::size_t i = 0; i < mesh.labels.size (); ++i)
-    if (mesh.labels[i] != 0)
-      box.extend (mesh.vertices[i]);
-  if (box.isEmpty ())
+  // The box of the labelled vertices (all when none is), from the 2nd to the 98th
+  // percentile on each axis: a few stray surfaces far off (a speck of wall through a
+  // window, a noise patch metres away) would otherwise set the framing and leave the map
+  // a small blot in the middle of the render.
+  std::vector<float> coordinates[3];
+  for (std::size_t i = 0; i < mesh.vertices.size (); ++i)
+    if (i < mesh.labels.size () && mesh.labels[i] != 0)
+      for (int axis = 0; axis < 3; ++axis)
+        coordinates[axis].push_back (mesh.vertices[i][axis]);
+  if (coordinates[0].empty ())
     for (const Eigen::Vector3f& v : mesh.vertices)
-      box.extend (v);
+      for (int axis = 0; axis < 3; ++axis)
+        coordinates[axis].push_back (v[axis]);
+  Eigen::AlignedBox3f box;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    std::vector<float>& c = coordinates[axis];
+    const auto at = [&] (double share) {
+      const auto k = static_cast<std::size_t> (share * static_cast<double> (c.size () - 1) + 0.5);
+      std::nth_element (c.begin (), c.begin () + static_cast<std::ptrdiff_t> (k), c.end ());
+      return c[k];
+    };
+    box.min ()[axis] = at (0.02);
+    box.max ()[axis] = at (0.98);
+  }
   const Eigen::Vector3d centre = box.center ().cast<double> ();
   const double radius = std::max (0.05, 0.5 * static_cast<double> (box.diagonal ().norm ()));
   const double half_fov = std::min (std::atan (0.5 * camera.width / camera.fx), std::atan (0.5 * camera.height / camera.fy));
