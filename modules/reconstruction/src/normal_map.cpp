@@ -25,8 +25,8 @@ namespace
 inline bool
 onOnePlane (float a, float b, float c, float d, float e, float jump)
 {
-  return std::abs (c * (a + e) - 2.f * a * e) < jump * a * e && std::abs (2.f * a * c - b * c - b * a) < jump * a * b &&
-         std::abs (2.f * e * c - d * c - d * e) < jump * e * d;
+  return (std::abs (c * (a + e) - 2.f * a * e) < jump * a * e) & (std::abs (2.f * a * c - b * c - b * a) < jump * a * b) &
+         (std::abs (2.f * e * c - d * c - d * e) < jump * e * d);
 }
 
 /** Normals of columns [step, w − step) of one row (see computeNormalMap): the pixels
@@ -52,7 +52,7 @@ normalRow (const float* __restrict X, const float* __restrict Y, const float* __
   const float* __restrict Zdh = Z + half_offset;
   for (int x = step; x + step < w; ++x)
   {
-    // All loads first, then selects: no branches in the loop.
+    // All loads first, then selects (the plane test below is the one branch, rarely taken).
     const float px = X[x], py = Y[x], z = Z[x], limit = max_depth_jump * z;
     const float lx = X[x - step], ly = Y[x - step], lz = Z[x - step];
     const float rx = X[x + step], ry = Y[x + step], rz = Z[x + step];
@@ -65,14 +65,16 @@ normalRow (const float* __restrict X, const float* __restrict Y, const float* __
     // changes depth by more than 2 % over ±4 px) had no normal, and every pixel without
     // one is a depth edge. The half-way points keep a narrow face between two others (the
     // side of a box standing before another) from passing for a plane.
-    const float lhz = Z[x - half], rhz = Z[x + half];
-    const bool h_plane = onOnePlane (lz, lhz, z, rhz, rz, max_depth_jump);
-    const bool l = std::abs (lz - z) < limit || h_plane, r = std::abs (rz - z) < limit || h_plane;  // NaN: false
+    // (Tested only where a side fails the jump test: most pixels pass it.)
+    bool l = std::abs (lz - z) < limit, r = std::abs (rz - z) < limit;  // NaN: false
+    if (!(l & r) && onOnePlane (lz, Z[x - half], z, Z[x + half], rz, max_depth_jump))
+      l = r = true;
     const float hx = (r ? rx : px) - (l ? lx : px);
     const float hy = (r ? ry : py) - (l ? ly : py);
     const float hz = (r ? rz : z) - (l ? lz : z);
-    const bool v_plane = onOnePlane (uz, Zuh[x], z, Zdh[x], dz, max_depth_jump);
-    const bool u = std::abs (uz - z) < limit || v_plane, d = std::abs (dz - z) < limit || v_plane;
+    bool u = std::abs (uz - z) < limit, d = std::abs (dz - z) < limit;
+    if (!(u & d) && onOnePlane (uz, Zuh[x], z, Zdh[x], dz, max_depth_jump))
+      u = d = true;
     const float vx = (d ? dx : px) - (u ? ux : px);
     const float vy = (d ? dy : py) - (u ? uy : py);
     const float vz = (d ? dz : z) - (u ? uz : z);
