@@ -730,9 +730,10 @@ groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& i
   for (std::size_t l = 1; l < n; ++l)
     if (info[l].instance >= 0)
       claimed[info[l].instance] += size[l];
+  // A piece holding at least share of its instance's pieces (p and q of one instance).
+  const auto sizeable = [&] (std::size_t l) { return static_cast<float> (size[l]) >= share * static_cast<float> (claimed[info[l].instance]); };
   const auto apart = [&] (std::size_t p, std::size_t q, const std::pair<int, int>& c) {
-    const float needed = share * static_cast<float> (claimed[info[p].instance]);
-    return 2 * c.second >= c.first && static_cast<float> (std::min (size[p], size[q])) >= needed;
+    return 2 * c.second >= c.first && sizeable (p) && sizeable (q);
   };
   std::set<int> divided;
   for (const auto& [pair, c] : contacts)
@@ -760,7 +761,6 @@ groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& i
   // apart (a key raised on a keyboard, a knob) that no crease joins to a sizeable piece
   // joins the group it touches most among those holding one. Without this every raised
   // key of a keyboard whose body and key field meet along jumps was a segment of its own.
-  const auto sizeable = [&] (std::size_t l) { return static_cast<float> (size[l]) >= share * static_cast<float> (claimed[info[l].instance]); };
   std::vector<char> holds_sizeable (n, 0);
   for (std::size_t l = 1; l < n; ++l)
     if (info[l].instance >= 0 && sizeable (l))
