@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Normal estimation for the geometric segmentation, measured: angular error against the
 // exact normals of noisy synthetic views of the bundled tabletop scene, and time, for
 // SurfacePreprocessing's central differences (several steps) and PCL's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Instance masks for the OSD clouds, derived from their ground truth with the synthetic
 // generator's detector error model (SimulatedDetector: dilation, jitter, merges of
 // touching objects, misses), so that scripts/bench can score geometry-only, masks-only

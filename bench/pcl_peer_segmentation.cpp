@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The PCL peer of `cuefusion segment-frame --drop-support-plane` for scripts/bench: PCL's
 // own organized segmentation as its tutorials and organized_segmentation_demo set it up.
 //   normals   IntegralImageNormalEstimation (COVARIANCE_MATRIX, smoothing 10, depth change 0.02)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The ray caster alone, for A/B runs of its kernels: integrates a dataset's frames with the
 // reference poses (the pipeline's preprocessing, noise-adaptive filter) and after each one
 // times TSDFVolume::raycast at that pose with the filtered depth as hint and the previous

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Soak: a long generated sequence streamed from the renderer straight into the fusion
 // pipeline (no files), to show that memory stays flat once the scene is covered and that a
 // frame costs as much at the end as at the start. The camera sweeps the scene's orbit

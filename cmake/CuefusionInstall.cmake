@@ -19,6 +19,9 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/cuefusion DESTINATION ${CMAKE_IN
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/data/ DESTINATION ${CUEFUSION_INSTALL_DATADIR}
         PATTERN "*.log.json" EXCLUDE)
 
+# The licence: BSD-3-Clause (LICENSE), where Debian looks for it.
+install(FILES ${PROJECT_SOURCE_DIR}/LICENSE DESTINATION ${CMAKE_INSTALL_DOCDIR} RENAME copyright)
+
 install(EXPORT cuefusionTargets NAMESPACE cuefusion:: DESTINATION ${CUEFUSION_INSTALL_CMAKEDIR})
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/cuefusionConfig.cmake.in
   ${PROJECT_BINARY_DIR}/cuefusionConfig.cmake
@@ -41,6 +44,7 @@ set(CPACK_PACKAGE_VENDOR "cuefusion")
 set(CPACK_PACKAGE_CONTACT "cuefusion developers <cuefusion@localhost>")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "Incremental object-level RGB-D mapping that fuses geometric and instance cues (PCL)")
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
+set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // A grabber-driven segmentation loop, the way a PCL application runs a live camera:
 //   a pcl::Grabber (cuefusion's grabbers for recorded sequences, or an OpenNI2 camera)
 //   calls back with each RGB-D frame → cuefusion::pipeline::FusionPipeline tracks, fuses and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // A PCL filter chain with cuefusion's geometric segmentation in the middle:
 //   load an organized PCD → PCL integral-image normals → PassThrough picks the points
 //   nearer than MAX_DEPTH (indices) → cuefusion::segmentation::GeometricSegmentation on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Image files as the grabbers, mask folders and segment-frame read them: io::readImage
 // (PNG and JPEG through libpng and libjpeg, modules/io/src/image_codec.cpp) under the
 // flag sets cuefusion uses (colour frames, depth and label images, unchanged).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Shared by the libFuzzer harnesses: cuefusion's readers take paths, so each input is
 // written to a file of the right name in a private temporary folder first.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Every intrinsics format: Open3D/cuefusion JSON, 3x3/4x4 matrices, "fx fy cx cy [w h]".
 #include "fuzz_input.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Relocalisation keyframe files (run --save-volume writes volume.keyframes, --load-volume reads it).
 #include "fuzz_input.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // A mask JSON sidecar next to a fixed id PNG (ids 1, 2, 3), as MaskFolderSegmenter reads it.
 #include "fuzz_input.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // An ONNX model file, as `run --model` and `segment-frame --model` load it: the structural
 // check first (recognition::checkOnnxModel), then OpenCV's importer on what passed. The
 // check refuses with cuefusion::Error; OpenCV may refuse with cv::Exception; a crash,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The PCD path of segment-frame and eval: header check, PCL's reader, conversion.
 #include "fuzz_input.h"
 

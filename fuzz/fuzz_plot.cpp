@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The gnuplot script writer (eval's and batch's plots): text from datasets and options
 // (class names, run names, file names) must stay inside its string literals. The input
 // is split at 0xff bytes into the texts of a two-series chart; the script written from

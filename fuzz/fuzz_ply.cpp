@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The PLY reader of eval and render: counts against the file size, lists, indices.
 #include "fuzz_input.h"
 

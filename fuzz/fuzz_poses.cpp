@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Every pose and trajectory reader on the same bytes: TUM lists, Redwood .log, 4x4 files.
 #include "fuzz_input.h"
 

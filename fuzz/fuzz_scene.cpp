@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Scene files of `cuefusion synth` (data/scenes/*.scene).
 #include "fuzz_input.h"
 

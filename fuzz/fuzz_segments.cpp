@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // A run's segments.json, as eval reads it.
 #include "fuzz_input.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // A TUM RGB-D folder's rgb.txt and depth.txt (the input split at its first 0xff byte),
 // associated by io::TumGrabber: cuefusion::Error or a list of frames, each colour entry
 // used once, in time order.

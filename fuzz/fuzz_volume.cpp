@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // TSDF volume files (run --save-volume, --load-volume).
 #include "fuzz_input.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Without libFuzzer (every normal build): the harness as a program that feeds it each
 // file named on the command line, or each file of a folder named there. ctest runs it on
 // test/data/fuzz/HARNESS/, the inputs that once crashed or were refused wrongly.

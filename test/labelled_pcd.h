@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 // What pcl_viewer needs to colour a cuefusion PCD by segment: PCL reads the file back
 // with x, y, z, a colour field and a label field of one uint32 (pcl_viewer offers every

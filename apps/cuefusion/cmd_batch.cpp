@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // cuefusion batch: `cuefusion run` (and `eval`) once per sequence, through GNU parallel on
 // this machine or over SSH, or as a Slurm job array; resumable; then a dataset summary.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // cuefusion eval: tracking (ATE, RPE), per-frame object IoU and 3D instance AP of one or
 // more runs against a sequence's ground truth, as report.json, CSV files and PNG plots.
 #include "cli.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "cli.h"
 
 #include <cuefusion/io/openni2_frame_grabber.h>

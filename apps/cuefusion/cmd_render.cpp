@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // cuefusion render: the labelled mesh of a run from N viewpoints around it, as PNGs,
 // with no display (the project's own rasterizer).
 #include "cli.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // cuefusion segment-frame: the geometric segmentation L^G (§4.2.1.1) of single organized
 // clouds or depth images, as a PCL filter chain: SurfacePreprocessing →
 // GeometricSegmentation → (SupportPlaneRemoval).

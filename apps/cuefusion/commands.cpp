@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // libcuefusion_commands.so's entry point (commands.h).
 #include "cli.h"
 #include "commands.h"

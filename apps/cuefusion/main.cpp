@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // cuefusion: object-level 3D segmentation of RGB-D sequences — command-line front end.
 // Exit codes: 0 success, 1 failure (bad input, I/O), 2 bad usage.
 #include "cli.h"

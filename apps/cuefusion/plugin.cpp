@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "plugin.h"
 
 #include <cuefusion/common/data_directory.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "process.h"
 
 #include <boost/filesystem.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // libcuefusion_run_display.so: the live viewer window and the video file of `run`, loaded
 // by loadRunDisplay (run_display.cpp) only when --view or --video asks for them.
 #include "run_display.h"

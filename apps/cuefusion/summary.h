@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
 // Dataset-level summaries of many runs: what `cuefusion batch` writes when its sequences

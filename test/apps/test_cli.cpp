@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The cuefusion binary: exit codes (0 ok, 1 failure, 2 usage) and one-line errors.
 #include "labelled_pcd.h"
 #include "test_utils.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Bad input across every command, as a new user meets it: each case must end with exit
 // 1 (bad data) or 2 (bad usage), exactly one line on stderr naming the file or option,
 // no crash, and no file written, changed or left behind (no partial or mixed output set).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // `cuefusion batch`, `batch-task` and `eval --aggregate`, end to end on generated
 // sequences: results per sequence, resume, Slurm script, failures, the summary's pooled AP.
 #include "test_utils.h"

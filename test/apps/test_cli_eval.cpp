@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // `cuefusion eval`, `cuefusion render` and run's --render / --video / --view, end to end
 // on a generated sequence.
 #include "test_utils.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Ground-truth readers: a ScanNet scene's annotation files (generated here in ScanNet's
 // own format) and the synthetic sequence's labelled cloud.
 #include "../test_utils.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Evaluation metrics against hand-built cases whose answers are derived analytically.
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/evaluation/instance_ap.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Files that lie about themselves are errors naming the file, never crashes or huge
 // allocations: PCD headers are checked before PCL reads a body (PCL 1.13 crashes or
 // overruns its buffers on COUNT -1, compressed sizes of 0 or a body shorter than the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Every kind of bad input gives a cuefusion::Error whose one-line message names the
 // file and what is wrong; none crashes.
 #include "synthetic_fixtures.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "synthetic_fixtures.h"
 
 #include <cuefusion/common/exceptions.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // cuefusion reads and writes PNG and JPEG through libpng and libjpeg itself
 // (modules/io/src/image_codec.h); OpenCV's imgcodecs is the reference it must agree with,
 // pixel for pixel when reading and byte for byte when writing.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // io::writeMeshPLY and io::toPolygonMesh against readMeshPLY and saveMeshPLY.
 #include "test_utils.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Training views for the instance network (RandomSceneGenerator, synth-views): seeded,
 // with truth that agrees with the depth, and written as a whole folder or not at all.
 #include "test_utils.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // FusionPipeline on generated sequences, scored against the generator's labelled
 // ground-truth cloud.
 #include "test_utils.h"

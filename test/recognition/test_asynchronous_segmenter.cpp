@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // AsynchronousSegmenter: segmentation never waits for the mask source, which always runs
 // on the newest frame. A gated fake source makes the timing explicit without clocks.
 #include <cuefusion/common/exceptions.h>

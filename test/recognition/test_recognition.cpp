@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Instance mask sources: a real ONNX file through OpenCV DNN (generated at test time in
 // the exact YOLO-seg layouts, outputs known), and mask folders.
 #include "test_utils.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "reconstruction_fixtures.h"
 
 #include <cuefusion/evaluation/trajectory_error.h>

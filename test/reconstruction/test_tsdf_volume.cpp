@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "reconstruction_fixtures.h"
 
 #include <cuefusion/io/map_io.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The AVX2 kernels (integration, ICP and its pixel reads, the pyramid, the raycast) against their scalar versions on
 // generated views: both paths must build the same volume and find the same motion.
 #include "reconstruction_fixtures.h"

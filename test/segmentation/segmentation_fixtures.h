@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 // Synthetic organized views with exact instance masks for the segmentation tests.
 

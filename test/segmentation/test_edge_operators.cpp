@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The §4.2.1.1 operators on analytic geometry, labelEdgeMap, and bad input.
 #include "segmentation_fixtures.h"
 

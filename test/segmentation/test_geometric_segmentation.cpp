@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // GeometricSegmentation (§4.2.1.1) on synthetic views, scored against the generator's
 // exact instance masks; the edge operators on analytic geometry; bad input.
 #include "segmentation_fixtures.h"

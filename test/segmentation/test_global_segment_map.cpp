@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The global segment map (§4.2.2–4.2.4): label equivalence, merge confidences,
 // propagation and voxel label updates over a synthetic sequence with exact truth.
 #include "test_utils.h"

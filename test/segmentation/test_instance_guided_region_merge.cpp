@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // InstanceGuidedRegionMerge (§4.2.1.3) on synthetic views with simulated network masks.
 #include "segmentation_fixtures.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The segmentation classes as other PCL applications use them: setIndices, segment
 // (labels, label_indices) with any label point type, and the edge tests as pcl::Comparators
 // for pcl::OrganizedConnectedComponentSegmentation. Ground truth: rendered views and the

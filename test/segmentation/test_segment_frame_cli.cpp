@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // `cuefusion segment-frame` on generated organized clouds and depth images.
 #include "labelled_pcd.h"
 #include "segmentation_fixtures.h"

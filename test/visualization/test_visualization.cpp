@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Off-screen rendering: analytic scenes, and the rendered labelled mesh against a raycast
 // of the same map.
 #include "test_utils.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/cpu_features.h>
 
 #include <atomic>

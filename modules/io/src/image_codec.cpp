@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // PNG and JPEG through libpng and libjpeg, configured as OpenCV 4.6's imgcodecs configures
 // them (see image_codec.h for why). Both libraries report errors by longjmp: every setjmp
 // below sits in a small function whose own locals are plain C values, and the buffers it

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/io/rgbd_grabber.h>
 
 namespace cuefusion

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/hash.h>
 #include <cuefusion/common/parallel.h>
 #include <cuefusion/common/pinhole_camera.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>

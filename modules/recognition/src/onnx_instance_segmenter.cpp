@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/quiet_opencv_log.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // checkOnnxModel: the protobuf wire format of onnx.proto (ModelProto → GraphProto →
 // NodeProto/AttributeProto → TensorProto), walked with the few field numbers below; no
 // protobuf library is needed for it, and none could be trusted more with a hostile file

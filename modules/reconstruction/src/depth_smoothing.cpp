@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Bilateral filtering of depth with a range kernel that follows the sensor noise.
 #include <cuefusion/common/avx2.h>
 #include <cuefusion/common/cpu_features.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "integration.h"
 
 #include <cuefusion/common/avx2.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Keyframe database files: a fixed little-endian header, the fern tests, then every
 // keyframe's pose and code (beside volume.tsdf; `run --save-volume`, `--load-volume`). The
 // header names the volume the poses are in (voxel size, TSDFVolume::fingerprint).

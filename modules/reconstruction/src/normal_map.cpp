@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Central-difference normals (§4.1.2): the one formula of the project, for tracking's
 // pyramid (computeNormalMap on interleaved vertex maps) and the geometric segmentation
 // (computeNormalMapPlanar on SurfacePlanes). The row loop reads contiguous floats and is

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/avx2.h>
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // TSDFVolume::raycast (§4.1.5): the model seen from a pose, ray by ray. One raycast builds
 // the depth range of the allocated blocks per 8×8 tile (blockRanges), then casts the rows
 // in parallel (RowCaster): with a depth hint, groups of eight rays first try Newton steps

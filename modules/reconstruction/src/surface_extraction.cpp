@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Surface extraction from the TSDF volume: zero-crossing point clouds and marching cubes.
 #include "voxel_access.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "integration.h"
 #include "voxel_access.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Binary volume files: a fixed little-endian header, then every block with its voxels.
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/reconstruction/voxel_block_hash.h>
 
 namespace cuefusion

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Parameter checks of the segmentation configs: one ParameterError naming the config field
 // (apps/cuefusion/main.cpp maps fields to the options that set them).
 #include <cuefusion/common/exceptions.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The per-direction loops of the §4.2.1.1 edge operators over SurfacePlanes. Each pass
 // compares every pixel with its neighbour at one offset (dx, dy); the inner loop over x
 // reads contiguous floats and is vectorised by the compiler. NaN does the bookkeeping:

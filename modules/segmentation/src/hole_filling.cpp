@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // fillSmallHoles: small holes of missing depth inside one surface get points (and, where
 // the planes have normals, normals) before the edge operators see them.
 #include <cuefusion/segmentation/surface_preprocessing.h>

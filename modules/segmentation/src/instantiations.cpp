@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Explicit instantiations of the segmentation templates for PCL's point types with x, y, z
 // (PCL_XYZ_POINT_TYPES, PCL_INSTANTIATE style), normals as pcl::Normal, and the label
 // point types pcl::Label, pcl::PointXYZL and pcl::PointXYZRGBL. Other types work with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // removeSupportPlane: RANSAC plane on a subsample, then the plane's segments and rim to 0.
 #include <cuefusion/segmentation/edge_operators.h>
 #include <cuefusion/segmentation/support_plane_removal.h>

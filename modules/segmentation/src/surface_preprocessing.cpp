@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // preprocessPlanes: the work of SurfacePreprocessing on SurfacePlanes.
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/edge_operators.h>

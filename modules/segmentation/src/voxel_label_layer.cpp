@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The segmentation's label layer beside the TSDF volume, and its files.
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/parallel.h>

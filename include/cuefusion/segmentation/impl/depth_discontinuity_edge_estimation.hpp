@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
 #include <cuefusion/segmentation/depth_discontinuity_edge_estimation.h>
