@@ -648,7 +648,9 @@ runBatch (const std::vector<std::string>& args)
     }
     plan.run_options.push_back ("--" + o.string_key);
     for (const std::string& value : o.value)
-      plan.run_options.push_back (kPathOptions.count (o.string_key) ? fs::absolute (value).string () : value);
+      // A path that names no file here (a shipped network by name, --model xyz_instances)
+      // is passed as given: the library resolves it through the data directory.
+      plan.run_options.push_back (kPathOptions.count (o.string_key) && fs::exists (value) ? fs::absolute (value).string () : value);
   }
   if (eval)
   {

@@ -3,6 +3,7 @@
 #include "process.h"
 #include "run_display.h"
 
+#include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/progress.h>
 #include <cuefusion/evaluation/trajectory_error.h>
@@ -258,8 +259,8 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("color-split", po::value (&s.color_split)->default_value (s.color_split),
      "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
     ("masks", po::value (&s.masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
-    ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
-     "data/models/xyz_instances.onnx, or a YOLO-seg export run on the colour image")
+    ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network by name, "
+     "xyz_instances (found in the data directory from any folder), or the path of an .onnx file such as a YOLO-seg export run on the colour image")
     ("classes", po::value (&s.onnx.classes_path), "class names of --model (default data/classes/coco.names)")
     ("input-size", po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
     ("score-threshold", po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
@@ -727,6 +728,7 @@ RunSession::writeOutputs ()
     if (fs::exists (fs::path (outputs_.stagingPath (name))))
       files.push_back (name);
   const nlohmann::json manifest = {{"command", "run"},
+                                   {"version", version ()},
                                    {"sequence", s_.source},
                                    {"frames", result_.reports.size ()},
                                    {"seconds", seconds_},  // processing, opening the sequence to the last frame

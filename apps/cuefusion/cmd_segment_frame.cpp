@@ -315,8 +315,8 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
     ("png", po::value (&s.png), "also write a colour-coded label PNG (a folder for folder input)")
     ("edges-png", po::value (&s.edges_png), "also write the edge maps (red concave, green depth edges, grey no depth; a folder for folder input)")
     ("masks", po::value (&s.masks), "instance masks: a 16-bit id PNG (+ JSON of the same stem), or for folder input a folder of them matched by file stem")
-    ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network "
-     "data/models/xyz_instances.onnx, or a YOLO-seg export run on the colour image")
+    ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network by name, "
+     "xyz_instances (found in the data directory from any folder), or the path of an .onnx file such as a YOLO-seg export run on the colour image")
     ("classes", po::value (&s.onnx.classes_path), "class names of --model, one per line (default data/classes/coco.names)")
     ("input-size", po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
     ("score-threshold", po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")

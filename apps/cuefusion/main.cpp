@@ -5,6 +5,7 @@
 #include "commands.h"
 #include "plugin.h"
 
+#include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
 
@@ -33,7 +34,7 @@ const char* kUsage =
   "  batch-task\n"
   "          one sequence of a batch (what batch's parallel jobs and Slurm tasks run)\n"
   "\n"
-  "'cuefusion COMMAND --help' describes a command's options.\n";
+  "'cuefusion COMMAND --help' describes a command's options; 'cuefusion --version' prints the version.\n";
 }
 
 int
@@ -53,6 +54,11 @@ main (int argc, char** argv)
   if (command == "--help" || command == "-h" || command == "help")
   {
     std::cout << kUsage;
+    return 0;
+  }
+  if (command == "--version" || command == "version")
+  {
+    std::cout << "cuefusion " << cuefusion::version () << "\n";
     return 0;
   }
   const auto it = commands.find (command);

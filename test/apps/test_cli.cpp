@@ -3,6 +3,7 @@
 #include "labelled_pcd.h"
 #include "test_utils.h"
 
+#include <cuefusion/common/data_directory.h>
 #include <cuefusion/io/pose_io.h>
 
 #include <boost/filesystem.hpp>
@@ -11,6 +12,7 @@
 #include <pcl/io/ply_io.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <set>
 #include <sstream>
 
@@ -87,6 +89,12 @@ TEST_F (Cli, HelpForEveryCommand)
     EXPECT_EQ (r.code, 0) << command;
     EXPECT_NE (r.out.find ("usage: cuefusion"), std::string::npos) << command;
   }
+  // --version: the project's version, as the library reports it.
+  const Result printed = run ("--version");
+  const std::string expected = cuefusion::version ();
+  EXPECT_EQ (printed.code, 0);
+  EXPECT_EQ (printed.out, "cuefusion " + expected + "\n");
+  EXPECT_EQ (std::count (expected.begin (), expected.end (), '.'), 2) << expected;
 }
 
 TEST_F (Cli, BadInputIsOneLineAndExit1)
@@ -182,6 +190,7 @@ TEST_F (Cli, RunContinuesASavedVolume)
   ASSERT_EQ (r.code, 0) << r.err;
   const nlohmann::json first_outputs = nlohmann::json::parse (test::readFile (dir / "first/outputs.json"));
   EXPECT_NE (first_outputs["files"].dump ().find ("volume.keyframes"), std::string::npos) << first_outputs.dump ();
+  EXPECT_EQ (first_outputs["version"], cuefusion::version ());  // which cuefusion wrote it
   EXPECT_NE (first_outputs["files"].dump ().find ("volume.labels"), std::string::npos) << first_outputs.dump ();
   const nlohmann::json first_segments = nlohmann::json::parse (test::readFile (dir / "first/segments.json"))["segments"];
 

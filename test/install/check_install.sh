@@ -55,6 +55,11 @@ depth=$(ls "$tmp"/sequence/depth/*.png | head -1)
 rgb=$(ls "$tmp"/sequence/rgb/*.png | head -1)
 "$bin" segment-frame "$depth" --intrinsics "$tmp/sequence/intrinsics.txt" --depth-scale 5000 --rgb "$rgb" \
   --out "$tmp/frame.pcd" >/dev/null
+# The shipped network by name, from a folder outside the source tree (issue 40).
+(cd "$tmp" && "$bin" segment-frame "$depth" --intrinsics "$tmp/sequence/intrinsics.txt" --depth-scale 5000 \
+  --model xyz_instances --mode masks --out "$tmp/masks.pcd" >"$tmp/masks.log" 2>&1) \
+  || { cat "$tmp/masks.log"; fail "installed cuefusion did not find --model xyz_instances"; }
+[ -f "$tmp/masks.pcd" ] || fail "segment-frame --model xyz_instances wrote no masks.pcd"
 mkdir "$tmp/segments"
 "$tmp/examples/segment_pcd" "$tmp/frame.pcd" "$tmp/segments" 3 100
 [ -f "$tmp/segments/labelled.pcd" ] || fail "segment_pcd wrote no labelled.pcd"
@@ -76,7 +81,8 @@ for f in libcuefusion_run_display.so libcuefusion_commands.so; do
   grep -q "/$f\$" "$tmp/contents" || fail "$(basename "$deb") lacks $f"
 done
 for f in ./usr/bin/cuefusion ./usr/include/cuefusion/segmentation/geometric_segmentation.h \
-         ./usr/lib/cmake/cuefusion/cuefusionConfig.cmake ./usr/share/cuefusion/models/xyz_instances.onnx; do
+         ./usr/lib/cmake/cuefusion/cuefusionConfig.cmake ./usr/share/cuefusion/models/xyz_instances.onnx \
+         ./usr/share/doc/cuefusion/copyright; do
   grep -q " $f\$" "$tmp/contents" || fail "$(basename "$deb") lacks $f"
 done
 depends=$(dpkg-deb -f "$deb" Depends)

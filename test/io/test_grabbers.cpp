@@ -174,3 +174,42 @@ TEST_F (GrabberModes, RealTimeModePlaysInOrderAndStops)
   EXPECT_LT (frames.back (), 7u);
   EXPECT_THROW (grabber->setFramesPerSecond (-1.f), ParameterError);
 }
+
+TEST (OpenThreeDRecorderFolders, AreReadWithTheirIntrinsicsFileNames)
+{
+  // Open3D's RealSense recorder writes color/, depth/ and camera_intrinsic.json; its Azure
+  // Kinect recorder intrinsic.json; neither writes a trajectory or masks.
+  const io::SyntheticSequence sequence = test::smallTabletop (3, 160, 120, true, 3);
+  for (const char* name : {"camera_intrinsic.json", "intrinsic.json"})
+  {
+    test::TempDir dir;
+    io::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq");
+    boost::filesystem::rename (dir / "seq/image", dir / "seq/color");
+    boost::filesystem::rename (dir / "seq/camera_intrinsics.json", dir / (std::string ("seq/") + name));
+    for (const char* other : {"trajectory.log", "instance", "label"})
+      boost::filesystem::remove_all (dir / (std::string ("seq/") + other));
+    EXPECT_EQ (io::toString (io::detectSequenceFormat (dir / "seq")), "redwood") << name;
+    const io::DatasetGrabber::Ptr grabber = io::openDataset (dir / "seq");
+    ASSERT_EQ (grabber->size (), 3u) << name;
+    EXPECT_FALSE (grabber->hasPoses ());
+    EXPECT_NEAR (grabber->camera ().fx, sequence.camera ().fx, 1e-9) << name;
+    EXPECT_NEAR (grabber->camera ().cy, sequence.camera ().cy, 1e-9) << name;
+    const RGBDFrame::Ptr truth = sequence.frame (1), read = grabber->readFrame (1);
+    EXPECT_EQ (cv::norm (read->color, truth->color, cv::NORM_INF), 0.0) << name;
+    cv::Mat valid = truth->depth > 0;
+    EXPECT_LT (cv::norm (read->depth, truth->depth, cv::NORM_INF, valid), 0.5e-3 + 1e-6) << name;
+
+    // Without any intrinsics file: one line naming the file looked for.
+    boost::filesystem::remove (dir / (std::string ("seq/") + name));
+    try
+    {
+      io::openDataset (dir / "seq");
+      ADD_FAILURE () << "no intrinsics, no error";
+    }
+    catch (const Error& e)
+    {
+      EXPECT_NE (std::string (e.what ()).find ("camera_intrinsics.json"), std::string::npos) << e.what ();
+      EXPECT_NE (std::string (e.what ()).find ("camera_intrinsic.json"), std::string::npos) << e.what ();
+    }
+  }
+}

@@ -697,7 +697,8 @@ TEST (ShippedNetwork, RunAndSegmentFrameUseIt)
   config.noise.enabled = true;
   io::writeSyntheticSequence (io::SyntheticSequence (io::SyntheticScene::load (test::tabletopScenePath ()), config),
                               io::DatasetLayout::Redwood, dir / "seq");
-  const auto run = test::runCuefusion ("run " + (dir / "seq") + " --out " + (dir / "run") + " --model " + shippedModelPath (), dir);
+  // By name, from a folder outside the source tree (the data directory is looked up).
+  const auto run = test::runCuefusion ("run seq --out run --model xyz_instances", dir, true);
   ASSERT_EQ (run.code, 0) << run.err;
   const auto segments = nlohmann::json::parse (test::readFile (dir / "run/segments.json")).at ("segments");
   int objects = 0;
@@ -705,10 +706,18 @@ TEST (ShippedNetwork, RunAndSegmentFrameUseIt)
     objects += s.at ("class") == "object" ? 1 : 0;
   EXPECT_GE (objects, 5);  // the tabletop holds 8 objects
 
-  const auto one = test::runCuefusion ("segment-frame " + (dir / "seq/depth/00000.png") + " --intrinsics " +
-                                         (dir / "seq/camera_intrinsics.json") + " --out " + (dir / "one.pcd") +
-                                         " --model " + shippedModelPath () + " --mode masks",
-                                       dir);
+  // By the source tree's path, from that folder too (it holds no data/ of its own).
+  const auto one = test::runCuefusion ("segment-frame seq/depth/00000.png --intrinsics seq/camera_intrinsics.json "
+                                       "--out one.pcd --model data/models/xyz_instances.onnx --mode masks",
+                                       dir, true);
   ASSERT_EQ (one.code, 0) << one.err;
   EXPECT_GE (nlohmann::json::parse (test::readFile (dir / "one.json")).at ("segments").size (), 5u);
+
+  // A name that is no shipped network: one line naming it.
+  const auto missing = test::runCuefusion ("segment-frame seq/depth/00000.png --intrinsics seq/camera_intrinsics.json "
+                                           "--out two.pcd --model no_such_network",
+                                           dir, true);
+  EXPECT_NE (missing.code, 0);
+  EXPECT_NE (missing.err.find ("no_such_network"), std::string::npos) << missing.err;
+  EXPECT_NE (missing.err.find ("no such model file"), std::string::npos) << missing.err;
 }

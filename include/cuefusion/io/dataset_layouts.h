@@ -43,7 +43,9 @@ struct FolderGrabberConfig
 };
 
 /** \brief Redwood / ICL-NUIM folder as Open3D reads it: depth/ (mm), image/ or color/,
-  * optional trajectory.log (camera-to-world), camera_intrinsics.json.
+  * optional trajectory.log (camera-to-world), camera_intrinsics.json. Folders of Open3D's
+  * RealSense and Azure Kinect recorders (color/, depth/, camera_intrinsic.json or
+  * intrinsic.json) are read as such.
   * Depth and colour are paired in sorted (numeric) file order.
   */
 class RedwoodGrabber : public DatasetGrabber

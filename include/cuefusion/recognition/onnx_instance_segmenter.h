@@ -15,8 +15,8 @@ namespace recognition
 /** \brief Parameters of OnnxInstanceSegmenter. */
 struct OnnxInstanceSegmenterConfig
 {
-  std::string model_path;             ///< the user's .onnx file (never downloaded)
-  std::string classes_path;           ///< class names, one per line; "" = data/classes/coco.names (YOLO layouts)
+  std::string model_path;             ///< an .onnx file (never downloaded), or a shipped network by name: "xyz_instances" (see findDataFile)
+  std::string classes_path;           ///< class names, one per line, or a shipped list by name ("coco"); "" = data/classes/coco.names (YOLO layouts)
   int input_size = 640;               ///< square network input (letterboxed; YOLO layouts)
   int dense_width = 320;              ///< xyz layout: the frame is resampled to this width (the training scale)
   int min_mask_pixels = 100;          ///< xyz layout: smaller instances (frame pixels) are dropped

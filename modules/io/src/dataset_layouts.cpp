@@ -300,7 +300,17 @@ RedwoodGrabber::RedwoodGrabber (const std::string& root, const Config& config) :
     r.class_path = siblingImage (dir / "label", r.name);
     records_.push_back (r);
   }
-  camera_ = intrinsicsFrom (config.intrinsics_path, dir / "camera_intrinsics.json");
+  // Redwood and ICL-NUIM as Open3D ships them name it camera_intrinsics.json; Open3D's
+  // RealSense recorder writes camera_intrinsic.json and its Azure Kinect recorder
+  // intrinsic.json (the same JSON). The first that exists is read.
+  fs::path intrinsics = dir / "camera_intrinsics.json";
+  for (const char* name : {"camera_intrinsic.json", "intrinsic.json"})
+    if (!fs::is_regular_file (intrinsics) && fs::is_regular_file (dir / name))
+      intrinsics = dir / name;
+  if (config.intrinsics_path.empty () && !fs::is_regular_file (intrinsics))
+    throw Error (intrinsics.string (), "missing intrinsics file (or camera_intrinsic.json / intrinsic.json of Open3D's "
+                                       "recorders; give one with --intrinsics)");
+  camera_ = intrinsicsFrom (config.intrinsics_path, intrinsics);
   finishSetup ();
 }
 

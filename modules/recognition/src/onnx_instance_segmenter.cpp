@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
+#include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/quiet_opencv_log.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
@@ -415,9 +416,12 @@ OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv:
 OnnxInstanceSegmenter::OnnxInstanceSegmenter (const OnnxInstanceSegmenterConfig& config) : config_ (config)
 {
   config_.validate ();
+  // A shipped network by name (xyz_instances) or by its source-tree path from anywhere.
+  config_.model_path = findDataFile (config_.model_path, "models", ".onnx");
+  config_.classes_path = findDataFile (config_.classes_path, "classes", ".names");
   boost::system::error_code ec;
   if (!boost::filesystem::is_regular_file (config_.model_path, ec))
-    throw Error (config_.model_path, "no such model file");
+    throw Error (config_.model_path, "no such model file (nor a network of that name in " + dataDirectory () + "/models)");
   checkOnnxModel (config_.model_path);  // OpenCV's importer crashes on some malformed files
   try
   {
