@@ -1,16 +1,16 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // A PCL filter chain with cuefusion's geometric segmentation in the middle:
-//   load an organized PCD → PCL integral-image normals → PassThrough picks the points
-//   nearer than MAX_DEPTH (indices) → cuefusion::segmentation::GeometricSegmentation on
-//   those indices → PCL ExtractIndices cuts out each segment → one PCD per segment and
-//   the whole cloud with a label field (open it with pcl_viewer, press 'l' for labels).
+//   load an organized PCD → PassThrough picks the points nearer than MAX_DEPTH (indices)
+//   → cuefusion::segmentation::GeometricSegmentation on those indices (it smooths the
+//   depth and finds normals as `cuefusion segment-frame` does: on raw sensor depth it
+//   gives that command's segments) → PCL ExtractIndices cuts out each segment → one PCD
+//   per segment and the whole cloud with a label field (pcl_viewer, press 'l' for labels).
 //
 // usage: segment_pcd INPUT.pcd OUT_DIR [MAX_DEPTH_M [MIN_POINTS]]
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
 
-#include <pcl/features/integral_image_normal.h>
 #include <pcl/filters/extract_indices.h>
 #include <pcl/filters/passthrough.h>
 #include <pcl/io/pcd_io.h>
@@ -43,15 +43,6 @@ main (int argc, char** argv)
     return 1;
   }
 
-  // PCL normals (oriented towards the sensor, as cuefusion's edge tests expect).
-  pcl::PointCloud<pcl::Normal>::Ptr normals (new pcl::PointCloud<pcl::Normal>);
-  pcl::IntegralImageNormalEstimation<PointT, pcl::Normal> normal_estimation;
-  normal_estimation.setNormalEstimationMethod (normal_estimation.AVERAGE_3D_GRADIENT);
-  normal_estimation.setMaxDepthChangeFactor (0.02f);
-  normal_estimation.setNormalSmoothingSize (10.f);
-  normal_estimation.setInputCloud (cloud);
-  normal_estimation.compute (*normals);
-
   // A region of interest as indices: the points nearer than max_depth.
   pcl::IndicesPtr near (new pcl::Indices);
   pcl::PassThrough<PointT> pass;
@@ -64,8 +55,7 @@ main (int argc, char** argv)
   pcl::PointCloud<pcl::PointXYZRGBL> labelled;
   std::vector<pcl::PointIndices> label_indices;
   cuefusion::segmentation::GeometricSegmentation<PointT, pcl::Normal> segmentation;
-  segmentation.setInputCloud (cloud);
-  segmentation.setInputNormals (normals);
+  segmentation.setInputCloud (cloud);  // raw depth: the segmentation preprocesses it
   segmentation.setIndices (near);
   try
   {

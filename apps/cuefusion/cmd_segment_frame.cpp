@@ -227,7 +227,6 @@ struct SegmentFrameSettings
   segmentation::InstanceGuidedRegionMergeConfig merge;
   double depth_scale = 1000.0;
   bool drop_plane = false, verbose = false;
-  segmentation::SurfacePreprocessingConfig pre;
   segmentation::GeometricSegmentationConfig geo;
   segmentation::SupportPlaneRemovalConfig plane;
 };
@@ -303,7 +302,7 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
 {
   std::string normals = "central", convexity = "divergence";
   bool no_concavity = false, no_depth_edges = false;
-  segmentation::SurfacePreprocessingConfig& pre = s.pre;
+  segmentation::SurfacePreprocessingConfig& pre = s.geo.preprocessing;  // the library's own default, one source
   segmentation::GeometricSegmentationConfig& geo = s.geo;
   po::options_description options ("options");
   options.add_options ()
@@ -424,7 +423,7 @@ private:
 };
 
 FrameSegmenter::FrameSegmenter (const SegmentFrameSettings& s, const FolderOutputs* outputs)
-  : s_ (s), outputs_ (outputs), folder_ (outputs != nullptr), merger_ (s.merge), preprocessor_ (s.pre), segmenter_ (s.geo), plane_removal_ (s.plane)
+  : s_ (s), outputs_ (outputs), folder_ (outputs != nullptr), merger_ (s.merge), preprocessor_ (s.geo.preprocessing), segmenter_ (s.geo), plane_removal_ (s.plane)
 {
   boost::system::error_code ec;
   if (!s.masks.empty ())

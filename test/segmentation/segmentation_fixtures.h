@@ -88,7 +88,9 @@ segmentScene (const std::string& scene_body, const Eigen::Vector3d& eye, const E
   segmentation::SurfacePreprocessing<pcl::PointXYZ> preprocessing;
   preprocessing.setInputCloud (out.cloud);
   preprocessing.compute (*out.smoothed, *out.normals);
-  segmentation::GeometricSegmentation<pcl::PointXYZ, pcl::Normal> segmentation (config);
+  segmentation::GeometricSegmentationConfig given = config;
+  given.preprocess = false;  // preprocessed above, with the smoothed cloud and its normals at hand
+  segmentation::GeometricSegmentation<pcl::PointXYZ, pcl::Normal> segmentation (given);
   segmentation.setInputCloud (out.smoothed);
   segmentation.setInputNormals (out.normals);
   pcl::PointCloud<pcl::Label> labels;

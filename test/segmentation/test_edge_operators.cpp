@@ -277,11 +277,18 @@ TEST (SegmentationInput, BadInputIsAClearError)
   concavity.setInputCloud (good);
   concavity.setInputNormals (small);
   test::expectError ([&] { concavity.compute (labels); }, "ConcavityEdgeEstimation", "normals are 4x4");
+  // Normals given (preprocess off) must fit the cloud; with the preprocessing (the
+  // default) none are needed.
+  GeometricSegmentationConfig as_given;
+  as_given.preprocess = false;
+  geometric.setConfig (as_given);
   geometric.setInputCloud (good);
   geometric.setInputNormals (empty_normals);
   test::expectError ([&] { geometric.segment (labels); }, "GeometricSegmentation", "normals are 0x0");
   geometric.setInputNormals (nullptr);
   test::expectError ([&] { geometric.segment (labels); }, "GeometricSegmentation", "no input normals");
+  geometric.setConfig (GeometricSegmentationConfig ());
+  EXPECT_NO_THROW (geometric.segment (labels));
 
   ConcavityEdgeEstimationConfig config;
   config.threshold = 1.5f;

@@ -31,6 +31,14 @@ namespace
 {
 using Segmentation = segmentation::GeometricSegmentation<pcl::PointXYZ, pcl::Normal>;
 
+/** These tests give the smoothed cloud and its normals (segmentScene): segmented as given. */
+segmentation::GeometricSegmentationConfig
+asGiven (segmentation::GeometricSegmentationConfig config = segmentation::GeometricSegmentationConfig ())
+{
+  config.preprocess = false;
+  return config;
+}
+
 /** The view's pixels inside a rectangle that cuts through both boxes and the table. */
 pcl::IndicesPtr
 roiIndices (const pcl::PointCloud<pcl::PointXYZ>& cloud)
@@ -82,7 +90,7 @@ TEST (PclConventions, GeometricSegmentationWithIndicesSegmentsOnlyThosePoints)
   const pcl::IndicesPtr indices = roiIndices (*s.smoothed);
   const auto inside = insideMask (*s.smoothed, *indices);
 
-  Segmentation with_indices;
+  Segmentation with_indices (asGiven ());
   with_indices.setInputCloud (s.smoothed);
   with_indices.setInputNormals (s.normals);
   with_indices.setIndices (indices);
@@ -105,7 +113,7 @@ TEST (PclConventions, GeometricSegmentationWithIndicesSegmentsOnlyThosePoints)
   EXPECT_GT (labelled_inside, indices->size () / 2);
 
   // setIndices means exactly "the other points are missing".
-  Segmentation masked;
+  Segmentation masked (asGiven ());
   masked.setInputCloud (maskedCloud (*s.smoothed, *indices));
   masked.setInputNormals (s.normals);
   pcl::PointCloud<pcl::Label> masked_labels;
@@ -113,7 +121,7 @@ TEST (PclConventions, GeometricSegmentationWithIndicesSegmentsOnlyThosePoints)
   EXPECT_EQ (labelsOf (labels), labelsOf (masked_labels));
 
   // Without indices the whole view is segmented (the rectangle is not a default).
-  Segmentation whole;
+  Segmentation whole (asGiven ());
   whole.setInputCloud (s.smoothed);
   whole.setInputNormals (s.normals);
   pcl::PointCloud<pcl::Label> whole_labels;
@@ -127,7 +135,7 @@ TEST (PclConventions, GeometricSegmentationWithIndicesSegmentsOnlyThosePoints)
 TEST (PclConventions, LabelIndicesAgreeWithTheLabelCloud)
 {
   const auto s = segmentScene (kTwoBoxes, kObliqueEye, kTableTarget, true);
-  Segmentation segmentation;
+  Segmentation segmentation (asGiven ());
   segmentation.setInputCloud (s.smoothed);
   segmentation.setInputNormals (s.normals);
   pcl::PointCloud<pcl::Label> labels;
@@ -173,7 +181,7 @@ TEST (PclConventions, LabelPointTypesWithCoordinatesCarryTheInputPoints)
       p.r = bgr[2];
       p.a = 255;
     }
-  segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmentation;
+  segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmentation (asGiven ());
   segmentation.setInputCloud (coloured);
   segmentation.setInputNormals (s.normals);
   pcl::PointCloud<pcl::Label> plain;
@@ -262,7 +270,7 @@ TEST (PclConventions, AnIndexOutsideTheCloudIsAClearError)
 {
   const auto s = segmentScene (kTwoBoxes, kObliqueEye, kTableTarget, false);
   pcl::IndicesPtr indices (new pcl::Indices{0, static_cast<pcl::index_t> (s.smoothed->size ())});
-  Segmentation segmentation;
+  Segmentation segmentation (asGiven ());
   segmentation.setInputCloud (s.smoothed);
   segmentation.setInputNormals (s.normals);
   segmentation.setIndices (indices);
@@ -289,7 +297,7 @@ void
 expectSameSegments (const SegmentedView& s, const segmentation::GeometricSegmentationConfig& config,
                     const typename Comparator::Ptr& comparator)
 {
-  Segmentation geometric (config);
+  Segmentation geometric (asGiven (config));
   geometric.setInputCloud (s.smoothed);
   geometric.setInputNormals (s.normals);
   pcl::PointCloud<pcl::Label> labels;

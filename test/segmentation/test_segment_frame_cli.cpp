@@ -10,8 +10,10 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <nlohmann/json.hpp>
+#include <pcl/features/integral_image_normal.h>
 #include <pcl/io/pcd_io.h>
 
+#include <algorithm>
 #include <map>
 
 using namespace cuefusion;
@@ -288,4 +290,65 @@ TEST_F (SegmentFrame, FolderModeWritesEveryOutputOrNone)
   EXPECT_EQ (twins.code, 1) << twins.err;
   EXPECT_NE (twins.err.find ("both would write the same output files"), std::string::npos) << twins.err;
   EXPECT_EQ (test::readFile (dir / "out/view.pcd"), first_pcd);
+}
+
+TEST_F (SegmentFrame, TheLibraryOnItsOwnGivesTheCommandsSegments)
+{
+  // The README's route: GeometricSegmentation on the organized cloud as the sensor gave it
+  // (Kinect noise), nothing else set up. It must give what `segment-frame` gives, label for
+  // label up to numbering; before the class preprocessed its input, it segmented the raw
+  // cloud with the caller's normals and the objects fell apart (checked below).
+  const auto r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / "out.pcd"), dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  pcl::PointCloud<pcl::PointXYZRGBL> command_out;
+  const cv::Mat command = readLabels (dir / "out.pcd", command_out);
+
+  pcl::PointCloud<pcl::PointXYZRGBA>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZRGBA>);
+  ASSERT_EQ (pcl::io::loadPCDFile (pcd, *cloud), 0);
+  segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> library;
+  library.setInputCloud (cloud);
+  pcl::PointCloud<pcl::PointXYZRGBL> labelled;
+  std::vector<pcl::PointIndices> label_indices;
+  library.segment (labelled, label_indices);
+  std::map<std::uint32_t, std::uint32_t> to_command, to_library;
+  std::size_t differ = 0, labelled_points = 0;
+  for (int y = 0; y < command.rows; ++y)
+    for (int x = 0; x < command.cols; ++x)
+    {
+      const auto a = static_cast<std::uint32_t> (command.at<std::int32_t> (y, x)), b = labelled (x, y).label;
+      labelled_points += a != 0;
+      if ((a == 0) != (b == 0))
+      {
+        ++differ;
+        continue;
+      }
+      if (a == 0)
+        continue;
+      differ += to_command.emplace (b, a).first->second != a || to_library.emplace (a, b).first->second != b;
+    }
+  ASSERT_GT (labelled_points, 100000u);
+  EXPECT_EQ (differ, 0u) << "of " << labelled_points << " labelled points";
+  EXPECT_EQ (to_command.size (), label_indices.size () - 1);  // every segment matched
+  view.labels = command;
+  for (const std::uint16_t id : {2, 3})
+    EXPECT_GE (test::scoreObject (view, id).best_iou, 0.75) << "object " << id;
+
+  // The old route: the raw cloud with PCL's integral-image normals, segmented as given.
+  pcl::PointCloud<pcl::Normal>::Ptr normals (new pcl::PointCloud<pcl::Normal>);
+  pcl::IntegralImageNormalEstimation<pcl::PointXYZRGBA, pcl::Normal> estimation;
+  estimation.setNormalEstimationMethod (estimation.AVERAGE_3D_GRADIENT);
+  estimation.setMaxDepthChangeFactor (0.02f);
+  estimation.setNormalSmoothingSize (10.f);
+  estimation.setInputCloud (cloud);
+  estimation.compute (*normals);
+  segmentation::GeometricSegmentationConfig as_given;
+  as_given.preprocess = false;
+  library.setConfig (as_given);
+  library.setInputNormals (normals);
+  library.segment (labelled);
+  view.labels = library.getLabelImage ().clone ();
+  double worst = 1.0;
+  for (const std::uint16_t id : {2, 3})
+    worst = std::min (worst, test::scoreObject (view, id).best_iou);
+  EXPECT_LT (worst, 0.75) << "the raw route was not worse: the test no longer shows what the default is for";
 }

@@ -4,6 +4,7 @@
 #include <cuefusion/segmentation/concavity_edge_estimation.h>
 #include <cuefusion/segmentation/depth_discontinuity_edge_estimation.h>
 #include <cuefusion/segmentation/surface_planes.h>
+#include <cuefusion/segmentation/surface_preprocessing.h>
 
 #include <opencv2/core.hpp>
 
@@ -36,6 +37,17 @@ struct EdgeLabelingConfig
 /** \brief Parameters of GeometricSegmentation (§4.2.1.1). */
 struct GeometricSegmentationConfig
 {
+  /** segment() on a cloud first applies the surface preprocessing `cuefusion segment-frame`
+    * and the pipeline apply (SurfacePreprocessing with \a preprocessing: noise-adaptive
+    * smoothing of the depth, small holes filled, the normals of §4.1.2), so a class used
+    * on its own gives the command's segments. Raw sensor depth needs it: on a noisy
+    * frame, the unsmoothed cloud with PCL's normals gave 2 segments where the command
+    * gave 31. On (the default), input normals are not needed and not used; off, the
+    * cloud and normals given are segmented as they are (input already smoothed, or
+    * normals of your own). segment(planes) never preprocesses.
+    */
+  bool preprocess = true;
+  SurfacePreprocessingConfig preprocessing;
   bool use_concavity_edges = true;
   bool use_discontinuity_edges = true;
   ConcavityEdgeEstimationConfig concavity;
@@ -47,6 +59,7 @@ struct GeometricSegmentationConfig
 /** \brief Milliseconds spent per stage by the last GeometricSegmentation::segment. */
 struct GeometricSegmentationTimings
 {
+  double preprocessing_ms = 0.0;  ///< GeometricSegmentationConfig::preprocess: smoothing, holes and normals
   double edges_ms = 0.0;      ///< both edge operators (one pass when their neighbour steps agree)
   double labeling_ms = 0.0;   ///< union, closing, connected components, small segments, edge assignment
 };
@@ -72,16 +85,16 @@ computeGeometricEdges (const SurfacePlanes& planes, const GeometricSegmentationC
 int
 labelEdgeMap (const cv::Mat& edges, const cv::Mat& depth, const EdgeLabelingConfig& config, cv::Mat& labels);
 
-/** \brief The geometric label map L^G of §4.2.1.1 from an organized cloud and its normals:
-  * concavity edges (ConcavityEdgeEstimation) ∪ depth-discontinuity edges
+/** \brief The geometric label map L^G of §4.2.1.1 from an organized cloud (preprocessed as
+  * the command line does unless GeometricSegmentationConfig::preprocess is off; then with
+  * the normals given): concavity edges (ConcavityEdgeEstimation) ∪ depth-discontinuity edges
   * (DepthDiscontinuityEdgeEstimation), two closings, connected components of the
   * remaining valid pixels, small segments dropped (labelEdgeMap). Each step can be
   * switched off in the config for ablation.
   *
   * \code
   * GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmentation;
-  * segmentation.setInputCloud (smoothed);        // e.g. from SurfacePreprocessing
-  * segmentation.setInputNormals (normals);
+  * segmentation.setInputCloud (cloud);           // organized, as the sensor gave it
   * segmentation.setIndices (roi);               // optional: only these points
   * pcl::PointCloud<pcl::Label> labels;           // 0 = no segment
   * std::vector<pcl::PointIndices> label_indices; // [l] = the points of segment l
@@ -105,6 +118,8 @@ public:
     * as missing depth and labelled 0. \a PointLT is any point type with a label field:
     * pcl::Label gets only the label, types with coordinates (pcl::PointXYZL,
     * pcl::PointXYZRGBL, ...) also the input's x, y, z and colour, ready for pcl_viewer.
+    * With preprocessing (the default) the whole cloud is smoothed and its normals found,
+    * then the points outside the indices are dropped; without, setInputNormals is needed.
     * Throws cuefusion::Error on unorganized, empty or all-NaN input, normals of another
     * size and an index outside the cloud.
     */
@@ -137,6 +152,9 @@ public:
   const GeometricSegmentationTimings& getTimings () const { return timings_; }
 
 protected:
+  /** \brief The input as SurfacePlanes: preprocessed (config preprocess) or as given. */
+  void inputPlanes ();
+
   SurfacePlanes planes_;  ///< reused between frames
   cv::Mat label_image_, concavity_edges_, discontinuity_edges_, edges_;
   int segment_count_ = 0;

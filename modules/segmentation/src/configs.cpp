@@ -51,6 +51,8 @@ EdgeLabelingConfig::validate () const
 void
 GeometricSegmentationConfig::validate () const
 {
+  if (preprocess)
+    preprocessing.validate ();
   concavity.validate ();
   discontinuity.validate ();
   labeling.validate ();

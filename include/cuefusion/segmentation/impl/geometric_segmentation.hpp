@@ -4,6 +4,7 @@
 #include <cuefusion/segmentation/geometric_segmentation.h>
 #include <cuefusion/segmentation/impl/cloud_images.hpp>
 #include <cuefusion/segmentation/organized_input.h>
+#include <cuefusion/segmentation/surface_preprocessing.h>
 
 #include <pcl/common/copy_point.h>
 #include <pcl/common/time.h>
@@ -19,14 +20,32 @@ namespace segmentation
 {
 
 template <typename PointT, typename PointNT>
+void
+GeometricSegmentation<PointT, PointNT>::inputPlanes ()
+{
+  if (!this->config_.preprocess)
+  {
+    this->toPlanes ("GeometricSegmentation", planes_);
+    return;
+  }
+  checkOrganizedInput<PointT, PointNT> ("GeometricSegmentation", this->input_.get (), nullptr);  // normals unused
+  SurfacePreprocessing<PointT> preprocessing (this->config_.preprocessing);
+  preprocessing.setInputCloud (this->input_);
+  preprocessing.compute (planes_);
+  if (this->hasIndices ())
+    keepOnlyIndices ("GeometricSegmentation", *this->indices_, planes_);
+}
+
+template <typename PointT, typename PointNT>
 template <typename PointLT>
 void
 GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<PointLT>& labels)
 {
   pcl::StopWatch watch;
-  this->toPlanes ("GeometricSegmentation", planes_);
+  inputPlanes ();
   const double copy_ms = watch.getTime ();
   segment (planes_);
+  timings_.preprocessing_ms = this->config_.preprocess ? copy_ms : 0.0;
   watch.reset ();
   const pcl::PointCloud<PointT>& input = *this->input_;
   labels.resize (input.size ());
@@ -54,7 +73,8 @@ GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<PointLT>& label
     }
   });
   // The copies in and out are charged to the stages they serve.
-  timings_.edges_ms += copy_ms;
+  if (!this->config_.preprocess)
+    timings_.edges_ms += copy_ms;
   timings_.labeling_ms += watch.getTime ();
 }
 
