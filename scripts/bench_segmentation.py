@@ -1,9 +1,9 @@
 #!/usr/bin/python3
-"""Geometric segmentation benchmark on the OSD learn clouds (../shared/data/osd-learn).
+"""Geometric segmentation benchmark on the OSD learn clouds ($DATA/osd-learn, docs/design.md).
 
 In one run, on the same clouds:
   * cuefusion `segment-frame --drop-support-plane` (defaults), scored with
-    ../shared/tools/osd_eval.py (overlap and boundary P/R/F, %75), ms per 640x480 frame
+    the data set's osd_eval.py ($DATA/../tools; overlap and boundary P/R/F, %75), ms per 640x480 frame
     per stage (median over all clouds, median of --repeat runs);
   * the PCL peer (build/apps/cuefusion_pcl_peer_segmentation: OrganizedMultiPlane-
     Segmentation for planes + OrganizedConnectedComponentSegmentation with
@@ -112,14 +112,19 @@ def network_section(binary, osd, evaluator, tmp, repeat, model=NETWORK):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("osd", help="folder of mOSD clouds (e.g. ../shared/data/osd-learn)")
-    parser.add_argument("--evaluator", default=os.path.join(os.path.dirname(__file__), "..", "..", "shared", "tools", "osd_eval.py"))
+    parser.add_argument("osd", help="folder of mOSD clouds (e.g. $CUEFUSION_BENCH_DATA/osd-learn)")
+    parser.add_argument("--evaluator", default=None,
+                        help="the data set's osd_eval.py (default: tools/osd_eval.py beside the OSD folder's parent)")
     parser.add_argument("--build", default="build/apps")
     parser.add_argument("--repeat", type=int, default=3, help="timing runs (the median is reported)")
     parser.add_argument("--no-ablations", action="store_true")
     parser.add_argument("--network-only", action="store_true", help="only the shipped network's section")
     parser.add_argument("--model", default=NETWORK, help="the network of that section (default: the shipped one)")
     args = parser.parse_args()
+    if args.evaluator is None:
+        args.evaluator = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(args.osd))), "tools", "osd_eval.py")
+    if not os.path.isfile(args.evaluator):
+        sys.exit("bench_segmentation: no scorer %s (give --evaluator PATH)" % args.evaluator)
     binary = os.path.join(args.build, "cuefusion")
     peer = os.path.join(args.build, "cuefusion_pcl_peer_segmentation")
     clouds = len([f for f in os.listdir(args.osd) if f.endswith(".pcd")])

@@ -27,7 +27,7 @@ the share of frames tracked from the 5th frame on, and the frames tracked by the
 was before the motion model and the noise weights (`--no-motion-model --no-noise-weighting`).
 Open3D 0.16 runs on the same frame lists, ATE over every frame: its RGB-D odometry
 (frame-to-frame, hybrid term) and frame-to-model point-to-plane ICP (`bench_reconstruction.py`'s
-peers). Then the real sequences (default ../shared/data/7scenes-redkitchen and
+peers). Then the real sequences (default $CUEFUSION_BENCH_DATA/7scenes-redkitchen and
 icl-livingroom1) against their shipped poses with the same peers. Prints Markdown for
 docs/benchmarks.md.
 """
@@ -299,8 +299,9 @@ def main():
     here = os.path.dirname(os.path.abspath(__file__))
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", default="320x240")
-    ap.add_argument("--real", nargs="*", default=[os.path.join(here, "..", "..", "shared", "data", d)
-                                                  for d in ("7scenes-redkitchen", "icl-livingroom1")])
+    data = os.environ.get("CUEFUSION_BENCH_DATA", "")
+    ap.add_argument("--real", nargs="*", default=[os.path.join(data, d) for d in ("7scenes-redkitchen", "icl-livingroom1")] if data else [],
+                    help="real sequences (default: 7scenes-redkitchen and icl-livingroom1 of $CUEFUSION_BENCH_DATA, if set)")
     ap.add_argument("--seeds", type=int, default=3, help="stress matrix: seeds per scene")
     ap.add_argument("--scenes", default="tabletop,clutter", help="stress matrix: bundled scenes")
     ap.add_argument("--stress-size", default="640x480", help="stress matrix: image size")
