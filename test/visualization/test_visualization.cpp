@@ -15,6 +15,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <set>
+#include <tuple>
+
 using namespace cuefusion;
 
 namespace
@@ -220,4 +224,28 @@ TEST (MeshRasterizer, UpComesFromTheCameras)
     EXPECT_NEAR (std::asin (from_centre.y ()) * 180.0 / M_PI, 30.0, 1e-6);
     EXPECT_GT ((-pose.linear ().col (1)).dot (Eigen::Vector3d::UnitY ()), 0.8);  // image up is world up
   }
+}
+
+TEST (LabelColors, NoTwoOfTheFirstHundredsOfLabelsShareAColour)
+{
+  // Labels 27, 57 and 207 shared one colour when the 30-colour palette repeated; a room
+  // holds hundreds of segments. Every label up to labelColorCount () has its own colour,
+  // none black (label 0) or grey (unlabelled points in the viewers), and labels that
+  // follow each other differ strongly (sum over channels ≥ 100 of 765).
+  const std::uint32_t count = labelColorCount ();
+  ASSERT_GE (count, 500u);
+  std::set<std::tuple<int, int, int>> seen;
+  for (std::uint32_t label = 1; label <= count; ++label)
+  {
+    const cv::Vec3b c = labelColor (label);
+    EXPECT_TRUE (seen.emplace (c[0], c[1], c[2]).second) << "label " << label << " repeats a colour";
+    EXPECT_FALSE (c[0] == c[1] && c[1] == c[2] && label > 30) << "label " << label << " is grey";
+    if (label > 31)
+    {
+      const cv::Vec3b p = labelColor (label - 1);
+      EXPECT_GE (std::abs (c[0] - p[0]) + std::abs (c[1] - p[1]) + std::abs (c[2] - p[2]), 100) << "labels " << label - 1 << ", " << label;
+    }
+  }
+  EXPECT_EQ (labelColor (0), cv::Vec3b (0, 0, 0));
+  EXPECT_EQ (labelColor (count + 5), labelColor (5));  // then the sequence repeats
 }

@@ -2,6 +2,9 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/label_colors.h>
 
+#include <numeric>
+#include <vector>
+
 namespace cuefusion
 {
 namespace
@@ -15,6 +18,38 @@ const std::uint8_t kPalette[30][3] = {
   {96, 78, 151},   {246, 166, 0},   {179, 68, 108},  {220, 211, 0},   {136, 45, 23},   {141, 182, 0},
   {101, 69, 34},   {226, 88, 34},   {43, 61, 38},    {0, 255, 255},   {255, 0, 255},   {0, 0, 255},
   {255, 0, 0},     {0, 255, 0},     {0, 128, 128},   {128, 0, 255},   {255, 128, 128}, {128, 255, 0}};
+
+/** The colours after the palette: a 10-level RGB grid without greys (black included) and
+  * without the palette's own colours, in a scattered order (stride coprime to the count,
+  * near its golden section, so label k and k + 1 lie far apart on the grid). */
+const std::vector<cv::Vec3b>&
+gridColors ()
+{
+  static const std::vector<cv::Vec3b> colors = [] {
+    std::vector<cv::Vec3b> grid;
+    const auto level = [] (int i) { return static_cast<std::uint8_t> ((255 * i + 4) / 9); };
+    for (int r = 0; r < 10; ++r)
+      for (int g = 0; g < 10; ++g)
+        for (int b = 0; b < 10; ++b)
+        {
+          const cv::Vec3b c (level (r), level (g), level (b));
+          bool taken = r == g && g == b;
+          for (const auto& p : kPalette)
+            taken = taken || (p[0] == c[0] && p[1] == c[1] && p[2] == c[2]);
+          if (!taken)
+            grid.push_back (c);
+        }
+    const std::size_t n = grid.size ();
+    std::size_t stride = static_cast<std::size_t> (0.618 * static_cast<double> (n));
+    while (std::gcd (stride, n) != 1)
+      ++stride;
+    std::vector<cv::Vec3b> ordered (n);
+    for (std::size_t k = 0; k < n; ++k)
+      ordered[k] = grid[(k * stride) % n];
+    return ordered;
+  }();
+  return colors;
+}
 }  // namespace
 
 cv::Vec3b
@@ -22,8 +57,20 @@ labelColor (std::uint32_t label)
 {
   if (label == 0)
     return cv::Vec3b (0, 0, 0);
-  const std::uint8_t* c = kPalette[(label - 1) % 30];
-  return cv::Vec3b (c[0], c[1], c[2]);
+  const std::uint32_t palette = 30, count = labelColorCount ();
+  const std::uint32_t k = (label - 1) % count;
+  if (k < palette)
+  {
+    const std::uint8_t* c = kPalette[k];
+    return cv::Vec3b (c[0], c[1], c[2]);
+  }
+  return gridColors ()[k - palette];
+}
+
+std::uint32_t
+labelColorCount ()
+{
+  return 30 + static_cast<std::uint32_t> (gridColors ().size ());
 }
 
 cv::Mat

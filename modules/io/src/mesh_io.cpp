@@ -362,6 +362,15 @@ put (std::ostream& out, const T& value)
   out.write (reinterpret_cast<const char*> (&value), sizeof value);
 }
 
+/** A vertex label as the header's `int`. */
+void
+putLabel (std::ostream& out, std::uint32_t label, const std::string& path)
+{
+  if (label > 0x7fffffffu)
+    throw Error (path, "label " + std::to_string (label) + " does not fit the PLY label property (int)");
+  put (out, static_cast<std::int32_t> (label));
+}
+
 /** What a PLY mesh written by cuefusion holds. */
 struct PlyLayout
 {
@@ -382,8 +391,10 @@ writePly (const std::string& path, const PlyLayout& layout, Body body)
     header << "property float nx\nproperty float ny\nproperty float nz\n";
   if (layout.colors)
     header << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  // int, not uint: Open3D 0.16's PLY reader skips unsigned properties ("unsupported
+  // datatype uint"); labels stay far below 2^31 (putLabel refuses one that is not).
   if (layout.labels)
-    header << "property uint label\n";
+    header << "property int label\n";
   header << "element face " << layout.faces << "\nproperty list uchar int vertex_indices\nend_header\n";
   writeFileAtomic (path, [&] (const std::string& tmp) {
     std::ofstream out (tmp, std::ios::binary);
@@ -423,7 +434,7 @@ writeMeshPLY (const std::string& path, const TriangleMesh& mesh)
         for (const std::uint8_t c : mesh.colors[i])
           put (out, c);
       if (layout.labels)
-        put (out, mesh.labels[i]);
+        putLabel (out, mesh.labels[i], path);
     }
     for (const Eigen::Vector3i& t : mesh.triangles)
     {
@@ -481,7 +492,7 @@ saveMeshPLY (const std::string& path, const pcl::PolygonMesh& mesh)
         put (out, p.b);
       }
       if (layout.labels)
-        put (out, static_cast<std::uint32_t> (p.label));
+        putLabel (out, p.label, path);
     }
     for (const auto& face : mesh.polygons)
     {
