@@ -84,6 +84,7 @@ struct RunSettings
   std::string render_dir, video_path, screenshot;
   std::string load_volume;  ///< a volume.tsdf to continue (its .keyframes beside it)
   bool view = false, async_masks = false;
+  bool export_objects = false;  ///< objects/ID.ply: each object's part of the mesh
   recognition::OnnxInstanceSegmenterConfig onnx;
 };
 

@@ -15,6 +15,7 @@
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/segmentation/fragmentation.h>
+#include <cuefusion/segmentation/object_geometry.h>
 #include <cuefusion/recognition/asynchronous_segmenter.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
@@ -79,7 +80,7 @@ private:
 const std::vector<std::string> kRunOutputs = {"map.pcd",        "mesh.ply",      "segments.json",
                                               "trajectory.txt", "reference_trajectory.txt",
                                               "volume.tsdf",    "volume.labels",    "volume.keyframes", "tracking.json",
-                                              "timings.json",   "labels",           "outputs.json"};
+                                              "timings.json",   "labels",           "objects",          "outputs.json"};
 
 struct RunOutputs
 {
@@ -102,9 +103,18 @@ peakMemoryMiB ()
   return static_cast<double> (usage.ru_maxrss) / 1024.0;
 }
 
-/** segments.json: every segment of the map with voxels. */
+/** A vector as a JSON list. */
 nlohmann::json
-segmentsJson (const std::vector<segmentation::SegmentRecord>& segments)
+jsonVector (const Eigen::Vector3f& v)
+{
+  return {v.x (), v.y (), v.z ()};
+}
+
+/** segments.json: every segment of the map with voxels; where the map has points of it,
+  * their count, centroid and oriented box (\a geometry, by label). */
+nlohmann::json
+segmentsJson (const std::vector<segmentation::SegmentRecord>& segments,
+              const std::map<std::uint32_t, segmentation::ObjectGeometry>& geometry)
 {
   nlohmann::json list = nlohmann::json::array ();
   for (const auto& s : segments)
@@ -124,6 +134,22 @@ segmentsJson (const std::vector<segmentation::SegmentRecord>& segments)
     for (const auto& [name, vote] : s.class_votes)
       votes[name] = vote.first;
     entry["class_votes"] = votes;
+    const auto g = geometry.find (s.id);
+    if (g != geometry.end ())
+    {
+      const segmentation::OrientedBox& box = g->second.box;
+      entry["points"] = g->second.points;
+      entry["centroid"] = jsonVector (g->second.centroid);
+      entry["oriented_box"] = {{"center", jsonVector (box.center)},
+                               {"axes", {jsonVector (box.axes.col (0)), jsonVector (box.axes.col (1)), jsonVector (box.axes.col (2))}},
+                               {"extents", jsonVector (box.extents)}};
+    }
+    else
+    {
+      entry["points"] = 0;
+      entry["centroid"] = nullptr;
+      entry["oriented_box"] = nullptr;
+    }
     list.push_back (entry);
   }
   const segmentation::FragmentationReport f = segmentation::fragmentationReport (segments);
@@ -253,6 +279,7 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("no-features", po::bool_switch (&s.no_features), "relocalisation: no colour features (keyframes and the motion model only)")
     ("no-noise-weighting", po::bool_switch (&s.no_noise_weighting), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
     ("hole-refresh", po::value (&s.hole_refresh)->default_value (s.hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
+    ("export-objects", po::bool_switch (&s.export_objects), "also write each object's part of the mesh as objects/ID.ply (ID as in segments.json, which gives every segment's centroid and oriented box)")
     ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf), its voxels' labels as map.pcd's (volume.labels) and the relocalisation keyframes (volume.keyframes)")
     ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (with the volume.labels and volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
     ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
@@ -703,18 +730,23 @@ void
 RunSession::writeOutputs ()
 {
   // One product in memory at a time: on a large map the mesh is what the run peaks at.
+  std::map<std::uint32_t, segmentation::ObjectGeometry> geometry;
   {
     const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr map = fusion_.labelledCloud ();
     io::saveMapPCD (staged ("map.pcd"), *map);
     map_points_ = map->size ();
+    geometry = segmentation::objectGeometry (*map);
   }
   {
     const io::TriangleMesh mesh = fusion_.labelledTriangleMesh (true);
     io::writeMeshPLY (staged ("mesh.ply"), mesh);
     triangles_ = mesh.triangles.size ();
+    if (s_.export_objects)
+      for (const auto& [label, part] : io::splitByLabel (mesh))
+        io::writeMeshPLY (staged ("objects/" + std::to_string (label) + ".ply"), part);
   }
   segments_ = fusion_.segments ();
-  io::writeTextAtomic (staged ("segments.json"), io::jsonText (segmentsJson (segments_), 1) + "\n");
+  io::writeTextAtomic (staged ("segments.json"), io::jsonText (segmentsJson (segments_, geometry), 1) + "\n");
   io::writeTumTrajectory (staged ("trajectory.txt"), result_.trajectory);
   if (!result_.reference.empty ())  // for evaluating the estimate with any TUM tool
     io::writeTumTrajectory (staged ("reference_trajectory.txt"), result_.reference);

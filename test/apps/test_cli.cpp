@@ -4,6 +4,7 @@
 #include "test_utils.h"
 
 #include <cuefusion/common/data_directory.h>
+#include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
 
 #include <boost/filesystem.hpp>
@@ -245,7 +246,7 @@ TEST_F (Cli, RunSegmentsWithMasks)
   const std::string seq = dir / "seq";
   Result r = run ("synth --scene tabletop --frames 12 --size 320x240 --layout redwood --out " + seq);
   ASSERT_EQ (r.code, 0) << r.err;
-  r = run ("run " + seq + " --use-gt-poses --out " + (dir / "run") + " --masks " + seq + "/detections --save-every 5");
+  r = run ("run " + seq + " --use-gt-poses --out " + (dir / "run") + " --masks " + seq + "/detections --save-every 5 --export-objects");
   ASSERT_EQ (r.code, 0) << r.err;
   EXPECT_NE (r.out.find ("mode fused"), std::string::npos) << r.out;
   // segments.json names the classes the simulated network reported.
@@ -287,6 +288,65 @@ TEST_F (Cli, RunSegmentsWithMasks)
   EXPECT_GT (used.size (), 5u);
   for (const std::uint32_t label : used)
     EXPECT_TRUE (listed.count (label)) << label;
+  // Each segment's centroid is the mean of its points in map.pcd; the ball's oriented box
+  // is its diameter (12 cm) on every side, within a voxel and a half; --export-objects
+  // wrote each object's part of the mesh, labelled with its id, inside the segment's bounds.
+  std::size_t exported = 0;
+  for (const auto& s : segments)
+  {
+    const auto id = s.at ("id").get<std::uint32_t> ();
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
+    std::size_t n = 0;
+    for (const auto& p : map.points)
+      if (p.label == id)
+      {
+        mean += p.getVector3fMap ().cast<double> ();
+        ++n;
+      }
+    ASSERT_EQ (s.at ("points").get<std::size_t> (), n) << id;
+    if (n == 0)
+    {
+      EXPECT_TRUE (s.at ("oriented_box").is_null ());
+      continue;
+    }
+    const auto c = s.at ("centroid").get<std::vector<double>> ();
+    EXPECT_LT ((Eigen::Vector3d (c[0], c[1], c[2]) - mean / static_cast<double> (n)).norm (), 1e-4) << id;
+    const auto& box = s.at ("oriented_box");
+    EXPECT_EQ (box.at ("center").size (), 3u);
+    const auto extents = box.at ("extents").get<std::vector<double>> ();
+    Eigen::Matrix3d axes;
+    for (int k = 0; k < 3; ++k)
+    {
+      const auto a = box.at ("axes").at (static_cast<std::size_t> (k)).get<std::vector<double>> ();
+      axes.col (k) = Eigen::Vector3d (a[0], a[1], a[2]);
+    }
+    EXPECT_NEAR (axes.determinant (), 1.0, 1e-4) << id;
+    if (s.at ("class") == "sports ball")
+    {
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR (extents[static_cast<std::size_t> (k)], 0.12, 0.015) << "the ball's box, axis " << k;
+    }
+    const std::string object = dir / ("run/objects/" + std::to_string (id) + ".ply");
+    if (!boost::filesystem::exists (object))
+      continue;
+    ++exported;
+    const io::TriangleMesh part = io::readMeshPLY (object);
+    EXPECT_FALSE (part.triangles.empty ()) << object;
+    // Inside the segment's voxel bounds (the labels the mesh's vertices take), ± a voxel.
+    const auto low = s.at ("bounds").at ("min").get<std::vector<double>> (), high = s.at ("bounds").at ("max").get<std::vector<double>> ();
+    for (std::size_t v = 0; v < part.vertices.size (); ++v)
+    {
+      ASSERT_EQ (part.labels[v], id) << object;
+      for (int k = 0; k < 3; ++k)
+      {
+        ASSERT_GE (part.vertices[v][k], low[static_cast<std::size_t> (k)] - 0.015) << object;
+        ASSERT_LE (part.vertices[v][k], high[static_cast<std::size_t> (k)] + 0.015) << object;
+      }
+    }
+  }
+  EXPECT_GE (exported, 5u);  // the tabletop's objects at least
+  for (const auto& e : boost::filesystem::directory_iterator (dir / "run/objects"))
+    EXPECT_TRUE (listed.count (static_cast<std::uint32_t> (std::stoul (e.path ().stem ().string ())))) << e.path ();
   for (const char* png : {"run/labels/000000.png", "run/labels/000005.png", "run/labels/000010.png"})
     EXPECT_TRUE (boost::filesystem::exists (dir / png)) << png;
   const auto timings = nlohmann::json::parse (test::readFile (dir / "run/timings.json"));

@@ -9,13 +9,17 @@
 #include <cuefusion/segmentation/edge_operators.h>
 #include <cuefusion/segmentation/fragmentation.h>
 #include <cuefusion/segmentation/global_segment_map.h>
+#include <cuefusion/segmentation/object_geometry.h>
 #include <cuefusion/segmentation/segment_propagation.h>
 
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <iostream>
 #include <map>
 #include <random>
@@ -585,4 +589,79 @@ TEST (FragmentationReport, CountsSegmentsAndSurfaceBySize)
   EXPECT_THROW (f.shareBelow (500), ParameterError);
   EXPECT_EQ (fragmentationReport ({}).segments, 0u);
   EXPECT_EQ (fragmentationReport ({}).shareBelow (100), 0.0);
+}
+
+TEST (ObjectGeometry, CentroidAndOrientedBoxOfRotatedBoxes)
+{
+  // Points on the faces of boxes of known size, turned and moved, with label 0 and NaN
+  // points beside: each label's box has the box's sides (within the sampling step) along
+  // its edges, largest first, and the centroid is the points' mean.
+  std::mt19937 rng (40);
+  pcl::PointCloud<pcl::PointXYZRGBL> map;
+  struct Truth
+  {
+    Eigen::Vector3f size, centre;
+    Eigen::Matrix3f rotation;
+  };
+  std::map<std::uint32_t, Truth> truth;
+  const float step = 0.005f;
+  for (std::uint32_t label : {3u, 9u})
+  {
+    Truth t;
+    t.size = label == 3 ? Eigen::Vector3f (0.30f, 0.12f, 0.06f) : Eigen::Vector3f (0.08f, 0.20f, 0.45f);
+    t.centre = Eigen::Vector3f (std::uniform_real_distribution<float> (-2.f, 2.f) (rng), 1.5f, 0.7f);
+    t.rotation = (Eigen::AngleAxisf (std::uniform_real_distribution<float> (0.f, 3.f) (rng), Eigen::Vector3f (1, 2, 3).normalized ()))
+                   .toRotationMatrix ();
+    truth[label] = t;
+    // A grid of about 5 mm on each face, corners included exactly.
+    const Eigen::Vector3i cells = (t.size / step).array ().round ().cast<int> ();
+    for (int i = 0; i <= cells.x (); ++i)
+      for (int j = 0; j <= cells.y (); ++j)
+        for (int k = 0; k <= cells.z (); ++k)
+        {
+          if (i != 0 && i != cells.x () && j != 0 && j != cells.y () && k != 0 && k != cells.z ())
+            continue;  // inside
+          const Eigen::Vector3f local = Eigen::Vector3f (static_cast<float> (i) / cells.x (), static_cast<float> (j) / cells.y (),
+                                                         static_cast<float> (k) / cells.z ())
+                                          .cwiseProduct (t.size) - 0.5f * t.size;
+          pcl::PointXYZRGBL p;
+          p.getVector3fMap () = t.rotation * local + t.centre;
+          p.label = label;
+          map.push_back (p);
+        }
+  }
+  pcl::PointXYZRGBL stray;
+  stray.getVector3fMap () = Eigen::Vector3f (50.f, 50.f, 50.f);
+  stray.label = 0;
+  map.push_back (stray);  // label 0: no object
+  stray.x = std::numeric_limits<float>::quiet_NaN ();
+  stray.label = 3;
+  map.push_back (stray);  // no coordinates: left out
+  const auto geometry = objectGeometry (map);
+  ASSERT_EQ (geometry.size (), 2u);
+  for (const auto& [label, t] : truth)
+  {
+    const ObjectGeometry& g = geometry.at (label);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
+    std::size_t n = 0;
+    for (const auto& p : map.points)
+      if (p.label == label && std::isfinite (p.x))
+      {
+        mean += p.getVector3fMap ().cast<double> ();
+        ++n;
+      }
+    EXPECT_EQ (g.points, n);
+    EXPECT_LT ((g.centroid.cast<double> () - mean / static_cast<double> (n)).norm (), 1e-5) << label;
+    EXPECT_LT ((g.box.center - t.centre).norm (), 1e-4f) << label;
+    // The box's axes, sorted by the true sides (largest first), and the sides' lengths.
+    std::vector<int> order = {0, 1, 2};
+    std::sort (order.begin (), order.end (), [&] (int a, int b) { return t.size[a] > t.size[b]; });
+    for (int k = 0; k < 3; ++k)
+    {
+      const Eigen::Vector3f edge = t.rotation.col (order[static_cast<std::size_t> (k)]);
+      EXPECT_GT (std::abs (edge.dot (g.box.axes.col (k))), 0.999f) << label << " axis " << k;
+      EXPECT_NEAR (g.box.extents[k], t.size[order[static_cast<std::size_t> (k)]], 1e-4f) << label << " axis " << k;
+    }
+    EXPECT_NEAR (g.box.axes.determinant (), 1.f, 1e-5f);  // right-handed
+  }
 }

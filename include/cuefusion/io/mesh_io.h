@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -51,5 +52,12 @@ writeMeshPLY (const std::string& path, const TriangleMesh& mesh);
   */
 pcl::PolygonMesh
 toPolygonMesh (const TriangleMesh& mesh);
+
+/** \brief One mesh per label (> 0) of a labelled mesh: the triangles whose three vertices
+  * carry that label, with those vertices (and their normals, colours, labels) renumbered.
+  * Triangles across labels, or of label 0, belong to none. Empty without labels.
+  */
+std::map<std::uint32_t, TriangleMesh>
+splitByLabel (const TriangleMesh& mesh);
 }  // namespace io
 }  // namespace cuefusion

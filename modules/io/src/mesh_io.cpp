@@ -544,5 +544,40 @@ toPolygonMesh (const TriangleMesh& mesh)
                                 static_cast<pcl::index_t> (mesh.triangles[t][2])};
   return out;
 }
+std::map<std::uint32_t, TriangleMesh>
+splitByLabel (const TriangleMesh& mesh)
+{
+  std::map<std::uint32_t, TriangleMesh> out;
+  if (mesh.labels.size () != mesh.vertices.size ())
+    return out;
+  // Per label, the new index of each old vertex (filled as triangles are met).
+  std::map<std::uint32_t, std::map<int, int>> renumbered;
+  for (const Eigen::Vector3i& t : mesh.triangles)
+  {
+    const std::uint32_t label = mesh.labels[static_cast<std::size_t> (t[0])];
+    if (label == 0 || mesh.labels[static_cast<std::size_t> (t[1])] != label || mesh.labels[static_cast<std::size_t> (t[2])] != label)
+      continue;
+    TriangleMesh& part = out[label];
+    std::map<int, int>& index = renumbered[label];
+    Eigen::Vector3i local;
+    for (int k = 0; k < 3; ++k)
+    {
+      const auto [it, added] = index.emplace (t[k], static_cast<int> (part.vertices.size ()));
+      if (added)
+      {
+        const auto v = static_cast<std::size_t> (t[k]);
+        part.vertices.push_back (mesh.vertices[v]);
+        if (!mesh.normals.empty ())
+          part.normals.push_back (mesh.normals[v]);
+        if (!mesh.colors.empty ())
+          part.colors.push_back (mesh.colors[v]);
+        part.labels.push_back (label);
+      }
+      local[k] = it->second;
+    }
+    part.triangles.push_back (local);
+  }
+  return out;
+}
 }  // namespace io
 }  // namespace cuefusion
