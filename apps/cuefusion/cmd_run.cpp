@@ -381,6 +381,8 @@ private:
   nlohmann::json trackingJson ();
   /** The staging path of \a name; throws when a second signal came while writing. */
   std::string staged (const std::string& name) const;
+  /** outputs.json's record of what ran: command line, working folder, the model's sha256. */
+  nlohmann::json withProvenance (nlohmann::json manifest) const;
 
   const RunSettings& s_;
   const pipeline::FusionPipelineConfig pipeline_config_;
@@ -726,6 +728,25 @@ RunSession::trackingJson ()
   return tracking;
 }
 
+nlohmann::json
+RunSession::withProvenance (nlohmann::json manifest) const
+{
+  // What ran, to repeat it: the arguments as given (`cuefusion run` then these repeats the
+  // run exactly: offline runs are frame-exact), the working folder they are relative to,
+  // and the network by its bytes.
+  nlohmann::json arguments = nlohmann::json::array ({"run"});
+  for (const std::string& a : s_.command_line)
+    arguments.push_back (a);
+  manifest["command_line"] = arguments;
+  manifest["working_directory"] = fs::current_path ().string ();
+  if (!s_.onnx.model_path.empty ())
+  {
+    const std::string model = findDataFile (s_.onnx.model_path, "models", ".onnx");
+    manifest["model"] = {{"path", fs::absolute (model).string ()}, {"sha256", io::sha256OfFile (model)}};
+  }
+  return manifest;
+}
+
 void
 RunSession::writeOutputs ()
 {
@@ -768,7 +789,7 @@ RunSession::writeOutputs ()
                                    // a recorded sequence cut short by a signal or a closed window
                                    {"stopped_early", dataset_ != nullptr && InterruptHandlers::interrupted ()},
                                    {"files", files}};
-  io::writeTextAtomic (staged ("outputs.json"), io::jsonText (manifest, 2) + "\n");
+  io::writeTextAtomic (staged ("outputs.json"), io::jsonText (withProvenance (manifest), 2) + "\n");
   if (video_)
     video_->finish ();
   outputs_.commit ();
@@ -822,6 +843,7 @@ runRun (const std::vector<std::string>& args)
   if (!parseCommandLine ("run", "SEQUENCE --out DIR [options]", args, options, positional, vm))
     return 0;
   checkRunSettings (settings);
+  settings.command_line = args;
   RunSession session (settings, vm);
   session.run ();
   session.writeOutputs ();

@@ -4,6 +4,7 @@
 #include "test_utils.h"
 
 #include <cuefusion/common/data_directory.h>
+#include <cuefusion/io/file_io.h>
 #include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
 
@@ -180,6 +181,36 @@ TEST_F (Cli, SynthInfoRun)
     EXPECT_EQ (lines (r.err), 1) << r.err;
     EXPECT_NE (r.err.find (option.substr (0, option.find (' '))), std::string::npos) << r.err;
   }
+}
+
+TEST_F (Cli, ARunRepeatsFromItsRecordedCommandLine)
+{
+  // outputs.json records what ran: the version, the command line and the folder it is
+  // relative to, the network by path and sha256. The same command line, with another
+  // --out, gives the same map byte for byte (offline runs are frame-exact).
+  Result r = run ("synth --scene tabletop --frames 8 --size 160x120 --layout redwood --out " + (dir / "seq"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  r = test::runCuefusion ("run seq --out first --voxel 0.02 --max-depth 4 --model xyz_instances", dir, true);
+  ASSERT_EQ (r.code, 0) << r.err;
+  const nlohmann::json outputs = nlohmann::json::parse (test::readFile (dir / "first/outputs.json"));
+  EXPECT_EQ (outputs.at ("version"), cuefusion::version ());
+  const std::string model = std::string (CUEFUSION_TEST_DATA_DIR) + "/models/xyz_instances.onnx";
+  EXPECT_EQ (outputs.at ("model").at ("sha256"), io::sha256OfFile (model));
+  EXPECT_TRUE (boost::filesystem::equivalent (outputs.at ("model").at ("path").get<std::string> (), model));
+  std::string repeat;
+  bool next_is_out = false;
+  for (const auto& a : outputs.at ("command_line"))
+  {
+    const std::string arg = a.get<std::string> ();
+    repeat += " " + (next_is_out ? std::string ("second") : arg);
+    next_is_out = arg == "--out";
+  }
+  EXPECT_EQ (repeat, " run seq --out second --voxel 0.02 --max-depth 4 --model xyz_instances");
+  EXPECT_TRUE (boost::filesystem::equivalent (outputs.at ("working_directory").get<std::string> (), dir.str ()));
+  r = test::runCuefusion (repeat.substr (1), dir, true);  // from the recorded working folder
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_EQ (test::readFile (dir / "second/map.pcd"), test::readFile (dir / "first/map.pcd"));
+  EXPECT_EQ (test::readFile (dir / "second/segments.json"), test::readFile (dir / "first/segments.json"));
 }
 
 TEST_F (Cli, RunContinuesASavedVolume)

@@ -344,3 +344,20 @@ TEST (OutputSet, ErrorsNameTheFinalPathsNotTheStagingFolders)
   io::OutputSet set (dir / "out", {"map.pcd"}, "map.pcd");
   EXPECT_EQ (io::OutputSet::finalPaths (set.stagingPath ("map.pcd") + ": e"), set.finalPath ("map.pcd") + ": e");
 }
+
+TEST (Sha256, KnownDigestsAndAFile)
+{
+  // FIPS 180-4's examples (one block, two blocks) and the empty message.
+  EXPECT_EQ (io::sha256 (""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ (io::sha256 ("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ (io::sha256 ("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq"),
+             "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+  EXPECT_EQ (io::sha256 (std::string (1000000, 'a')), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+  test::TempDir dir;
+  std::string bytes;
+  for (int i = 0; i < 300; ++i)
+    bytes.push_back (static_cast<char> (i % 256));  // zero bytes and high bytes too
+  test::writeFile (dir / "b.bin", bytes);
+  EXPECT_EQ (io::sha256OfFile (dir / "b.bin"), io::sha256 (bytes));
+  test::expectError ([&] { io::sha256OfFile (dir / "missing"); }, "missing", "");
+}

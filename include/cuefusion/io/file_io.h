@@ -139,6 +139,15 @@ writeTextAtomic (const std::string& path, const std::string& text);
 std::string
 readTextFile (const std::string& path);
 
+/** \brief SHA-256 (FIPS 180-4) of \a bytes as 64 lowercase hex digits. */
+std::string
+sha256 (const std::string& bytes);
+
+/** \brief SHA-256 of a file's bytes (what outputs.json records of the network a run used);
+  * throws cuefusion::Error naming the file when it cannot be read. */
+std::string
+sha256OfFile (const std::string& path);
+
 /** \brief JSON text from \a source, parsed; throws cuefusion::Error naming \a source when
   * it is not JSON or nests deeper than 64 levels. */
 nlohmann::json
