@@ -82,12 +82,14 @@ struct CommandResult
 };
 
 /** Runs `cuefusion ARGS`, stdout and stderr captured into files of \a dir; with
-  * \a in_dir, in \a dir as the working directory (for relative paths in ARGS). */
+  * \a in_dir, in \a dir as the working directory (for relative paths in ARGS); \a env
+  * ("NAME=VALUE ...") is set for that command only. */
 inline CommandResult
-runCuefusion (const std::string& args, const TempDir& dir, bool in_dir = false)
+runCuefusion (const std::string& args, const TempDir& dir, bool in_dir = false, const std::string& env = "")
 {
-  const std::string cmd = (in_dir ? "cd " + dir.str () + " && " : std::string ()) + std::string (CUEFUSION_BINARY) + " " +
-                          args + " >" + (dir / "out.txt") + " 2>" + (dir / "err.txt") + " </dev/null";
+  const std::string cmd = (in_dir ? "cd " + dir.str () + " && " : std::string ()) + (env.empty () ? "" : "env " + env + " ") +
+                          std::string (CUEFUSION_BINARY) + " " + args + " >" + (dir / "out.txt") + " 2>" + (dir / "err.txt") +
+                          " </dev/null";
   const int status = std::system (cmd.c_str ());
   return {WIFEXITED (status) ? WEXITSTATUS (status) : -1, readFile (dir / "out.txt"), readFile (dir / "err.txt")};
 }

@@ -3,6 +3,7 @@
 #include "labelled_pcd.h"
 #include "test_utils.h"
 
+#include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/data_directory.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/mesh_io.h>
@@ -11,6 +12,7 @@
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
 #include <pcl/io/pcd_io.h>
+#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/io/ply_io.h>
 #include <nlohmann/json.hpp>
 
@@ -211,6 +213,42 @@ TEST_F (Cli, ARunRepeatsFromItsRecordedCommandLine)
   ASSERT_EQ (r.code, 0) << r.err;
   EXPECT_EQ (test::readFile (dir / "second/map.pcd"), test::readFile (dir / "first/map.pcd"));
   EXPECT_EQ (test::readFile (dir / "second/segments.json"), test::readFile (dir / "first/segments.json"));
+}
+
+TEST_F (Cli, ScalarAndVectorRunsWriteTheSameMapWithinTolerance)
+{
+  // CUEFUSION_NO_AVX2=1 runs the scalar kernels: the map may differ by rounding only
+  // (docs/reconstruction.md states the tolerance this checks).
+  if (!cpuHasAvx2Fma ())
+    GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
+  Result r = run ("synth --scene tabletop --frames 20 --size 320x240 --noise --out " + (dir / "seq"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  r = run ("run " + (dir / "seq") + " --out " + (dir / "vector"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  r = test::runCuefusion ("run " + (dir / "seq") + " --out " + (dir / "scalar"), dir, false, "CUEFUSION_NO_AVX2=1");
+  ASSERT_EQ (r.code, 0) << r.err;
+  pcl::PointCloud<pcl::PointXYZRGBL>::Ptr maps[2] = {pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGBL>> (),
+                                                     pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGBL>> ()};
+  ASSERT_EQ (pcl::io::loadPCDFile (dir / "vector/map.pcd", *maps[0]), 0);
+  ASSERT_EQ (pcl::io::loadPCDFile (dir / "scalar/map.pcd", *maps[1]), 0);
+  ASSERT_GT (maps[0]->size (), 50000u);
+  EXPECT_NEAR (static_cast<double> (maps[1]->size ()), static_cast<double> (maps[0]->size ()), 0.001 * maps[0]->size ());
+  for (int a = 0; a < 2; ++a)
+  {
+    pcl::KdTreeFLANN<pcl::PointXYZRGBL> tree;
+    tree.setInputCloud (maps[1 - a]);
+    std::vector<int> index (1);
+    std::vector<float> squared (1);
+    std::size_t near = 0, same = 0;
+    for (const auto& p : maps[a]->points)
+      if (tree.nearestKSearch (p, 1, index, squared) == 1 && squared[0] < 1e-6f)
+      {
+        ++near;
+        same += (*maps[1 - a])[static_cast<std::size_t> (index[0])].label == p.label;
+      }
+    EXPECT_GE (near, 0.995 * maps[a]->size ()) << (a ? "scalar" : "vector") << " map's points near the other's";
+    EXPECT_GE (same, 0.995 * near) << (a ? "scalar" : "vector") << " map's labels";
+  }
 }
 
 TEST_F (Cli, RunContinuesASavedVolume)

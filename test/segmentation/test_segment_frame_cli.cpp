@@ -303,7 +303,7 @@ TEST_F (SegmentFrame, TheLibraryOnItsOwnGivesTheCommandsSegments)
   pcl::PointCloud<pcl::PointXYZRGBL> command_out;
   const cv::Mat command = readLabels (dir / "out.pcd", command_out);
 
-  pcl::PointCloud<pcl::PointXYZRGBA>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZRGBA>);
+  const auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGBA>> ();
   ASSERT_EQ (pcl::io::loadPCDFile (pcd, *cloud), 0);
   segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> library;
   library.setInputCloud (cloud);
@@ -334,7 +334,7 @@ TEST_F (SegmentFrame, TheLibraryOnItsOwnGivesTheCommandsSegments)
     EXPECT_GE (test::scoreObject (view, id).best_iou, 0.75) << "object " << id;
 
   // The old route: the raw cloud with PCL's integral-image normals, segmented as given.
-  pcl::PointCloud<pcl::Normal>::Ptr normals (new pcl::PointCloud<pcl::Normal>);
+  const auto normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>> ();
   pcl::IntegralImageNormalEstimation<pcl::PointXYZRGBA, pcl::Normal> estimation;
   estimation.setNormalEstimationMethod (estimation.AVERAGE_3D_GRADIENT);
   estimation.setMaxDepthChangeFactor (0.02f);
