@@ -41,6 +41,10 @@ segmentationModeName (SegmentationMode mode);
 struct FusionPipelineConfig
 {
   reconstruction::DenseReconstructionConfig reconstruction;
+  /// The segmentation's smoothing, holes and normals (shared with tracking, see
+  /// share_smoothing). The pipeline segments the planes it preprocessed with this, so
+  /// geometry.preprocess and geometry.preprocessing (GeometricSegmentation's own, for
+  /// clouds given to it directly) are not read here.
   segmentation::SurfacePreprocessingConfig preprocessing;
   segmentation::GeometricSegmentationConfig geometry;
   segmentation::InstanceGuidedRegionMergeConfig instance_merge;
