@@ -2,6 +2,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/label_colors.h>
 
+#include <iterator>
 #include <numeric>
 #include <vector>
 
@@ -57,7 +58,7 @@ labelColor (std::uint32_t label)
 {
   if (label == 0)
     return cv::Vec3b (0, 0, 0);
-  const std::uint32_t palette = 30, count = labelColorCount ();
+  const auto palette = static_cast<std::uint32_t> (std::size (kPalette)), count = labelColorCount ();
   const std::uint32_t k = (label - 1) % count;
   if (k < palette)
   {
@@ -70,7 +71,7 @@ labelColor (std::uint32_t label)
 std::uint32_t
 labelColorCount ()
 {
-  return 30 + static_cast<std::uint32_t> (gridColors ().size ());
+  return static_cast<std::uint32_t> (std::size (kPalette) + gridColors ().size ());
 }
 
 cv::Mat
