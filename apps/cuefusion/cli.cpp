@@ -68,6 +68,22 @@ parseCommandLine (const std::string& command, const std::string& synopsis, const
   }
   return true;
 }
+std::string
+configArgument (const std::vector<std::string>& args)
+{
+  std::string path;
+  for (std::size_t i = 0; i < args.size (); ++i)
+  {
+    if (args[i] == "--")
+      break;
+    if (args[i] == "--config" && i + 1 < args.size ())
+      path = args[i + 1];
+    else if (args[i].rfind ("--config=", 0) == 0)
+      path = args[i].substr (9);
+  }
+  return path;
+}
+
 nlohmann::json
 numberOrNull (double v)
 {

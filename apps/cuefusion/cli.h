@@ -40,6 +40,18 @@ given (const po::variables_map& vm, const std::string& key)
   return vm.count (key) > 0 && !vm[key].defaulted ();
 }
 
+/** A switch that sets \a field to \a to when given; absent, the field keeps its value
+  * (the library's default or a settings file's). */
+template <class T>
+po::typed_value<bool>*
+setsWhenGiven (T& field, T to)
+{
+  return po::bool_switch ()->notifier ([&field, to] (bool on) {
+    if (on)
+      field = to;
+  });
+}
+
 /** \a v as JSON, null when it is not finite (NaN: undefined). */
 nlohmann::json
 numberOrNull (double v);
@@ -76,11 +88,14 @@ struct RunSettings
 {
   std::string source, out, format = "auto", intrinsics;
   long long frames = 0, save_every = 0;  ///< signed: "-5" must not wrap to 2^64 - 5
-  double voxel = 0.01, truncation = 4.0, max_depth = 5.0;
-  bool use_gt_poses = false, save_volume = false, no_motion_model = false, no_noise_weighting = false, no_features = false;
+  /// The library's settings: defaults, then --config's file, then the options given
+  /// (--voxel, --no-features, ...), each written into its field; the mode is chosen
+  /// from `mode` by runPipelineConfig.
+  pipeline::FusionPipelineConfig pipeline;
+  bool save_volume = false;
   std::string masks, mode;
-  unsigned hole_refresh = 8;
-  float color_split = segmentation::InstanceGuidedRegionMergeConfig ().color_split_distance;
+  std::string config_path;    ///< --config: a settings file or a run's outputs.json
+  bool print_config = false;  ///< --print-config: print the effective settings and stop
   std::string render_dir, video_path, screenshot;
   std::string load_volume;  ///< a volume.tsdf to continue (its .keyframes beside it)
   bool view = false, async_masks = false;
@@ -89,9 +104,23 @@ struct RunSettings
   recognition::OnnxInstanceSegmenterConfig onnx;
 };
 
+/** --config FILE of \a args, read before the options are declared (its values become
+  * their defaults, so options given override the file): "pipeline" into s.pipeline (its
+  * "mode" into s.mode), "network" into s.onnx. Error naming the file and the member. */
+void
+loadRunConfig (const std::vector<std::string>& args, RunSettings& s);
+
+/** The value of --config in \a args ("--config F" or "--config=F"), or "". */
+std::string
+configArgument (const std::vector<std::string>& args);
+
 /** Adds run's options other than its sequence and --out to \a options, stored in \a s. */
 void
 addRunOptions (po::options_description& options, RunSettings& s);
+
+/** The effective settings of a run as one settings file: {"pipeline", "network"}. */
+nlohmann::json
+runConfigJson (const RunSettings& s);
 
 /** Checks the ranges and combinations run refuses: ParameterError or UsageError naming
   * the option. */

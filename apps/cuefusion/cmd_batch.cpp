@@ -370,9 +370,9 @@ private:
 };
 
 /** Run options batch cannot pass on: they name one output or need a display. */
-const std::set<std::string> kNotInBatch = {"view", "view-screenshot", "render", "video", "load-volume"};
+const std::set<std::string> kNotInBatch = {"view", "view-screenshot", "render", "video", "load-volume", "print-config"};
 /** Run options holding a path, made absolute so tasks on other hosts or folders find it. */
-const std::set<std::string> kPathOptions = {"intrinsics", "model", "classes"};
+const std::set<std::string> kPathOptions = {"intrinsics", "model", "classes", "config"};
 }  // namespace
 
 std::vector<SequenceResult>
@@ -598,6 +598,7 @@ runBatch (const std::vector<std::string>& args)
   unsigned jobs = 1;
   bool eval = false, redo = false, eval_plots = false, no_plots = false;
   RunSettings settings;
+  loadRunConfig (args, settings);  // checked here once, not by every run
   po::options_description own ("batch options");
   own.add_options ()
     ("sequences", po::value (&sequence_args)->multitoken (), "sequence folders; @FILE reads more from FILE, one per line")

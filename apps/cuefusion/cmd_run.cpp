@@ -14,6 +14,9 @@
 #include <cuefusion/io/sequence.h>
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/pipeline/settings.h>
+#include <cuefusion/io/settings_json.h>
+#include <cuefusion/recognition/settings.h>
 #include <cuefusion/segmentation/fragmentation.h>
 #include <cuefusion/segmentation/object_geometry.h>
 #include <cuefusion/recognition/asynchronous_segmenter.h>
@@ -265,25 +268,69 @@ continueSavedVolume (const std::string& path, const po::variables_map& vm, const
 }
 
 void
+loadRunConfig (const std::vector<std::string>& args, RunSettings& s)
+{
+  s.config_path = configArgument (args);
+  if (s.config_path.empty ())
+    return;
+  const nlohmann::json file = io::readSettingsFile (s.config_path);
+  try
+  {
+    for (auto it = file.begin (); it != file.end (); ++it)
+      if (it.key () != "pipeline" && it.key () != "network")
+        throw ParameterError (it.key (), "is not a part of run's settings (they are \"pipeline\" and \"network\")");
+    if (file.contains ("pipeline"))
+    {
+      pipeline::readConfig (file["pipeline"], s.pipeline);
+      if (file["pipeline"].contains ("mode"))
+        s.mode = pipeline::segmentationModeName (s.pipeline.mode);
+    }
+    if (file.contains ("network"))
+      recognition::readConfig (file["network"], s.onnx);
+  }
+  catch (const ParameterError& e)
+  {
+    throw Error (s.config_path, e.what ());  // the file's fault, not an option's
+  }
+}
+
+namespace
+{
+/** \a text with the default \a value, for options that set a field only when given. */
+std::string
+withDefault (const std::string& text, double value)
+{
+  std::ostringstream out;
+  out << text << " (default " << value << ")";
+  return out.str ();
+}
+}  // namespace
+
+void
 addRunOptions (po::options_description& options, RunSettings& s)
 {
+  reconstruction::DenseReconstructionConfig& r = s.pipeline.reconstruction;
   options.add_options ()
+    ("config", po::value<std::string> (), "settings file (JSON; the library's Config fields by name, see --print-config) or a "
+     "run's outputs.json to repeat its settings; options given on the command line override it")
+    ("print-config", po::bool_switch (&s.print_config), "print the settings this run would use (defaults, --config, options) as a settings file, and stop")
     ("frames", po::value (&s.frames)->default_value (s.frames), "process at most N frames (0 = all)")
     ("format", po::value (&s.format)->default_value (s.format), "auto, tum, redwood, 7scenes, scannet, openni2")
     ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
-    ("voxel", po::value (&s.voxel)->default_value (s.voxel), "TSDF voxel size in metres")
-    ("truncation", po::value (&s.truncation)->default_value (s.truncation), "TSDF truncation distance in voxels")
-    ("max-depth", po::value (&s.max_depth)->default_value (s.max_depth), "ignore depth beyond this (metres)")
-    ("use-gt-poses", po::bool_switch (&s.use_gt_poses), "integrate with the sequence's own poses instead of tracking")
-    ("no-motion-model", po::bool_switch (&s.no_motion_model), "tracking: start ICP at the last pose instead of the constant-velocity prediction")
-    ("no-features", po::bool_switch (&s.no_features), "relocalisation: no colour features (keyframes and the motion model only)")
-    ("no-noise-weighting", po::bool_switch (&s.no_noise_weighting), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
-    ("hole-refresh", po::value (&s.hole_refresh)->default_value (s.hole_refresh), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
+    ("voxel", po::value (&r.volume.voxel_size)->default_value (r.volume.voxel_size), "TSDF voxel size in metres")
+    ("truncation", po::value (&r.volume.truncation_voxels)->default_value (r.volume.truncation_voxels), "TSDF truncation distance in voxels")
+    ("max-depth", po::value<double> ()->notifier ([&r] (double d) { r.volume.max_depth = r.preprocessing.max_depth = d; }),
+     withDefault ("ignore depth beyond this (metres)", r.volume.max_depth).c_str ())
+    ("use-gt-poses", setsWhenGiven (r.use_reference_poses, true), "integrate with the sequence's own poses instead of tracking")
+    ("no-motion-model", setsWhenGiven (r.motion_model, false), "tracking: start ICP at the last pose instead of the constant-velocity prediction")
+    ("no-features", setsWhenGiven (r.feature_relocalisation, false), "relocalisation: no colour features (keyframes and the motion model only)")
+    ("no-noise-weighting", setsWhenGiven (r.tracking.icp.noise_weighting, false), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
+    ("hole-refresh", po::value (&r.hole_refresh_period)->default_value (r.hole_refresh_period), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
     ("export-objects", po::bool_switch (&s.export_objects), "also write each object's part of the mesh as objects/ID.ply (ID as in segments.json, which gives every segment's centroid and oriented box)")
     ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf), its voxels' labels as map.pcd's (volume.labels) and the relocalisation keyframes (volume.keyframes)")
     ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (with the volume.labels and volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
     ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
-    ("color-split", po::value (&s.color_split)->default_value (s.color_split),
+    ("color-split", po::value (&s.pipeline.instance_merge.color_split_distance)->default_value (s.pipeline.instance_merge.color_split_distance),
      "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
     ("masks", po::value (&s.masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
     ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network by name, "
@@ -299,6 +346,12 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("video", po::value (&s.video_path), "the same panels as a video (.avi Motion-JPEG or .mp4)")
     ("view", po::bool_switch (&s.view), "show the map growing in a PCLVisualizer window (needs a display)")
     ("view-screenshot", po::value (&s.screenshot), "with --view: save the window as PNG when the run ends and close it");
+}
+
+nlohmann::json
+runConfigJson (const RunSettings& s)
+{
+  return {{"pipeline", pipeline::configJson (runPipelineConfig (s))}, {"network", recognition::configJson (s.onnx)}};
 }
 
 void
@@ -334,19 +387,8 @@ chooseSegmentationMode (const std::string& mode, const std::string& masks, const
 pipeline::FusionPipelineConfig
 runPipelineConfig (const RunSettings& s)
 {
-  pipeline::FusionPipelineConfig pipeline_config;
-  reconstruction::DenseReconstructionConfig& config = pipeline_config.reconstruction;
-  config.volume.voxel_size = s.voxel;
-  config.volume.truncation_voxels = s.truncation;
-  config.volume.max_depth = s.max_depth;
-  config.preprocessing.max_depth = s.max_depth;
-  config.use_reference_poses = s.use_gt_poses;
-  config.hole_refresh_period = s.hole_refresh;
-  config.motion_model = !s.no_motion_model;
-  config.feature_relocalisation = !s.no_features;
-  config.tracking.icp.noise_weighting = !s.no_noise_weighting;
+  pipeline::FusionPipelineConfig pipeline_config = s.pipeline;
   pipeline_config.mode = chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path);
-  pipeline_config.instance_merge.color_split_distance = s.color_split;
   return pipeline_config;
 }
 
@@ -423,7 +465,7 @@ makeMaskSource (const RunSettings& s)
 const std::string&
 checkedOutputFolder (const RunSettings& s, const io::DatasetGrabber* dataset)
 {
-  if (s.use_gt_poses && (!dataset || !dataset->hasPoses ()))
+  if (s.pipeline.reconstruction.use_reference_poses && (!dataset || !dataset->hasPoses ()))
     throw ParameterError ("--use-gt-poses", s.source + " has no reference poses");
   return s.out;
 }
@@ -542,7 +584,7 @@ RunSession::onFrame (const RGBDFrame::ConstPtr& frame)
   {
     // The sequence's own pose, integrated as it is: beyond the volume's reach it is the
     // pose file's fault, and the error names that file and the frame.
-    if (s_.use_gt_poses && frame->pose && !fusion_.reconstruction ().volume ().reaches (*frame->pose))
+    if (s_.pipeline.reconstruction.use_reference_poses && frame->pose && !fusion_.reconstruction ().volume ().reaches (*frame->pose))
     {
       const Eigen::Vector3d t = frame->pose->translation ();
       std::ostringstream why;
@@ -707,7 +749,7 @@ RunSession::trackingJson ()
   tracking["tracked"] = result_.trajectory.size ();
   tracking["lost"] = lost;
   tracking["relocalised"] = relocalised;
-  tracking["mode"] = s_.use_gt_poses ? "reference poses" : "frame-to-model ICP";
+  tracking["mode"] = s_.pipeline.reconstruction.use_reference_poses ? "reference poses" : "frame-to-model ICP";
   tracking["segmentation"] = {{"mode", pipeline::segmentationModeName (pipeline_config_.mode)},
                               {"mask_source", mask_source_ ? mask_source_->name () : std::string ()},
                               {"frames_without_masks", result_.frames_without_masks},
@@ -716,7 +758,7 @@ RunSession::trackingJson ()
                         {"voxel_size", volume.getConfig ().voxel_size}, {"truncation_voxels", volume.getConfig ().truncation_voxels}};
   if (!s_.load_volume.empty ())
     tracking["continued_from"] = s_.load_volume;
-  if (!s_.use_gt_poses && result_.reference.size () >= 3 && result_.trajectory.size () >= 3)
+  if (!s_.pipeline.reconstruction.use_reference_poses && result_.reference.size () >= 3 && result_.trajectory.size () >= 3)
   {
     const evaluation::TrajectoryError ate = evaluation::absoluteTrajectoryError (result_.trajectory, result_.reference, 1e-4);
     tracking["ate"] = {{"rmse", ate.rmse}, {"mean", ate.mean}, {"median", ate.median}, {"max", ate.max}, {"pairs", ate.pairs}};
@@ -739,6 +781,8 @@ RunSession::withProvenance (nlohmann::json manifest) const
     arguments.push_back (a);
   manifest["command_line"] = arguments;
   manifest["working_directory"] = fs::current_path ().string ();
+  // The settings as one settings file: `run SEQUENCE --config outputs.json` uses them.
+  manifest["config"] = runConfigJson (s_);
   if (!s_.onnx.model_path.empty ())
   {
     const std::string model = findDataFile (s_.onnx.model_path, "models", ".onnx");
@@ -832,10 +876,11 @@ runRun (const std::vector<std::string>& args)
 {
   // Parse → set up → process the frames → write → report.
   RunSettings settings;
+  loadRunConfig (args, settings);
   po::options_description options ("options");
   options.add_options ()
-    ("sequence", po::value (&settings.source)->required (), "dataset folder, openni2[:DEVICE] or .oni file")
-    ("out", po::value (&settings.out)->required (), "output folder");
+    ("sequence", po::value (&settings.source), "dataset folder, openni2[:DEVICE] or .oni file")
+    ("out", po::value (&settings.out), "output folder");
   addRunOptions (options, settings);
   po::positional_options_description positional;
   positional.add ("sequence", 1);
@@ -843,6 +888,14 @@ runRun (const std::vector<std::string>& args)
   if (!parseCommandLine ("run", "SEQUENCE --out DIR [options]", args, options, positional, vm))
     return 0;
   checkRunSettings (settings);
+  if (settings.print_config)
+  {
+    std::cout << io::jsonText (runConfigJson (settings), 2) << "\n";
+    return 0;
+  }
+  for (const char* required : {"sequence", "out"})  // not needed to print the settings
+    if (!vm.count (required))
+      throw UsageError (std::string ("the option '--") + required + "' is required but missing");
   settings.command_line = args;
   RunSession session (settings, vm);
   session.run ();

@@ -10,7 +10,10 @@
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/map_io.h>
 #include <cuefusion/common/instance.h>
+#include <cuefusion/io/settings_json.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/pipeline/settings.h>
+#include <cuefusion/recognition/settings.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
@@ -296,18 +299,66 @@ private:
   std::map<std::string, std::unique_ptr<io::OutputSet>> sets_;
 };
 
-/** Parses and checks segment-frame's command line; false when --help was given. */
+/** segment-frame's settings as one settings file. */
+nlohmann::json
+segmentFrameConfigJson (const SegmentFrameSettings& s)
+{
+  return {{"geometry", pipeline::configJson (s.geo)},
+          {"instance_merge", pipeline::configJson (s.merge)},
+          {"support_plane", pipeline::configJson (s.plane)},
+          {"network", recognition::configJson (s.onnx)}};
+}
+
+/** --config FILE of \a args into \a s, before the options take their defaults from it. */
+void
+loadSegmentFrameConfig (const std::vector<std::string>& args, SegmentFrameSettings& s)
+{
+  const std::string path = configArgument (args);
+  if (path.empty ())
+    return;
+  const nlohmann::json file = io::readSettingsFile (path);
+  try
+  {
+    for (auto it = file.begin (); it != file.end (); ++it)
+    {
+      const std::string& part = it.key ();
+      if (part == "geometry")
+        pipeline::readConfig (*it, s.geo);
+      else if (part == "instance_merge")
+        pipeline::readConfig (*it, s.merge);
+      else if (part == "support_plane")
+        pipeline::readConfig (*it, s.plane);
+      else if (part == "network")
+        recognition::readConfig (*it, s.onnx);
+      else
+        throw ParameterError (part, "is not a part of segment-frame's settings (they are \"geometry\", \"instance_merge\", "
+                                    "\"support_plane\" and \"network\")");
+    }
+  }
+  catch (const ParameterError& e)
+  {
+    throw Error (path, e.what ());
+  }
+}
+
+/** Parses and checks segment-frame's command line; false when --help or --print-config
+  * was given (the settings printed). */
 bool
 parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSettings& s)
 {
-  std::string normals = "central", convexity = "divergence";
-  bool no_concavity = false, no_depth_edges = false;
+  loadSegmentFrameConfig (args, s);
   segmentation::SurfacePreprocessingConfig& pre = s.geo.preprocessing;  // the library's own default, one source
   segmentation::GeometricSegmentationConfig& geo = s.geo;
+  std::string normals = pre.normal_method == segmentation::NormalMethod::IntegralImage ? "integral" : "central";
+  std::string convexity = geo.concavity.convexity_test == segmentation::ConvexityTest::TangentPlane ? "tangent" : "divergence";
+  bool print_config = false;
   po::options_description options ("options");
   options.add_options ()
-    ("input", po::value (&s.input)->required (), "organized PCD, 16-bit depth PNG, or a folder of them")
-    ("out", po::value (&s.out)->required (), "output PCD (PointXYZRGBL, organized; label 0 = no segment), or a folder for folder input")
+    ("input", po::value (&s.input), "organized PCD, 16-bit depth PNG, or a folder of them")
+    ("out", po::value (&s.out), "output PCD (PointXYZRGBL, organized; label 0 = no segment), or a folder for folder input")
+    ("config", po::value<std::string> (), "settings file (JSON: \"geometry\", \"instance_merge\", \"support_plane\", \"network\"; "
+     "the library's Config fields by name, see --print-config); options given on the command line override it")
+    ("print-config", po::bool_switch (&print_config), "print the settings this call would use as a settings file, and stop")
     ("intrinsics", po::value (&s.intrinsics_path), "intrinsics file for depth PNG input (JSON, 3x3/4x4 matrix or a line)")
     ("depth-scale", po::value (&s.depth_scale)->default_value (1000.0), "depth PNG units per metre (TUM: 5000)")
     ("rgb", po::value (&s.rgb), "colour image for the output's colours (a folder for folder input: same stems)")
@@ -328,7 +379,7 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
     ("drop-support-plane", po::bool_switch (&s.drop_plane), "label the dominant plane (table, floor) 0")
     ("verbose,v", po::bool_switch (&s.verbose), "print per-stage timings per frame")
     ("timings", po::value (&s.timings_path), "write per-frame stage timings (ms) to this JSON file")
-    ("normals", po::value (&normals)->default_value ("central"), "normal estimation: central (differences, §4.1.2) or integral (PCL integral image)")
+    ("normals", po::value (&normals)->default_value (normals), "normal estimation: central (differences, §4.1.2) or integral (PCL integral image)")
     ("range-sigma", po::value (&pre.bilateral.noise_range_sigma)->default_value (pre.bilateral.noise_range_sigma), "bilateral range sigma in units of the sensor noise sigma_z(z)")
     ("sigma-space", po::value (&pre.bilateral.sigma_space)->default_value (pre.bilateral.sigma_space), "bilateral spatial sigma (px)")
     ("bilateral-diameter", po::value (&pre.bilateral.diameter)->default_value (pre.bilateral.diameter), "bilateral window (px)")
@@ -339,12 +390,12 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
     ("concavity-threshold", po::value (&geo.concavity.threshold)->default_value (geo.concavity.threshold), "concave edge where Phi < this")
     ("concavity-noise-slope", po::value (&geo.concavity.noise_slope)->default_value (geo.concavity.noise_slope),
      "the concavity threshold gives way to the normals' noise: cos of this x sigma_z(z)/z where lower (0 = off)")
-    ("convexity-test", po::value (&convexity)->default_value ("divergence"), "when a neighbour is convex: divergence (normals turn apart) or tangent (thesis: below the tangent plane)")
+    ("convexity-test", po::value (&convexity)->default_value (convexity), "when a neighbour is convex: divergence (normals turn apart) or tangent (thesis: below the tangent plane)")
     ("concavity-step", po::value (&geo.concavity.neighbour_step)->default_value (geo.concavity.neighbour_step), "concavity neighbour distance (px)")
     ("noise-factor", po::value (&geo.discontinuity.noise_factor)->default_value (geo.discontinuity.noise_factor), "depth edge where Gamma > k * sigma_d")
     ("depth-edge-step", po::value (&geo.discontinuity.neighbour_step)->default_value (geo.discontinuity.neighbour_step), "depth-edge neighbour distance (px)")
-    ("no-concavity", po::bool_switch (&no_concavity), "ablation: no concavity edges")
-    ("no-depth-edges", po::bool_switch (&no_depth_edges), "ablation: no depth-discontinuity edges")
+    ("no-concavity", setsWhenGiven (geo.use_concavity_edges, false), "ablation: no concavity edges")
+    ("no-depth-edges", setsWhenGiven (geo.use_discontinuity_edges, false), "ablation: no depth-discontinuity edges")
     ("closings", po::value (&geo.labeling.closing_iterations)->default_value (geo.labeling.closing_iterations), "closing iterations of the edge map (0 = off)")
     ("min-segment-size", po::value (&geo.labeling.min_segment_size)->default_value (geo.labeling.min_segment_size), "smaller segments get label 0 (px)")
     ("edge-radius", po::value (&geo.labeling.edge_assignment_radius)->default_value (geo.labeling.edge_assignment_radius), "give edge pixels to the adjacent segment up to N px out (0 = off)")
@@ -371,14 +422,21 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
     pre.bilateral.enabled = false;
   if (!(s.depth_scale > 0.0) || !std::isfinite (s.depth_scale))
     throw ParameterError ("--depth-scale", "must be a positive number");
-  geo.use_concavity_edges = !no_concavity;
-  geo.use_discontinuity_edges = !no_depth_edges;
-  geo.labeling.max_depth_jump = pre.normals.max_depth_jump;
+  if (given (vm, "max-depth-jump"))  // one option for both (a settings file may set them apart)
+    geo.labeling.max_depth_jump = pre.normals.max_depth_jump;
   pre.validate ();
   geo.validate ();
   s.plane.validate ();
   s.merge.validate ();
   s.mode = pipeline::segmentationModeName (chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path));
+  if (print_config)
+  {
+    std::cout << io::jsonText (segmentFrameConfigJson (s), 2) << "\n";
+    return false;
+  }
+  for (const char* required : {"input", "out"})  // not needed to print the settings
+    if (!vm.count (required))
+      throw UsageError (std::string ("the option '--") + required + "' is required but missing");
   return true;
 }
 

@@ -213,6 +213,30 @@ TEST_F (Cli, ARunRepeatsFromItsRecordedCommandLine)
   ASSERT_EQ (r.code, 0) << r.err;
   EXPECT_EQ (test::readFile (dir / "second/map.pcd"), test::readFile (dir / "first/map.pcd"));
   EXPECT_EQ (test::readFile (dir / "second/segments.json"), test::readFile (dir / "first/segments.json"));
+
+  // The effective settings (outputs.json "config", the library's Config fields by name)
+  // repeat it too: --config outputs.json alone gives the mode, the network and the
+  // options' values; --print-config prints them; an option given overrides the file.
+  const nlohmann::json& config = outputs.at ("config");
+  EXPECT_DOUBLE_EQ (config.at ("pipeline").at ("reconstruction").at ("volume").at ("voxel_size").get<double> (), 0.02);
+  EXPECT_DOUBLE_EQ (config["pipeline"]["reconstruction"]["preprocessing"]["max_depth"].get<double> (), 4.0);
+  EXPECT_EQ (config["pipeline"].at ("mode"), "fused");
+  EXPECT_EQ (config.at ("network").at ("model_path"), "xyz_instances");
+  r = test::runCuefusion ("run seq --out third --config first/outputs.json", dir, true);
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_EQ (test::readFile (dir / "third/map.pcd"), test::readFile (dir / "first/map.pcd"));
+  EXPECT_EQ (nlohmann::json::parse (test::readFile (dir / "third/outputs.json")).at ("config"), config);
+  r = test::runCuefusion ("run --print-config --voxel 0.02 --max-depth 4 --model xyz_instances", dir, true);
+  ASSERT_EQ (r.code, 0) << r.err;
+  EXPECT_EQ (nlohmann::json::parse (r.out), config);
+  test::writeFile (dir / "settings.json", nlohmann::json ({{"pipeline", config["pipeline"]}}).dump ());
+  r = test::runCuefusion ("run --print-config --config settings.json --voxel 0.03 --model xyz_instances", dir, true);
+  ASSERT_EQ (r.code, 0) << r.err;
+  nlohmann::json expected = config;
+  expected["pipeline"]["reconstruction"]["volume"]["voxel_size"] = 0.03;
+  EXPECT_EQ (nlohmann::json::parse (r.out), expected);
+  // Without a sequence and --out only --print-config runs.
+  EXPECT_EQ (test::runCuefusion ("run --config settings.json", dir, true).code, 2);
 }
 
 TEST_F (Cli, ScalarAndVectorRunsWriteTheSameMapWithinTolerance)

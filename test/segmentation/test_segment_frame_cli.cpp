@@ -352,3 +352,28 @@ TEST_F (SegmentFrame, TheLibraryOnItsOwnGivesTheCommandsSegments)
     worst = std::min (worst, test::scoreObject (view, id).best_iou);
   EXPECT_LT (worst, 0.75) << "the raw route was not worse: the test no longer shows what the default is for";
 }
+
+TEST_F (SegmentFrame, ASettingsFileDoesWhatTheOptionsDo)
+{
+  // --print-config writes the settings the options give (the library's Config fields);
+  // that file given back with --config segments as the options did.
+  const std::string options = " --no-concavity --min-segment-size 500 --max-depth-jump 0.03 --drop-support-plane";
+  auto r = test::runCuefusion ("segment-frame --print-config" + options, dir);
+  ASSERT_EQ (r.code, 0) << r.err;
+  const nlohmann::json settings = nlohmann::json::parse (r.out);
+  const nlohmann::json& geometry = settings.at ("geometry");
+  EXPECT_EQ (geometry.at ("use_concavity_edges"), false);
+  EXPECT_EQ (geometry.at ("labeling").at ("min_segment_size"), 500);
+  EXPECT_EQ (geometry["labeling"].at ("max_depth_jump").dump (), "0.03");  // one option sets both
+  EXPECT_EQ (geometry.at ("preprocessing").at ("normals").at ("max_depth_jump").dump (), "0.03");
+  test::writeFile (dir / "settings.json", settings.dump (2));
+  for (const auto& [out, args] : {std::pair<std::string, std::string> ("options.pcd", options),
+                                  {"file.pcd", " --drop-support-plane --config " + (dir / "settings.json")},
+                                  {"defaults.pcd", " --drop-support-plane"}})
+  {
+    r = test::runCuefusion ("segment-frame " + pcd + " --out " + (dir / out) + args, dir);
+    ASSERT_EQ (r.code, 0) << out << ": " << r.err;
+  }
+  EXPECT_EQ (test::readFile (dir / "file.pcd"), test::readFile (dir / "options.pcd"));
+  EXPECT_NE (test::readFile (dir / "defaults.pcd"), test::readFile (dir / "options.pcd"));  // the settings matter here
+}
