@@ -20,10 +20,12 @@ function(cuefusion_add_module name)
     VERSION ${PROJECT_VERSION}
     SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
   cuefusion_set_warnings(cuefusion_${name})
+  # Packages (CuefusionInstall.cmake): the versioned library in libcuefusion<M.m>
+  # ("runtime"), the unversioned link and static archives in libcuefusion-dev ("dev").
   install(TARGETS cuefusion_${name} EXPORT cuefusionTargets
-    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
-    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
-    RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime NAMELINK_COMPONENT dev
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
+    RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
   set_property(GLOBAL APPEND PROPERTY CUEFUSION_MODULES cuefusion_${name})
 endfunction()
 

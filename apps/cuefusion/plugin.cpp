@@ -15,12 +15,14 @@ namespace cli
 void*
 pluginSymbol (const char* library, const char* symbol)
 {
-  // By its full path beside the cuefusion libraries, not by dlopen's search: a tool that
+  // By its full path (in cuefusion/ beside the cuefusion libraries), not by dlopen's search: a tool that
   // wraps dlopen (heaptrack, some profilers) becomes the "caller" whose run path is
   // searched, and would not find it. dlopen counts references: a second call returns the
   // same handle.
+  // The command's private libraries are in cuefusion/ beside the modules' libraries
+  // (apps/CMakeLists.txt; /usr/lib/cuefusion when packaged).
   const std::string folder = libraryDirectory ();
-  const std::string path = folder.empty () ? std::string (library) : folder + "/" + library;
+  const std::string path = folder.empty () ? std::string (library) : folder + "/cuefusion/" + library;
   void* handle = dlopen (path.c_str (), RTLD_NOW | RTLD_LOCAL);
   if (!handle)
   {

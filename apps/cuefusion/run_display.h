@@ -41,7 +41,7 @@ public:
 /** What `run` shows and records beside its outputs. The window needs VTK and Qt, the video
   * OpenCV's video I/O: about 70 MB of libraries resident once loaded, which every command
   * paid at start-up while they were linked in. They live in a library of their own
-  * (libcuefusion_run_display.so, beside the cuefusion libraries), loaded by loadRunDisplay
+  * (libcuefusion_run_display.so, in cuefusion/ beside the cuefusion libraries), loaded by loadRunDisplay
   * only when --view or --video asks for it. */
 class RunDisplay
 {

@@ -5,9 +5,10 @@
 #  2. examples/ (find_package(cuefusion) and find_package(PCL) only) configure, build and
 #     run against the prefix: segment_pcd on an organized PCD, live_segmentation on a
 #     sequence through its pcl::Grabber;
-#  3. `cpack -G DEB` makes cuefusion_<version>_amd64.deb holding the headers, the command
-#     and the CMake config, with Depends naming PCL; the package's files, unpacked into a
-#     folder, build the examples too.
+#  3. `cpack -G DEB` makes the four Debian packages (libcuefusion<M.m>, libcuefusion-dev,
+#     cuefusion, cuefusion-data): each holds its own files, copyright and changelog; the
+#     run-time ones, unpacked into a scratch root, run segment-frame --model xyz_instances;
+#     the -dev one builds the examples; lintian reports no errors.
 # usage: check_install.sh BUILD_DIR SOURCE_DIR
 set -euo pipefail
 build=$(cd "$1" && pwd)
@@ -72,24 +73,62 @@ for f in map_00005.pcd map_00010.pcd map_final.pcd; do
   [ -f "$tmp/live/$f" ] || fail "live_segmentation wrote no $f"
 done
 
-# 3. the Debian package
+# 3. the Debian packages, split as Debian splits a library (cmake/CuefusionInstall.cmake)
 (cd "$build" && cpack -G DEB -B "$tmp/package" >"$tmp/cpack.log" 2>&1) || { cat "$tmp/cpack.log"; fail "cpack -G DEB failed"; }
-deb=$(ls "$tmp"/package/cuefusion_*_amd64.deb 2>/dev/null | head -1)
-[ -n "$deb" ] || fail "cpack made no cuefusion_<version>_amd64.deb"
-dpkg-deb -c "$deb" >"$tmp/contents"
-for f in libcuefusion_run_display.so libcuefusion_commands.so; do
-  grep -q "/$f\$" "$tmp/contents" || fail "$(basename "$deb") lacks $f"
+version=$("$bin" --version | awk '{ print $2 }')
+abi=${version%.*}
+declare -A deb
+for p in "libcuefusion$abi" libcuefusion-dev cuefusion cuefusion-data; do
+  deb[$p]=$(ls "$tmp"/package/"${p}"_"${version}"_*.deb 2>/dev/null | head -1)
+  [ -n "${deb[$p]}" ] || fail "cpack made no ${p}_${version}_*.deb ($(ls "$tmp/package"))"
+  dpkg-deb -c "${deb[$p]}" | awk '{ print $6 }' >"$tmp/$p.contents"
 done
-for f in ./usr/bin/cuefusion ./usr/include/cuefusion/segmentation/geometric_segmentation.h \
-         ./usr/lib/cmake/cuefusion/cuefusionConfig.cmake ./usr/share/cuefusion/models/xyz_instances.onnx \
-         ./usr/share/doc/cuefusion/copyright; do
-  grep -q " $f\$" "$tmp/contents" || fail "$(basename "$deb") lacks $f"
+has () { grep -qE "$2" "$tmp/$1.contents" || fail "$1 lacks $2"; }
+hasnt () { grep -E "$2" "$tmp/$1.contents" && fail "$1 holds $2 (another package's)"; true; }
+has "libcuefusion$abi" "^\./usr/lib/libcuefusion_segmentation\.so\.$abi"
+hasnt "libcuefusion$abi" "include/|\.so$|/bin/|share/cuefusion/"
+has libcuefusion-dev "^\./usr/include/cuefusion/segmentation/geometric_segmentation\.h$"
+has libcuefusion-dev "^\./usr/lib/cmake/cuefusion/cuefusionConfig\.cmake$"
+has libcuefusion-dev "^\./usr/lib/libcuefusion_segmentation\.so$"
+has cuefusion "^\./usr/bin/cuefusion$"
+has cuefusion "^\./usr/lib/cuefusion/libcuefusion_commands\.so$"
+has cuefusion "^\./usr/lib/cuefusion/libcuefusion_run_display\.so$"
+has cuefusion "^\./usr/share/man/man1/cuefusion\.1\.gz$"
+has cuefusion-data "^\./usr/share/cuefusion/models/xyz_instances\.onnx$"
+for p in "${!deb[@]}"; do
+  has "$p" "^\./usr/share/doc/$p/copyright$"
+  has "$p" "^\./usr/share/doc/$p/changelog\.gz$"
 done
-depends=$(dpkg-deb -f "$deb" Depends)
-echo "$(basename "$deb") Depends: $depends"
-echo "$depends" | grep -q 'libpcl-dev' || fail "Depends does not name PCL's development package"
-echo "$depends" | grep -q 'libpcl-.*1\.13' || fail "Depends does not name PCL's run-time libraries"
-dpkg-deb -x "$deb" "$tmp/root"
-cmake -S "$source/examples" -B "$tmp/examples-deb" -DCMAKE_PREFIX_PATH="$tmp/root/usr" >"$tmp/examples-deb.log" 2>&1 \
-  || { cat "$tmp/examples-deb.log"; fail "examples against the unpacked package: configure failed"; }
+dpkg-deb -f "${deb[libcuefusion-dev]}" Depends | grep -q 'libpcl-dev' || fail "libcuefusion-dev does not depend on PCL's development package"
+runtime_depends=$(dpkg-deb -f "${deb[libcuefusion$abi]}" Depends)
+echo "libcuefusion$abi Depends: $runtime_depends"
+echo "$runtime_depends" | grep -q 'libpcl-.*1\.13' || fail "libcuefusion$abi does not depend on PCL's run-time libraries"
+echo "$runtime_depends" | grep -q -- '-dev' && fail "the run-time package depends on development packages"
+dpkg-deb -f "${deb[cuefusion]}" Depends | grep -q "libcuefusion$abi (= $version)" || fail "cuefusion does not depend on libcuefusion$abi"
+dpkg-deb -f "${deb[cuefusion]}" Maintainer | grep -q '@localhost' && fail "the maintainer is at localhost"
+# The run-time packages only, unpacked into a scratch root: the command runs from there,
+# with the network by name, from a folder outside the source tree; every object stripped.
+root="$tmp/root"
+for p in "libcuefusion$abi" cuefusion cuefusion-data; do dpkg-deb -x "${deb[$p]}" "$root"; done
+find "$root" -type f -name '*.so*' -o -type f -path '*/bin/*' | while read -r f; do
+  file -b "$f" | grep -q 'not stripped' && fail "$f is not stripped"
+  true
+done
+(cd "$tmp" && "$root/usr/bin/cuefusion" segment-frame "$depth" --intrinsics "$tmp/sequence/intrinsics.txt" --depth-scale 5000 \
+  --model xyz_instances --mode masks --out "$tmp/package-masks.pcd" >"$tmp/package-masks.log" 2>&1) \
+  || { cat "$tmp/package-masks.log"; fail "the packaged cuefusion did not run segment-frame --model xyz_instances"; }
+ldd "$root/usr/lib/cuefusion/libcuefusion_commands.so" | grep libcuefusion_pipeline | grep -q "$root/" \
+  || fail "the packaged commands library does not load the packaged libraries"
+cmp -s "$tmp/package-masks.pcd" "$tmp/masks.pcd" || fail "the packaged and the installed cuefusion segment differently"
+# The development package on top: the examples build against it.
+dpkg-deb -x "${deb[libcuefusion-dev]}" "$root"
+cmake -S "$source/examples" -B "$tmp/examples-deb" -DCMAKE_PREFIX_PATH="$root/usr" >"$tmp/examples-deb.log" 2>&1 \
+  || { cat "$tmp/examples-deb.log"; fail "examples against the unpacked packages: configure failed"; }
+# Debian's own checks: no lintian errors on any of the four.
+if command -v lintian >/dev/null; then
+  lintian --fail-on error --no-tag-display-limit "${deb[@]}" >"$tmp/lintian.log" 2>&1 || { cat "$tmp/lintian.log"; fail "lintian reports errors"; }
+  echo "lintian: $(grep -c '^E:' "$tmp/lintian.log") errors, $(grep -c '^W:' "$tmp/lintian.log") warnings"
+else
+  fail "lintian is not installed (scripts/setup installs it)"
+fi
 echo "check_install: install, examples and package all right"
