@@ -391,5 +391,54 @@ TEST (InstanceGuidedRegionMerge, MergesPclLabelCloudsLikeLabelImages)
     }
   }
 }
+TEST (PclConventions, APointWithoutCoordinatesHasNoSegmentWhereTheHoleWasFilled)
+{
+  // With its defaults the class fills small holes of missing depth before segmenting
+  // (SurfacePreprocessingConfig::max_hole_pixels), but a point without coordinates is in
+  // no segment and in no list, as in segment-frame's output (toLabelledCloud).
+  const auto s = segmentScene (kTwoBoxes, kObliqueEye, kTableTarget, true);
+  const auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>> (*s.cloud);
+  std::vector<std::size_t> punched;
+  for (int cy = 40; cy < static_cast<int> (cloud->height) - 40; cy += 37)
+    for (int cx = 40; cx < static_cast<int> (cloud->width) - 40; cx += 53)
+    {
+      bool inside = true;  // 3x3 holes where the surface has depth all around
+      for (int y = cy - 2; y <= cy + 2; ++y)
+        for (int x = cx - 2; x <= cx + 2; ++x)
+          inside = inside && std::isfinite ((*cloud) (x, y).z);
+      if (!inside)
+        continue;
+      for (int y = cy - 1; y <= cy + 1; ++y)
+        for (int x = cx - 1; x <= cx + 1; ++x)
+        {
+          (*cloud) (x, y).x = (*cloud) (x, y).y = (*cloud) (x, y).z = std::numeric_limits<float>::quiet_NaN ();
+          punched.push_back (static_cast<std::size_t> (y) * cloud->width + x);
+        }
+    }
+  ASSERT_GE (punched.size (), 9u * 20u);
+  segmentation::GeometricSegmentation<pcl::PointXYZ, pcl::Normal> segmentation;
+  segmentation.setInputCloud (cloud);
+  pcl::PointCloud<pcl::PointXYZL> labels;
+  std::vector<pcl::PointIndices> label_indices;
+  segmentation.segment (labels, label_indices);
+  std::set<pcl::index_t> listed;
+  for (const pcl::PointIndices& indices : label_indices)
+    listed.insert (indices.indices.begin (), indices.indices.end ());
+  for (const std::size_t i : punched)
+  {
+    EXPECT_EQ (labels[i].label, 0u) << "point " << i;
+    EXPECT_EQ (listed.count (static_cast<pcl::index_t> (i)), 0u) << "point " << i;
+  }
+  // The holes were filled for the segmentation: the surface around each is one segment.
+  std::size_t whole = 0;
+  for (std::size_t k = 0; k < punched.size (); k += 9)
+  {
+    const std::size_t centre = punched[k + 4], w = cloud->width;
+    whole += labels[centre - 2].label != 0 && labels[centre - 2].label == labels[centre + 2].label &&
+             labels[centre - 2].label == labels[centre - 2 * w].label && labels[centre - 2].label == labels[centre + 2 * w].label;
+  }
+  EXPECT_GE (whole * 10, punched.size () / 9 * 8);  // most holes lie inside one segment
+}
+
 }  // namespace test
 }  // namespace cuefusion

@@ -69,7 +69,10 @@ GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<PointLT>& label
       // ...) also the input's fields they share (x, y, z, colour).
       if constexpr (!std::is_same_v<PointLT, pcl::Label>)
         pcl::copyPoint (input[i], out);
-      out.label = static_cast<std::uint32_t> (row[x]);
+      // A point without coordinates, or outside the indices, has no segment, as in
+      // segment-frame's output (toLabelledCloud): the label image may label a small hole
+      // the preprocessing filled (SurfacePreprocessingConfig::max_hole_pixels).
+      out.label = std::isfinite (input[i].z) && std::isfinite (planes_.z[i]) ? static_cast<std::uint32_t> (row[x]) : 0u;
     }
   });
   // The copies in and out are charged to the stages they serve.
@@ -90,11 +93,12 @@ GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<PointLT>& label
     indices.header = labels.header;
   // Label 0 lists the points that were in the input (finite, inside the indices) but in
   // no segment; missing points are in no list, as in OrganizedConnectedComponentSegmentation.
+  const pcl::PointCloud<PointT>& input = *this->input_;
   const std::size_t n = labels.size ();
   for (std::size_t i = 0; i < n; ++i)
   {
     const std::uint32_t label = labels[i].label;
-    if (label != 0 || std::isfinite (planes_.z[i]))
+    if (label != 0 || (std::isfinite (input[i].z) && std::isfinite (planes_.z[i])))
       label_indices[label].indices.push_back (static_cast<pcl::index_t> (i));
   }
 }
