@@ -100,6 +100,7 @@ struct RunSettings
   std::string load_volume;  ///< a volume.tsdf to continue (its .keyframes beside it)
   bool view = false, async_masks = false;
   bool export_objects = false;  ///< objects/ID.ply: each object's part of the mesh
+  std::string colors;           ///< --colors: "segments" or "surface" for map.pcd and mesh.ply; "" = each its own
   std::vector<std::string> command_line;  ///< as given (outputs.json records it)
   recognition::OnnxInstanceSegmenterConfig onnx;
 };

@@ -326,6 +326,8 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("no-features", setsWhenGiven (r.feature_relocalisation, false), "relocalisation: no colour features (keyframes and the motion model only)")
     ("no-noise-weighting", setsWhenGiven (r.tracking.icp.noise_weighting, false), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
     ("hole-refresh", po::value (&r.hole_refresh_period)->default_value (r.hole_refresh_period), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
+    ("colors", po::value (&s.colors), "colour map.pcd and mesh.ply alike: segments (each segment its label's colour, none grey) or "
+     "surface (the fused colour); without it map.pcd has the surface colour and mesh.ply the segments'")
     ("export-objects", po::bool_switch (&s.export_objects), "also write each object's part of the mesh as objects/ID.ply (ID as in segments.json, which gives every segment's centroid and oriented box)")
     ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf), its voxels' labels as map.pcd's (volume.labels) and the relocalisation keyframes (volume.keyframes)")
     ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (with the volume.labels and volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
@@ -366,6 +368,8 @@ checkRunSettings (const RunSettings& s)
   if (!s.load_volume.empty () && !s.save_volume)  // the new set, without a volume, would remove the loaded one
     refuseOutputsOverInputs ({{"--out", s.out}}, {{"--load-volume (add --save-volume to replace it)", boost::filesystem::absolute (s.load_volume).parent_path ().string ()}});
   io::parseSequenceFormat (s.format);
+  if (!s.colors.empty () && s.colors != "segments" && s.colors != "surface")
+    throw ParameterError ("--colors", "must be segments or surface, not '" + s.colors + "'");
   // The library's own checks, named by field (main() translates them into the options).
   runPipelineConfig (s).validate ();
   if (!s.onnx.model_path.empty ())
@@ -797,13 +801,13 @@ RunSession::writeOutputs ()
   // One product in memory at a time: on a large map the mesh is what the run peaks at.
   std::map<std::uint32_t, segmentation::ObjectGeometry> geometry;
   {
-    const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr map = fusion_.labelledCloud ();
+    const pcl::PointCloud<pcl::PointXYZRGBL>::Ptr map = fusion_.labelledCloud (s_.colors == "segments");
     io::saveMapPCD (staged ("map.pcd"), *map);
     map_points_ = map->size ();
     geometry = segmentation::objectGeometry (*map);
   }
   {
-    const io::TriangleMesh mesh = fusion_.labelledTriangleMesh (true);
+    const io::TriangleMesh mesh = fusion_.labelledTriangleMesh (s_.colors != "surface");
     io::writeMeshPLY (staged ("mesh.ply"), mesh);
     triangles_ = mesh.triangles.size ();
     if (s_.export_objects)

@@ -5,6 +5,7 @@
 
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/data_directory.h>
+#include <cuefusion/common/label_colors.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
@@ -332,6 +333,46 @@ TEST_F (Cli, RunContinuesASavedVolume)
   EXPECT_EQ (r.code, 2);
   EXPECT_NE (r.err.find ("--load-volume"), std::string::npos) << r.err;
   EXPECT_FALSE (boost::filesystem::exists (dir / "bad"));
+}
+
+TEST_F (Cli, ColorsOptionColoursMapAndMeshAlike)
+{
+  // --colors segments: map.pcd and mesh.ply both in each segment's colour (segmentColor);
+  // --colors surface: both in the fused colour; without it map.pcd has the surface colour
+  // and mesh.ply the segments'.
+  const std::string seq = dir / "seq";
+  ASSERT_EQ (run ("synth --scene tabletop --frames 6 --size 160x120 --out " + seq).code, 0);
+  for (const char* colors : {"", "segments", "surface"})
+  {
+    const Result r = run ("run " + seq + " --use-gt-poses --out " + (dir / ("run-" + std::string (colors))) +
+                          (*colors ? " --colors " + std::string (colors) : std::string ()));
+    ASSERT_EQ (r.code, 0) << r.err;
+  }
+  pcl::PointCloud<pcl::PointXYZRGBL> map;
+  ASSERT_EQ (pcl::io::loadPCDFile (dir / "run-segments/map.pcd", map), 0);
+  ASSERT_GT (map.size (), 1000u);
+  for (const auto& p : map.points)
+  {
+    const cv::Vec3b rgb = segmentColor (p.label);
+    ASSERT_TRUE (p.r == rgb[0] && p.g == rgb[1] && p.b == rgb[2]) << "label " << p.label;
+  }
+  const auto segmentColoured = [] (const io::TriangleMesh& mesh) {
+    std::size_t n = 0;
+    for (std::size_t v = 0; v < mesh.vertices.size (); ++v)
+    {
+      const cv::Vec3b rgb = segmentColor (mesh.labels[v]);
+      n += mesh.colors[v][0] == rgb[0] && mesh.colors[v][1] == rgb[1] && mesh.colors[v][2] == rgb[2];
+    }
+    return n;
+  };
+  const io::TriangleMesh by_segment = io::readMeshPLY (dir / "run-segments/mesh.ply");
+  const io::TriangleMesh by_surface = io::readMeshPLY (dir / "run-surface/mesh.ply");
+  ASSERT_GT (by_segment.vertices.size (), 1000u);
+  EXPECT_EQ (segmentColoured (by_segment), by_segment.vertices.size ());
+  EXPECT_LT (segmentColoured (by_surface) * 10, by_surface.vertices.size ());  // the scene's own colours
+  EXPECT_EQ (test::readFile (dir / "run-/mesh.ply"), test::readFile (dir / "run-segments/mesh.ply"));
+  EXPECT_EQ (test::readFile (dir / "run-/map.pcd"), test::readFile (dir / "run-surface/map.pcd"));
+  EXPECT_EQ (run ("run " + seq + " --out " + (dir / "bad") + " --colors labels").code, 2);
 }
 
 TEST_F (Cli, RunSegmentsWithMasks)

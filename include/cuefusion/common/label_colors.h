@@ -17,6 +17,12 @@ namespace cuefusion
 cv::Vec3b
 labelColor (std::uint32_t label);
 
+/** \brief The colour outputs draw a surface point of segment \a label in (R, G, B):
+  * labelColor, and grey (160, 160, 160) for no segment (label 0), which black would hide
+  * in renders and viewers. */
+cv::Vec3b
+segmentColor (std::uint32_t label);
+
 /** \brief How many labels (1..kLabelColors) have colours of their own in labelColor. */
 std::uint32_t
 labelColorCount ();

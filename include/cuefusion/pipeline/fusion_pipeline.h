@@ -142,12 +142,13 @@ public:
 
   /** \brief Surface points (world frame) with colour and segment label as outputs show
     * them: each label resolved to its object, brief fragments settled into the object they
-    * touch (GlobalSegmentMap::settledLabels).
+    * touch (GlobalSegmentMap::settledLabels). Coloured by the fused colour, or by segment
+    * (segmentColor) when \a color_by_segment.
     */
-  pcl::PointCloud<pcl::PointXYZRGBL>::Ptr labelledCloud () const;
+  pcl::PointCloud<pcl::PointXYZRGBL>::Ptr labelledCloud (bool color_by_segment = false) const;
   /** \brief Marching-cubes mesh with labels as labelledCloud's, vertices coloured by
-    * segment (labelColor; unlabelled grey) when \a color_by_segment, else by the fused
-    * colour. io::writeMeshPLY writes it.
+    * segment (segmentColor) when \a color_by_segment, else by the fused colour.
+    * io::writeMeshPLY writes it.
     */
   io::TriangleMesh labelledTriangleMesh (bool color_by_segment = true) const;
   /** \brief labelledTriangleMesh as a pcl::PolygonMesh (io::toPolygonMesh). */

@@ -68,6 +68,12 @@ labelColor (std::uint32_t label)
   return gridColors ()[k - palette];
 }
 
+cv::Vec3b
+segmentColor (std::uint32_t label)
+{
+  return label ? labelColor (label) : cv::Vec3b (160, 160, 160);
+}
+
 std::uint32_t
 labelColorCount ()
 {

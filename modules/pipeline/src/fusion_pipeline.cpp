@@ -258,13 +258,21 @@ FusionPipeline::modelLabels () const
 }
 
 pcl::PointCloud<pcl::PointXYZRGBL>::Ptr
-FusionPipeline::labelledCloud () const
+FusionPipeline::labelledCloud (bool color_by_segment) const
 {
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGBL>> ();
   refreshSettled (true);
   reconstruction_.volume ().extractPointCloud (*cloud, nullptr, [this] (reconstruction::VoxelNumber v) {
     return settledLabel (labels_.label (v), true);
   });
+  if (color_by_segment)
+    for (pcl::PointXYZRGBL& p : *cloud)
+    {
+      const cv::Vec3b rgb = segmentColor (p.label);
+      p.r = rgb[0];
+      p.g = rgb[1];
+      p.b = rgb[2];
+    }
   return cloud;
 }
 
@@ -276,10 +284,9 @@ FusionPipeline::labelledTriangleMesh (bool color_by_segment) const
       [this] (reconstruction::VoxelNumber v) { return settledLabel (labels_.label (v), true); });
   for (std::size_t i = 0; i < mesh.labels.size (); ++i)
   {
-    const std::uint32_t label = mesh.labels[i];
     if (color_by_segment)
     {
-      const cv::Vec3b rgb = label ? labelColor (label) : cv::Vec3b (160, 160, 160);
+      const cv::Vec3b rgb = segmentColor (mesh.labels[i]);
       mesh.colors[i] = {rgb[0], rgb[1], rgb[2]};
     }
   }

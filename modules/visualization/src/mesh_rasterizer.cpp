@@ -91,11 +91,8 @@ MeshRasterizer::render (const io::TriangleMesh& mesh, const PinholeCamera& camer
         {
           const std::uint32_t label = mesh.labels[vertex];
           view.labels.at<std::int32_t> (v, u) = static_cast<std::int32_t> (label);
-          if (label)
-          {
-            const cv::Vec3b rgb = labelColor (label);
-            bgr = cv::Vec3b (rgb[2], rgb[1], rgb[0]);
-          }
+          const cv::Vec3b rgb = segmentColor (label);
+          bgr = cv::Vec3b (rgb[2], rgb[1], rgb[0]);
         }
         else
         {
