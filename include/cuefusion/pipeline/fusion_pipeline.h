@@ -41,11 +41,10 @@ segmentationModeName (SegmentationMode mode);
 struct FusionPipelineConfig
 {
   reconstruction::DenseReconstructionConfig reconstruction;
-  /// The segmentation's smoothing, holes and normals (shared with tracking, see
-  /// share_smoothing). The pipeline segments the planes it preprocessed with this, so
-  /// geometry.preprocess and geometry.preprocessing (GeometricSegmentation's own, for
-  /// clouds given to it directly) are not read here.
-  segmentation::SurfacePreprocessingConfig preprocessing;
+  /// The frame segmentation; its preprocessing (smoothing, holes, normals) is the
+  /// pipeline's, shared with tracking (see share_smoothing). The pipeline always
+  /// preprocesses: geometry.preprocess is read only by GeometricSegmentation on clouds
+  /// given to it directly.
   segmentation::GeometricSegmentationConfig geometry;
   segmentation::InstanceGuidedRegionMergeConfig instance_merge;
   segmentation::SegmentPropagationConfig propagation;
@@ -54,11 +53,11 @@ struct FusionPipelineConfig
   SegmentationMode mode = SegmentationMode::Fused;
   /** One depth smoothing and one normal map for tracking and segmentation (as in the
     * reference, where the segmentation reads the maps KinectFusion's preprocessing made):
-    * tracking uses the segmentation's noise-adaptive bilateral filter (preprocessing's
-    * diameter, range and spatial σ) and its normals (preprocessing.normals: ±4 px, for the
+    * tracking uses the segmentation's noise-adaptive bilateral filter (geometry.preprocessing's
+    * diameter, range and spatial σ) and its normals (geometry.preprocessing.normals: ±4 px, for the
     * ICP's normal test at level 0 and the propagation), and the segmentation starts from
     * tracking's filtered depth and level-0 normals, computing neither again (normals only
-    * on images at least 160 × preprocessing.normals.step pixels wide: see
+    * on images at least 160 × geometry.preprocessing.normals.step pixels wide: see
     * reconstruction::DepthPreprocessorConfig::normals_min_width). Off: each
     * smooths the raw depth and computes normals its own way (tracking with
     * reconstruction.preprocessing's fixed range σ and ±1 px normals), one more filter and

@@ -43,7 +43,6 @@ void
 FusionPipelineConfig::validate () const
 {
   reconstruction.validate ();
-  preprocessing.validate ();
   geometry.validate ();
   instance_merge.validate ();
   propagation.validate ();
@@ -57,14 +56,14 @@ namespace
 bool
 sharesSmoothing (const FusionPipelineConfig& config)
 {
-  return config.share_smoothing && config.preprocessing.bilateral.enabled;
+  return config.share_smoothing && config.geometry.preprocessing.bilateral.enabled;
 }
 
 /** \brief And its normal map too (the segmentation's normals are central differences). */
 bool
 sharesNormals (const FusionPipelineConfig& config)
 {
-  return sharesSmoothing (config) && config.preprocessing.normal_method == segmentation::NormalMethod::CentralDifference;
+  return sharesSmoothing (config) && config.geometry.preprocessing.normal_method == segmentation::NormalMethod::CentralDifference;
 }
 
 /** \brief The reconstruction's configuration, with the segmentation's smoothing and normals
@@ -75,11 +74,11 @@ reconstructionConfig (const FusionPipelineConfig& config)
 {
   reconstruction::DenseReconstructionConfig out = config.reconstruction;
   if (sharesSmoothing (config))
-    out.preprocessing.bilateral = config.preprocessing.bilateral;
+    out.preprocessing.bilateral = config.geometry.preprocessing.bilateral;
   if (sharesNormals (config))
   {
-    out.preprocessing.normals = config.preprocessing.normals;
-    out.preprocessing.normals_min_width = 160 * config.preprocessing.normals.step;
+    out.preprocessing.normals = config.geometry.preprocessing.normals;
+    out.preprocessing.normals_min_width = 160 * config.geometry.preprocessing.normals.step;
   }
   return out;
 }
@@ -162,12 +161,12 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
       planes_.assignNormals (level.normals);
       // Tracking keeps the sensor's holes; the segmentation fills the small ones inside a
       // surface (SurfacePreprocessingConfig::max_hole_pixels) with the normals around them.
-      segmentation::fillSmallHoles (planes_, config_.preprocessing.max_hole_pixels,
-                                    config_.preprocessing.normals.max_depth_jump, true);
+      segmentation::fillSmallHoles (planes_, config_.geometry.preprocessing.max_hole_pixels,
+                                    config_.geometry.preprocessing.normals.max_depth_jump, true);
     }
     else
     {
-      segmentation::SurfacePreprocessingConfig normals_only = config_.preprocessing;
+      segmentation::SurfacePreprocessingConfig normals_only = config_.geometry.preprocessing;
       normals_only.bilateral.enabled = false;
       segmentation::preprocessPlanes (planes_, normals_only);
     }
@@ -175,7 +174,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   else
   {
     planes_.assignDepth (frame.depth, camera.fx, camera.fy, camera.cx, camera.cy);
-    segmentation::preprocessPlanes (planes_, config_.preprocessing);
+    segmentation::preprocessPlanes (planes_, config_.geometry.preprocessing);
   }
   geometry_.segment (planes_);
   report.segmentation.geometry_ms = watch.getTime ();

@@ -254,7 +254,6 @@ fields (V& v, FusionPipelineConfig& c)
   v.choice ("mode", c.mode,
             {{"fused", SegmentationMode::Fused}, {"geometry", SegmentationMode::Geometry}, {"masks", SegmentationMode::Masks}});
   v ("reconstruction", c.reconstruction);
-  v ("preprocessing", c.preprocessing);
   v ("geometry", c.geometry);
   v ("instance_merge", c.instance_merge);
   v ("propagation", c.propagation);
