@@ -25,3 +25,12 @@ if(CUEFUSION_FUZZ)
   add_link_options(-fsanitize=address,undefined)
   add_compile_definitions(EIGEN_MALLOC_ALREADY_ALIGNED=1)
 endif()
+
+# Every shared library and loaded module names all it uses (issue 42): a symbol left
+# undefined is a link error here, not a failure when another program loads the library.
+# Not with sanitizers, whose run-time lives in the executable and is undefined in the
+# libraries by design.
+if(NOT CUEFUSION_SANITIZE AND NOT CUEFUSION_FUZZ)
+  string(APPEND CMAKE_SHARED_LINKER_FLAGS " -Wl,--no-undefined")
+  string(APPEND CMAKE_MODULE_LINKER_FLAGS " -Wl,--no-undefined")
+endif()
