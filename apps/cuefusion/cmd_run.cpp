@@ -430,6 +430,10 @@ private:
   /** outputs.json's record of what ran: command line, working folder, the model's sha256. */
   nlohmann::json withProvenance (nlohmann::json manifest) const;
 
+  /// First: a signal while the session sets up (after the output set's staging folder
+  /// exists) stops it before its first frame with its outputs written, instead of ending
+  /// the process with a staging folder left behind. A second keeps the old set.
+  InterruptHandlers interrupts_;
   const RunSettings& s_;
   const pipeline::FusionPipelineConfig pipeline_config_;
   std::shared_ptr<recognition::InstanceSegmenter> mask_source_;
@@ -452,7 +456,6 @@ private:
   std::size_t map_points_ = 0, triangles_ = 0, lost_ = 0, relocalised_ = 0;
   std::vector<segmentation::SegmentRecord> segments_;
   std::string ate_line_;
-  std::unique_ptr<InterruptHandlers> interrupt_handlers_;
 };
 
 std::shared_ptr<recognition::InstanceSegmenter>
@@ -484,7 +487,8 @@ openRunSequence (const RunSettings& s)
 }
 
 RunSession::RunSession (const RunSettings& s, const po::variables_map& vm)
-  : s_ (s)
+  : interrupts_ ()
+  , s_ (s)
   , pipeline_config_ (runPipelineConfig (s))
   , mask_source_ (makeMaskSource (s))
   , grabber_ (openRunSequence (s))
@@ -707,8 +711,6 @@ RunSession::run ()
   t0_ = std::chrono::steady_clock::now ();
   const boost::signals2::connection connection =
     grabber_->registerCallback (std::function<io::RGBDGrabber::sig_cb_rgbd_frame> ([this] (const RGBDFrame::ConstPtr& frame) { onFrame (frame); }));
-  // Until the session ends: a second signal while the outputs are written keeps the old set.
-  interrupt_handlers_ = std::make_unique<InterruptHandlers> ();
   if (viewer_)
     runWithViewer ();
   else
