@@ -722,7 +722,9 @@ RunSession::run ()
   if (!grabber_->lastError ().empty ())
     throw Error (s_.source, grabber_->lastError ());
   if (result_.reports.empty ())
-    throw Error (s_.source, "no frame was processed");
+    throw Error (s_.source, InterruptHandlers::interrupted ()
+                              ? "stopped by a signal before the first frame: nothing written, the folder's previous outputs are unchanged"
+                              : "no frame was processed");
   seconds_ = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0_).count ();
 }
 

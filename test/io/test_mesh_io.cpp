@@ -7,9 +7,13 @@
 #include <cuefusion/io/mesh_io.h>
 
 #include <boost/filesystem.hpp>
+#include <pcl/io/ply_io.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <random>
 #include <sstream>
 #include <vector>
@@ -54,6 +58,21 @@ TEST (MeshIO, AWrittenMeshReadsBackExactlyAndAsPclWritesIt)
   // The PolygonMesh form of the same mesh is written byte for byte alike.
   io::saveMeshPLY (dir / "pcl.ply", io::toPolygonMesh (mesh));
   EXPECT_EQ (test::readFile (dir / "pcl.ply"), test::readFile (dir / "mesh.ply"));
+  // PCL's own reader keeps the label as a field of the vertex cloud (an int32).
+  pcl::PolygonMesh read;
+  ASSERT_EQ (pcl::io::loadPLYFile (dir / "mesh.ply", read), 0);
+  ASSERT_EQ (read.polygons.size (), mesh.triangles.size ());
+  const auto field = std::find_if (read.cloud.fields.begin (), read.cloud.fields.end (),
+                                   [] (const pcl::PCLPointField& f) { return f.name == "label"; });
+  ASSERT_NE (field, read.cloud.fields.end ()) << "PCL did not read the label";
+  ASSERT_EQ (field->datatype, pcl::PCLPointField::INT32);
+  ASSERT_EQ (static_cast<std::size_t> (read.cloud.width) * read.cloud.height, mesh.labels.size ());
+  for (std::size_t i = 0; i < mesh.labels.size (); ++i)
+  {
+    std::int32_t label = 0;
+    std::memcpy (&label, &read.cloud.data[i * read.cloud.point_step + field->offset], sizeof (label));
+    ASSERT_EQ (static_cast<std::uint32_t> (label), mesh.labels[i]) << "vertex " << i;
+  }
 
   // Without normals, colours and labels: positions and faces only.
   io::TriangleMesh bare = mesh;
