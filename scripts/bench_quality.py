@@ -115,6 +115,8 @@ def main():
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--levels", default=",".join(name for name, _ in LEVELS))
     parser.add_argument("--distance", help="MIN-MAX: view the scenes from this far (m, drawn per seed) with the true poses")
+    parser.add_argument("--sensor", default="kinect", choices=["kinect", "realsense"],
+                        help="the depth sensor `cuefusion synth --noise` imitates")
     args = parser.parse_args()
     distance_range = tuple(float(v) for v in args.distance.split("-")) if args.distance else None
     drawn = []
@@ -135,7 +137,7 @@ def main():
                         if level == levels[0][0]:
                             drawn.append(f"{scene} seed {seed}: {distance:.2f} m, {elevation:.0f}°")
                     run([args.binary, "synth", "--scene", scene_arg, "--frames", str(args.frames), "--layout", "redwood",
-                         "--noise", "--seed", str(seed), "--out", seq] + options)
+                         "--noise", "--sensor", args.sensor, "--seed", str(seed), "--out", seq] + options)
                     objects[scene] = scene_objects(seq)
                     for mode in modes:
                         if mode == "geometry" and geometry is not None:
@@ -158,8 +160,11 @@ def main():
     print("### Segmentation quality on generated sequences\n")
     only = "" if args.levels == ",".join(name for name, _ in LEVELS) else f" --levels {args.levels}"
     far = f" --distance {args.distance}" if distance_range else ""
-    print(f"Command: `scripts/bench quality {args.seeds}{only}{far}` ({datetime.date.today()}, {machine()}). "
-          f"Scenes {', '.join(scenes)}; {args.frames} frames at 640×480 with Kinect depth noise, "
+    far += "" if args.sensor == "kinect" else f" --sensor {args.sensor}"
+    scenes_option = "" if args.scenes == ",".join(SCENES) else f" --scenes {args.scenes}"
+    sensor = {"kinect": "Kinect depth noise", "realsense": "RealSense-like stereo depth (noise ∝ z², speckle, edge fattening, holes on dark surfaces)"}[args.sensor]
+    print(f"Command: `scripts/bench quality {args.seeds}{only}{scenes_option}{far}` ({datetime.date.today()}, {machine()}). "
+          f"Scenes {', '.join(scenes)}; {args.frames} frames at 640×480 with {sensor}, "
           + (f"seen from {args.distance} m ({'; '.join(drawn)}), the true poses given; " if distance_range else "camera tracked by ICP; ") +
           f"seeds 1–{args.seeds} (noise and detector errors). "
           "Scores: mean per-frame object IoU of the final map seen from the estimated poses; class-agnostic "

@@ -31,6 +31,7 @@ runSynth (const std::vector<std::string>& args)
   std::string scene_name, layout_name, out, size;
   io::SyntheticSequenceConfig config;
   long long frames = 0;  // signed: "-5" must not wrap to 2^64 - 5
+  std::string sensor = "kinect";
   io::DetectorErrorConfig& det = config.detector;
   po::options_description options ("options");
   options.add_options ()
@@ -41,7 +42,9 @@ runSynth (const std::vector<std::string>& args)
     ("seed", po::value (&config.seed)->default_value (config.seed), "seed of every random choice")
     ("size", po::value (&size), "image size WxH (default: the scene's camera), e.g. 320x240")
     ("fps", po::value (&config.fps)->default_value (config.fps), "frame rate of the timestamps")
-    ("noise", po::bool_switch (&config.noise.enabled), "add Kinect axial depth noise and grazing-angle dropout")
+    ("noise", po::bool_switch (&config.noise.enabled), "add the sensor's depth noise and dropout (--sensor)")
+    ("sensor", po::value (&sensor)->default_value (sensor), "with --noise: kinect (structured light: Kinect v1, Asus Xtion) or "
+     "realsense (active stereo, D400-like: noise growing with z^2, speckle, edge fattening, holes on dark surfaces)")
     ("gt-spacing", po::value (&config.gt_cloud_spacing)->default_value (config.gt_cloud_spacing),
      "point spacing of gt_cloud.pcd (m)")
     ("mask-boundary", po::value (&det.boundary_px)->default_value (det.boundary_px),
@@ -66,6 +69,12 @@ runSynth (const std::vector<std::string>& args)
   if (frames < 1 || frames > 1000000)
     throw ParameterError ("--frames", "must lie in [1, 1000000], got " + std::to_string (frames));
   config.frames = static_cast<std::size_t> (frames);
+  if (sensor == "kinect" || sensor == "realsense")
+    config.noise.sensor = sensor == "kinect" ? io::DepthSensor::Kinect : io::DepthSensor::RealSense;
+  else
+    throw ParameterError ("--sensor", "must be kinect or realsense, not '" + sensor + "'");
+  if (given (vm, "sensor") && !config.noise.enabled)
+    throw UsageError ("--sensor needs --noise");
   if (!size.empty ())
     parseSize (size, config.width, config.height);
   const io::DatasetLayout layout = io::parseDatasetLayout (layout_name);

@@ -7,6 +7,8 @@
 #include <cuefusion/io/synthetic_sequence.h>
 
 #include <gtest/gtest.h>
+
+#include <random>
 #include <pcl/kdtree/kdtree_flann.h>
 
 #include <cmath>
@@ -95,6 +97,93 @@ TEST (SceneRenderer, NoiseFollowsTheAxialModel)
   // Same seed, same noise.
   const io::RenderedView again = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 7);
   EXPECT_EQ (cv::norm (again.depth, noisy.depth, cv::NORM_INF), 0.0);
+}
+
+TEST (SceneRenderer, TheStereoSensorsNoiseGrowsWithDepthSquared)
+{
+  // The RealSense-like model on a wall at depths drawn over the whole range: the residuals
+  // are σ_z = z² · subpixel / (f · baseline) (mean 0, RMS 1 in units of it), about
+  // `speckle` of the pixels have no depth, and at 3 m the noise is well above Kinect's.
+  const PinholeCamera cam (300, 300, 79.5, 59.5, 160, 120);
+  io::DepthNoiseConfig noise;
+  noise.enabled = true;
+  noise.sensor = io::DepthSensor::RealSense;
+  std::mt19937 draw (5);
+  for (int k = 0; k < 4; ++k)
+  {
+    const double wall = std::uniform_real_distribution<double> (0.6, 4.0) (draw);
+    const io::SyntheticScene scene =
+        sceneFromText ("object wall color=200,200,200\n box center=0,0," + std::to_string (wall + 0.05) + " size=20,20,0.1\n");
+    const io::SceneRenderer renderer (scene);
+    const io::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
+    const io::RenderedView noisy = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 11 + k);
+    double sum = 0, sum_sq = 0;
+    int n = 0, missing = 0;
+    for (int v = 0; v < cam.height; ++v)
+      for (int u = 0; u < cam.width; ++u)
+      {
+        const float z = exact.depth.at<float> (v, u), measured = noisy.depth.at<float> (v, u);
+        if (measured == 0.f)
+        {
+          ++missing;
+          continue;
+        }
+        const double r = (measured - z) / io::stereoAxialNoise (z, cam.fx * 640.0 / cam.width, noise);
+        sum += r;
+        sum_sq += r * r;
+        ++n;
+      }
+    EXPECT_NEAR (sum / n, 0.0, 0.05) << "wall at " << wall << " m";
+    EXPECT_NEAR (std::sqrt (sum_sq / n), 1.0, 0.05) << "wall at " << wall << " m";
+    EXPECT_NEAR (static_cast<double> (missing) / (cam.width * cam.height), noise.speckle, 0.006) << "wall at " << wall << " m";
+  }
+  EXPECT_GT (io::stereoAxialNoise (3.0, 525.0, noise), 1.5 * kinectAxialNoise (3.0, 0.0));
+}
+
+TEST (SceneRenderer, TheStereoSensorFattensForegroundAndLosesDarkSurfaces)
+{
+  // Noise off but for one effect at a time: a cube 1 m away before a wall at 2 m takes
+  // edge_fattening_px more pixels of the wall on each side along x; a dark object loses
+  // about dark_dropout of its pixels, a bright one none.
+  const io::SyntheticScene scene = sceneFromText ("object wall color=200,200,200\n box center=0,0,2.05 size=10,10,0.1\n"
+                                                  "object cube color=200,200,200\n box center=0,0,1.0 size=0.2,0.2,0.2\n"
+                                                  "object dark color=15,15,15\n box center=0.45,0,1.5 size=0.2,0.2,0.2\n");
+  const PinholeCamera cam (100, 100, 79.5, 59.5, 160, 120);
+  const io::SceneRenderer renderer (scene);
+  io::DepthNoiseConfig noise;
+  noise.enabled = true;
+  noise.sensor = io::DepthSensor::RealSense;
+  noise.stereo_subpixel = 0.0;
+  noise.speckle = 0.0;
+  noise.dark_dropout = 0.0;
+  const io::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
+  const io::RenderedView fat = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 3);
+  for (int v = 50; v < 70; ++v)
+  {
+    int exact_cube = 0, fat_cube = 0;
+    for (int u = 0; u < 120; ++u)  // the cube's rows, left of the dark object
+    {
+      exact_cube += std::abs (exact.depth.at<float> (v, u) - 0.9f) < 1e-3f;
+      fat_cube += std::abs (fat.depth.at<float> (v, u) - 0.9f) < 1e-3f;
+    }
+    ASSERT_GT (exact_cube, 10) << "row " << v;
+    EXPECT_EQ (fat_cube, exact_cube + 2 * noise.edge_fattening_px) << "row " << v;
+  }
+  noise.edge_fattening_px = 0;
+  noise.dark_dropout = 0.7;
+  const io::RenderedView holes = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 4);
+  int dark = 0, dark_missing = 0, bright = 0, bright_missing = 0;
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u)
+    {
+      const std::uint16_t id = exact.instance.at<std::uint16_t> (v, u);
+      const bool lost = holes.depth.at<float> (v, u) == 0.f;
+      (id == 3 ? dark : bright) += 1;
+      (id == 3 ? dark_missing : bright_missing) += lost;
+    }
+  ASSERT_GT (dark, 200);
+  EXPECT_NEAR (static_cast<double> (dark_missing) / dark, 0.7, 0.08);
+  EXPECT_EQ (bright_missing, 0);
 }
 
 TEST (SceneRenderer, GrazingSurfacesLoseDepth)

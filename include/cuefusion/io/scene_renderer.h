@@ -11,15 +11,39 @@ namespace cuefusion
 {
 namespace io
 {
-/** \brief Kinect-like imperfections added to rendered depth (off by default: exact depth). */
+/** \brief The depth sensor a rendered view imitates. */
+enum class DepthSensor
+{
+  Kinect,    ///< structured light (Kinect v1, Asus Xtion): kinectAxialNoise, grazing-angle dropout
+  RealSense  ///< active stereo (RealSense D400-like): noise growing with z², speckle, edge fattening, holes on dark surfaces
+};
+
+/** \brief Sensor imperfections added to rendered depth (off by default: exact depth). */
 struct DepthNoiseConfig
 {
   bool enabled = false;
+  DepthSensor sensor = DepthSensor::Kinect;
   double dropout_start_deg = 70.0;   ///< incidence angle where pixels start to go missing
   double max_incidence_deg = 80.0;   ///< beyond this every pixel is missing
   double min_depth = 0.3;            ///< sensor range (m); outside it depth is 0
   double max_depth = 8.0;
+  // RealSense only. Stereo depth error σ_z = z² · subpixel / (f · baseline) (Intel's
+  // D400 figure, RMS subpixel 0.08 with its projector; f the camera's focal length in
+  // pixels at 640 pixels across, the sensor's depth resolution, whatever size is rendered).
+  double stereo_baseline = 0.05;     ///< metres (D435: 50 mm)
+  double stereo_subpixel = 0.08;     ///< RMS disparity error (pixels)
+  double speckle = 0.01;             ///< probability a pixel has no depth (failed match)
+  /// a background pixel within this many pixels (along the baseline, x) of a surface
+  /// more than 5 % nearer takes that surface's depth: stereo's foreground fattening
+  int edge_fattening_px = 2;
+  double dark_luminance = 40.0;      ///< surfaces shaded darker than this (0–255 luma) ...
+  double dark_dropout = 0.7;         ///< ... lose this share of their pixels (IR absorbed, no match)
 };
+
+/** \brief σ_z of the RealSense-like model at depth \a z for a focal length of \a fx pixels
+  * at 640 pixels across. */
+double
+stereoAxialNoise (double z, double fx, const DepthNoiseConfig& noise);
 
 /** \brief What one view of a scene looks like, with exact truth. */
 struct RenderedView

@@ -131,6 +131,9 @@ private:
   [[noreturn]] void fail (const char* name, const std::string& what) const;
   template <class Integer>
   void integer (const char* name, Integer& value);
+  /** A member of one JSON type (\a is), read as T; \a expected names the type in errors. */
+  template <class T>
+  void typed (const char* name, T& value, bool (nlohmann::json::*is) () const noexcept, const char* expected);
 
   const nlohmann::json& json_;
   std::string path_;

@@ -63,6 +63,10 @@ struct InstanceGuidedRegionMergeConfig
     * object.
     */
   float color_split_share = 0.2f;
+  /** Neighbouring pixels further apart in depth than this × z meet along a depth jump,
+    * not on one surface (the mask's rim is grown only across one surface; a mask divided
+    * along jumps is two objects): the same 2 % as EdgeLabelingConfig::max_depth_jump. */
+  float max_depth_jump = 0.02f;
   void validate () const;
 };
 /// The name before 0.2 (one config per class, named after it).

@@ -5,6 +5,7 @@
 #include <cuefusion/io/scene_renderer.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 namespace cuefusion
@@ -73,6 +74,36 @@ SceneRenderer::shade (const SceneObject& object, const Eigen::Vector3d& p, const
   return cv::Vec3b (channel (object.rgb[2]), channel (object.rgb[1]), channel (object.rgb[0]));
 }
 
+namespace
+{
+/** \brief Stereo's foreground fattening: a pixel within \a radius pixels along x (the
+  * baseline) of a surface more than 5 % nearer takes that surface's measured depth, as
+  * block matching assigns a window straddling an edge to the nearer side. The surfaces
+  * are compared by their exact depth \a exact, so that noise alone fattens nothing. */
+void
+fattenEdges (cv::Mat& depth, const cv::Mat& exact, int radius)
+{
+  const cv::Mat measured = depth.clone ();
+  for (int v = 0; v < depth.rows; ++v)
+  {
+    const float* z = exact.ptr<float> (v);
+    const float* in = measured.ptr<float> (v);
+    float* out = depth.ptr<float> (v);
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      if (!(z[u] > 0.f))
+        continue;
+      int nearest = -1;
+      for (int k = std::max (0, u - radius); k <= std::min (depth.cols - 1, u + radius); ++k)
+        if (z[k] > 0.f && z[k] < 0.95f * z[u] && (nearest < 0 || z[k] < z[nearest]))
+          nearest = k;
+      if (nearest >= 0 && in[nearest] > 0.f)
+        out[u] = in[nearest];
+    }
+  }
+}
+}  // namespace
+
 RenderedView
 SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const DepthNoiseConfig& noise,
                        std::uint64_t noise_seed) const
@@ -86,6 +117,10 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
   const Eigen::Matrix3d rotation = pose.rotation ();
   const Eigen::Vector3d origin = pose.translation ();
   const double deg = 3.14159265358979323846 / 180.0;
+  const bool stereo_fattening = noise.enabled && noise.sensor == DepthSensor::RealSense && noise.edge_fattening_px > 0;
+  cv::Mat exact_z;  // the surfaces' exact depth, for the fattening
+  if (stereo_fattening)
+    exact_z = cv::Mat (camera.height, camera.width, CV_32F, cv::Scalar (0.f));
 
   parallelForChunks (camera.height, 4, [&] (int, int begin, int end) {
     for (int v = begin; v < end; ++v)
@@ -112,13 +147,24 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
         view.normals.at<cv::Vec3f> (v, u) = cv::Vec3f (static_cast<float> (n_cam.x ()), static_cast<float> (n_cam.y ()),
                                                        static_cast<float> (n_cam.z ()));
         double z = (rotation.transpose () * (p - origin)).z ();
+        if (stereo_fattening)
+          exact_z.at<float> (v, u) = static_cast<float> (z);
         if (noise.enabled)
         {
           const double incidence = std::acos (std::min (1.0, std::abs (n.dot (dir))));
           const double start = noise.dropout_start_deg * deg, stop = noise.max_incidence_deg * deg;
           if (incidence >= stop || (incidence > start && uniform (rng) < (incidence - start) / (stop - start)))
             continue;
-          z += gauss (rng) * kinectAxialNoise (z, incidence);
+          if (noise.sensor == DepthSensor::RealSense)
+          {
+            const cv::Vec3b bgr = view.color.at<cv::Vec3b> (v, u);
+            const double luma = 0.114 * bgr[0] + 0.587 * bgr[1] + 0.299 * bgr[2];
+            if (uniform (rng) < noise.speckle || (luma < noise.dark_luminance && uniform (rng) < noise.dark_dropout))
+              continue;
+            z += gauss (rng) * stereoAxialNoise (z, camera.fx * 640.0 / camera.width, noise);
+          }
+          else
+            z += gauss (rng) * kinectAxialNoise (z, incidence);
           if (z < noise.min_depth || z > noise.max_depth)
             continue;
         }
@@ -126,7 +172,15 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
       }
     }
   });
+  if (stereo_fattening)
+    fattenEdges (view.depth, exact_z, noise.edge_fattening_px);
   return view;
+}
+
+double
+stereoAxialNoise (double z, double fx, const DepthNoiseConfig& noise)
+{
+  return z * z * noise.stereo_subpixel / (fx * noise.stereo_baseline);
 }
 }  // namespace io
 }  // namespace cuefusion

@@ -79,15 +79,22 @@ SettingsReader::finish () const
                                                        "`--print-config` lists them)");
 }
 
+template <class T>
 void
-SettingsReader::operator() (const char* name, bool& value)
+SettingsReader::typed (const char* name, T& value, bool (nlohmann::json::*is) () const noexcept, const char* expected)
 {
   if (const nlohmann::json* j = take (name))
   {
-    if (!j->is_boolean ())
-      fail (name, "must be true or false, not " + typeName (*j));
-    value = j->get<bool> ();
+    if (!(j->*is) ())
+      fail (name, std::string ("must be ") + expected + ", not " + typeName (*j));
+    value = j->get<T> ();
   }
+}
+
+void
+SettingsReader::operator() (const char* name, bool& value)
+{
+  typed (name, value, &nlohmann::json::is_boolean, "true or false");
 }
 
 template <class Integer>
@@ -118,12 +125,7 @@ void SettingsReader::operator() (const char* name, unsigned long& value) { integ
 void
 SettingsReader::operator() (const char* name, double& value)
 {
-  if (const nlohmann::json* j = take (name))
-  {
-    if (!j->is_number ())
-      fail (name, "must be a number, not " + typeName (*j));
-    value = j->get<double> ();
-  }
+  typed (name, value, &nlohmann::json::is_number, "a number");
 }
 
 void
@@ -139,12 +141,7 @@ SettingsReader::operator() (const char* name, float& value)
 void
 SettingsReader::operator() (const char* name, std::string& value)
 {
-  if (const nlohmann::json* j = take (name))
-  {
-    if (!j->is_string ())
-      fail (name, "must be a string, not " + typeName (*j));
-    value = j->get<std::string> ();
-  }
+  typed (name, value, &nlohmann::json::is_string, "a string");
 }
 
 void

@@ -26,6 +26,10 @@ SyntheticSequenceConfig::validate () const
     throw ParameterError ("SyntheticSequenceConfig::width", "width and height must both be given, each in [1, 8192]");
   if (!(gt_cloud_spacing >= 0.001 && gt_cloud_spacing <= 1.0))
     throw ParameterError ("SyntheticSequenceConfig::gt_cloud_spacing", "must lie in [0.001, 1] metres");
+  if (!(noise.stereo_baseline > 0.0 && noise.stereo_subpixel >= 0.0 && noise.speckle >= 0.0 && noise.speckle < 1.0 &&
+        noise.dark_dropout >= 0.0 && noise.dark_dropout <= 1.0 && noise.edge_fattening_px >= 0 && noise.edge_fattening_px <= 32))
+    throw ParameterError ("DepthNoiseConfig", "stereo baseline > 0, subpixel >= 0, speckle in [0, 1), dark dropout in [0, 1], "
+                                              "edge fattening in [0, 32] pixels");
   detector.validate ();
 }
 

@@ -202,6 +202,7 @@ fields (V& v, InstanceGuidedRegionMergeConfig& c)
   v ("mask_boundary_tolerance", c.mask_boundary_tolerance);
   v ("color_split_distance", c.color_split_distance);
   v ("color_split_share", c.color_split_share);
+  v ("max_depth_jump", c.max_depth_jump);
 }
 
 template <class V>

@@ -15,6 +15,10 @@ namespace detail
 {
 namespace
 {
+/// Four pixels are one surface for the bilinear depth when within this × the nearest
+/// depth of each other (2 %, the scalar and the AVX2 kernel alike).
+constexpr float kSameSurface = 0.02f;
+
 /** \brief Depth seen along the voxel's own ray: bilinear between the four pixels around
   * (uf, vf) when all are valid and on one surface (within 2 % of each other), else the
   * nearest pixel (u, v); 0 when the nearest pixel has no usable depth. Looking up only
@@ -38,7 +42,7 @@ interpolatedDepth (const IntegrationFrame& f, float uf, float vf, int u, int v)
     return nearest;
   const float lo = std::min (std::min (d00, d01), std::min (d10, d11));
   const float hi = std::max (std::max (d00, d01), std::max (d10, d11));
-  if (!(hi - lo <= 0.02f * lo))
+  if (!(hi - lo <= kSameSurface * lo))
     return nearest;
   const float a = uf - static_cast<float> (u0), b = vf - static_cast<float> (v0);
   return (d00 * (1.f - a) + d01 * a) * (1.f - b) + (d10 * (1.f - a) + d11 * a) * b;
@@ -154,7 +158,7 @@ sampleDepth8 (const IntegrationFrame& f, __m256 seen, __m256 uf, __m256 vf, __m2
 {
   const __m256 zero = _mm256_setzero_ps (), one = _mm256_set1_ps (1.f);
   const __m256 min_depth = _mm256_set1_ps (f.min_depth), max_depth = _mm256_set1_ps (f.max_depth);
-  const __m256 same_surface = _mm256_set1_ps (0.02f);
+  const __m256 same_surface = _mm256_set1_ps (kSameSurface);
   const __m256i depth_step = _mm256_set1_epi32 (static_cast<int> (f.depth_step));
   // The 2×2 pixels around each projection, read once: the nearest pixel (u, v) is one of
   // them, ⌊uf + ½⌋ being ⌊uf⌋ or ⌊uf⌋ + 1. Only lanes whose quad leaves the image (a

@@ -35,6 +35,8 @@ InstanceGuidedRegionMergeConfig::validate () const
     throw ParameterError ("InstanceGuidedRegionMergeConfig::color_split_distance", "must be >= 0 (0: off)");
   if (!(std::isfinite (color_split_share) && color_split_share > 0.f && color_split_share <= 0.5f))
     throw ParameterError ("InstanceGuidedRegionMergeConfig::color_split_share", "must lie in (0, 0.5]");
+  if (!(std::isfinite (max_depth_jump) && max_depth_jump > 0.f && max_depth_jump < 1.f))
+    throw ParameterError ("InstanceGuidedRegionMergeConfig::max_depth_jump", "must lie in (0, 1)");
 }
 
 InstanceGuidedRegionMerge::InstanceGuidedRegionMerge (const InstanceGuidedRegionMergeConfig& config) { setConfig (config); }
@@ -672,7 +674,8 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
       const int i = queue[k], x = i % cols, y = i / cols;
       const int claimed = info[static_cast<std::size_t> (out[i])].instance + 1;
       for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
-        if (j >= 0 && out[j] == 0 && id[j] == claimed && std::isfinite (z[j]) && std::abs (z[j] - z[i]) <= 0.02f * std::min (z[i], z[j]))
+        if (j >= 0 && out[j] == 0 && id[j] == claimed && std::isfinite (z[j]) &&
+            std::abs (z[j] - z[i]) <= config_.max_depth_jump * std::min (z[i], z[j]))
         {
           out[j] = out[i];
           queue.push_back (j);
@@ -693,7 +696,8 @@ namespace
   * are the instance's pieces connected by contacts that are not such jumps.
   */
 std::vector<std::size_t>
-groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& info, const SurfacePlanes& planes, float share)
+groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& info, const SurfacePlanes& planes, float share,
+                    float max_depth_jump)
 {
   const std::size_t n = info.size ();
   std::vector<std::size_t> group (n);
@@ -723,7 +727,7 @@ groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& i
         const float z0 = z[x], z1 = planes.z[static_cast<std::size_t> (y + dy) * cols + x + dx];
         auto& c = contacts[{std::min (p, q), std::max (p, q)}];
         ++c.first;
-        c.second += std::abs (z0 - z1) > 0.02f * std::min (z0, z1) ? 1 : 0;
+        c.second += std::abs (z0 - z1) > max_depth_jump * std::min (z0, z1) ? 1 : 0;
       }
     }
   }
@@ -799,7 +803,7 @@ InstanceGuidedRegionMerge::merge (const cv::Mat& geometric, const std::vector<In
   const std::vector<Instance> instances = splitAlongMasks (geometric, given, pieces, &piece_info, planes, color);
   std::vector<std::size_t> group (piece_info.size ());
   if (planes && config_.occlusion_split_share <= 0.5f)
-    group = groupsAlongCreases (pieces, piece_info, *planes, config_.occlusion_split_share);
+    group = groupsAlongCreases (pieces, piece_info, *planes, config_.occlusion_split_share, config_.max_depth_jump);
   else
     for (std::size_t l = 0; l < group.size (); ++l)
       group[l] = piece_info[l].instance >= 0 ? static_cast<std::size_t> (piece_info[l].instance) + piece_info.size () : l;
