@@ -2,6 +2,7 @@
 #include "cli.h"
 
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/io/settings_json.h>
 
 #include <boost/filesystem.hpp>
 
@@ -82,6 +83,32 @@ configArgument (const std::vector<std::string>& args)
       path = args[i].substr (9);
   }
   return path;
+}
+
+void
+readConfigParts (const std::string& command, const std::vector<std::string>& args,
+                 const std::vector<std::pair<std::string, std::function<void (const nlohmann::json&)>>>& parts)
+{
+  const std::string path = configArgument (args);
+  if (path.empty ())
+    return;
+  const nlohmann::json file = io::readSettingsFile (path);
+  try
+  {
+    std::string names;
+    for (std::size_t i = 0; i < parts.size (); ++i)
+      names += (i == 0 ? "" : i + 1 == parts.size () ? " and " : ", ") + ("\"" + parts[i].first + "\"");
+    for (auto it = file.begin (); it != file.end (); ++it)
+      if (std::none_of (parts.begin (), parts.end (), [&] (const auto& part) { return part.first == it.key (); }))
+        throw ParameterError (it.key (), "is not a part of " + command + "'s settings (they are " + names + ")");
+    for (const auto& [name, read] : parts)
+      if (file.contains (name))
+        read (file[name]);
+  }
+  catch (const ParameterError& e)
+  {
+    throw Error (path, e.what ());  // the file's fault, not an option's
+  }
 }
 
 nlohmann::json

@@ -8,6 +8,7 @@
 #include <boost/program_options.hpp>
 #include <nlohmann/json.hpp>
 
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -94,7 +95,6 @@ struct RunSettings
   pipeline::FusionPipelineConfig pipeline;
   bool save_volume = false;
   std::string masks, mode;
-  std::string config_path;    ///< --config: a settings file or a run's outputs.json
   bool print_config = false;  ///< --print-config: print the effective settings and stop
   std::string render_dir, video_path, screenshot;
   std::string load_volume;  ///< a volume.tsdf to continue (its .keyframes beside it)
@@ -114,6 +114,13 @@ loadRunConfig (const std::vector<std::string>& args, RunSettings& s);
 /** The value of --config in \a args ("--config F" or "--config=F"), or "". */
 std::string
 configArgument (const std::vector<std::string>& args);
+
+/** Reads the settings file --config names in \a args, if any (io::readSettingsFile),
+  * handing each of its parts to the reader of that name, in \a parts' order. A part of
+  * another name (not one of \a command's), or a ParameterError of a reader, is an Error naming the file. */
+void
+readConfigParts (const std::string& command, const std::vector<std::string>& args,
+                 const std::vector<std::pair<std::string, std::function<void (const nlohmann::json&)>>>& parts);
 
 /** Adds run's options other than its sequence and --out to \a options, stored in \a s. */
 void

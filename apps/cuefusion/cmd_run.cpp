@@ -15,7 +15,6 @@
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/pipeline/settings.h>
-#include <cuefusion/io/settings_json.h>
 #include <cuefusion/recognition/settings.h>
 #include <cuefusion/segmentation/fragmentation.h>
 #include <cuefusion/segmentation/object_geometry.h>
@@ -270,28 +269,14 @@ continueSavedVolume (const std::string& path, const po::variables_map& vm, const
 void
 loadRunConfig (const std::vector<std::string>& args, RunSettings& s)
 {
-  s.config_path = configArgument (args);
-  if (s.config_path.empty ())
-    return;
-  const nlohmann::json file = io::readSettingsFile (s.config_path);
-  try
-  {
-    for (auto it = file.begin (); it != file.end (); ++it)
-      if (it.key () != "pipeline" && it.key () != "network")
-        throw ParameterError (it.key (), "is not a part of run's settings (they are \"pipeline\" and \"network\")");
-    if (file.contains ("pipeline"))
-    {
-      pipeline::readConfig (file["pipeline"], s.pipeline);
-      if (file["pipeline"].contains ("mode"))
-        s.mode = pipeline::segmentationModeName (s.pipeline.mode);
-    }
-    if (file.contains ("network"))
-      recognition::readConfig (file["network"], s.onnx);
-  }
-  catch (const ParameterError& e)
-  {
-    throw Error (s.config_path, e.what ());  // the file's fault, not an option's
-  }
+  readConfigParts ("run", args,
+                   {{"pipeline",
+                     [&s] (const nlohmann::json& part) {
+                       pipeline::readConfig (part, s.pipeline);
+                       if (part.contains ("mode"))
+                         s.mode = pipeline::segmentationModeName (s.pipeline.mode);
+                     }},
+                    {"network", [&s] (const nlohmann::json& part) { recognition::readConfig (part, s.onnx); }}});
 }
 
 namespace

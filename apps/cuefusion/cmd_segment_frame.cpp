@@ -10,7 +10,6 @@
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/map_io.h>
 #include <cuefusion/common/instance.h>
-#include <cuefusion/io/settings_json.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/pipeline/settings.h>
 #include <cuefusion/recognition/settings.h>
@@ -313,32 +312,11 @@ segmentFrameConfigJson (const SegmentFrameSettings& s)
 void
 loadSegmentFrameConfig (const std::vector<std::string>& args, SegmentFrameSettings& s)
 {
-  const std::string path = configArgument (args);
-  if (path.empty ())
-    return;
-  const nlohmann::json file = io::readSettingsFile (path);
-  try
-  {
-    for (auto it = file.begin (); it != file.end (); ++it)
-    {
-      const std::string& part = it.key ();
-      if (part == "geometry")
-        pipeline::readConfig (*it, s.geo);
-      else if (part == "instance_merge")
-        pipeline::readConfig (*it, s.merge);
-      else if (part == "support_plane")
-        pipeline::readConfig (*it, s.plane);
-      else if (part == "network")
-        recognition::readConfig (*it, s.onnx);
-      else
-        throw ParameterError (part, "is not a part of segment-frame's settings (they are \"geometry\", \"instance_merge\", "
-                                    "\"support_plane\" and \"network\")");
-    }
-  }
-  catch (const ParameterError& e)
-  {
-    throw Error (path, e.what ());
-  }
+  readConfigParts ("segment-frame", args,
+                   {{"geometry", [&s] (const nlohmann::json& part) { pipeline::readConfig (part, s.geo); }},
+                    {"instance_merge", [&s] (const nlohmann::json& part) { pipeline::readConfig (part, s.merge); }},
+                    {"support_plane", [&s] (const nlohmann::json& part) { pipeline::readConfig (part, s.plane); }},
+                    {"network", [&s] (const nlohmann::json& part) { recognition::readConfig (part, s.onnx); }}});
 }
 
 /** Parses and checks segment-frame's command line; false when --help or --print-config
