@@ -350,6 +350,8 @@ TEST (FusionPipeline, AnLSplitByGeometryInEveryFrameBecomesOne)
 {
   io::SyntheticSequenceConfig config;
   config.frames = 20;
+  config.width = 320;  // half the scene's camera: this test runs in the sanitized pass too
+  config.height = 240;
   const io::SyntheticSequence sequence (io::SyntheticScene::parse (kGroupingScene, "grouping scene"), config);
   const auto truth = sequence.groundTruthCloud ();
   // Geometry alone leaves the L in two parts.
