@@ -20,6 +20,7 @@ function(cuefusion_add_module name)
     VERSION ${PROJECT_VERSION}
     SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
   cuefusion_set_warnings(cuefusion_${name})
+  cuefusion_precompile_headers(cuefusion_${name} library)
   # Packages (CuefusionInstall.cmake): the versioned library in libcuefusion<M.m>
   # ("runtime"), the unversioned link and static archives in libcuefusion-dev ("dev").
   install(TARGETS cuefusion_${name} EXPORT cuefusionTargets
