@@ -16,6 +16,7 @@
 #include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
 #include <cuefusion/io/sequence.h>
+#include <cuefusion/segmentation/segments_file.h>
 #include <cuefusion/visualization/mesh_rasterizer.h>
 
 #include <Eigen/Eigenvalues>
@@ -95,7 +96,7 @@ loadRun (const std::string& spec, bool need_mesh)
   else if (!fs::is_directory (dir / "labels") || fs::is_empty (dir / "labels"))
     throw Error ((dir / "labels").string (), "no per-frame labels to score (write them with `cuefusion run --save-every K`)");
   const fs::path segments = dir / "segments.json";
-  for (const io::SegmentEntry& entry : io::readSegmentsJson (segments.string ()))
+  for (const segmentation::SegmentEntry& entry : segmentation::readSegmentsJson (segments.string ()))
   {
     // Segments with a detector score are ranked by it; the rest (geometry only) tie at 1.
     evaluation::PredictedInstance p;

@@ -18,6 +18,7 @@
 #include <cuefusion/recognition/settings.h>
 #include <cuefusion/segmentation/fragmentation.h>
 #include <cuefusion/segmentation/object_geometry.h>
+#include <cuefusion/segmentation/segments_file.h>
 #include <cuefusion/recognition/asynchronous_segmenter.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
@@ -103,69 +104,6 @@ peakMemoryMiB ()
   rusage usage{};
   getrusage (RUSAGE_SELF, &usage);
   return static_cast<double> (usage.ru_maxrss) / 1024.0;
-}
-
-/** A vector as a JSON list. */
-nlohmann::json
-jsonVector (const Eigen::Vector3f& v)
-{
-  return {v.x (), v.y (), v.z ()};
-}
-
-/** segments.json: every segment of the map with voxels; where the map has points of it,
-  * their count, centroid and oriented box (\a geometry, by label). */
-nlohmann::json
-segmentsJson (const std::vector<segmentation::SegmentRecord>& segments,
-              const std::map<std::uint32_t, segmentation::ObjectGeometry>& geometry)
-{
-  nlohmann::json list = nlohmann::json::array ();
-  for (const auto& s : segments)
-  {
-    nlohmann::json entry = {{"id", s.id},
-                            {"voxels", s.voxels},
-                            {"first_frame", s.first_frame},
-                            {"last_frame", s.last_frame},
-                            {"frames_seen", s.frames_seen},
-                            {"loaded", s.loaded},
-                            {"bounds", {{"min", {s.bounds.min ().x (), s.bounds.min ().y (), s.bounds.min ().z ()}},
-                                        {"max", {s.bounds.max ().x (), s.bounds.max ().y (), s.bounds.max ().z ()}}}}};
-    const std::string best = s.bestClass ();
-    entry["class"] = best.empty () ? nlohmann::json (nullptr) : nlohmann::json (best);
-    entry["score"] = best.empty () ? nlohmann::json (nullptr) : nlohmann::json (s.bestScore ());
-    nlohmann::json votes = nlohmann::json::object ();
-    for (const auto& [name, vote] : s.class_votes)
-      votes[name] = vote.first;
-    entry["class_votes"] = votes;
-    const auto g = geometry.find (s.id);
-    if (g != geometry.end ())
-    {
-      const segmentation::OrientedBox& box = g->second.box;
-      entry["points"] = g->second.points;
-      entry["centroid"] = jsonVector (g->second.centroid);
-      entry["oriented_box"] = {{"center", jsonVector (box.center)},
-                               {"axes", {jsonVector (box.axes.col (0)), jsonVector (box.axes.col (1)), jsonVector (box.axes.col (2))}},
-                               {"extents", jsonVector (box.extents)}};
-    }
-    else
-    {
-      entry["points"] = 0;
-      entry["centroid"] = nullptr;
-      entry["oriented_box"] = nullptr;
-    }
-    list.push_back (entry);
-  }
-  const segmentation::FragmentationReport f = segmentation::fragmentationReport (segments);
-  nlohmann::json classes = nlohmann::json::array ();
-  const char* names[] = {"below 100", "100 to 999", "1000 to 9999", "10000 or more"};
-  for (std::size_t k = 0; k < f.count_by_size.size (); ++k)
-    classes.push_back ({{"voxels", names[k]}, {"segments", f.count_by_size[k]}, {"share_of_surface", f.share_by_size[k]}});
-  const nlohmann::json fragmentation = {{"segments", f.segments},
-                                        {"voxels", f.voxels},
-                                        {"segments_at_least_100_voxels", f.segments_at_least_100 ()},
-                                        {"share_of_surface_below_100_voxels", f.shareBelow (100)},
-                                        {"share_of_surface_below_1000_voxels", f.shareBelow (1000)},
-                                        {"by_size", classes}};
-  return {{"segments", list}, {"fragmentation", fragmentation}};
 }
 
 /** The map's labels seen from the camera as a 16-bit id PNG (for `cuefusion eval`). */
@@ -804,7 +742,7 @@ RunSession::writeOutputs ()
         io::writeMeshPLY (staged ("objects/" + std::to_string (label) + ".ply"), part);
   }
   segments_ = fusion_.segments ();
-  io::writeTextAtomic (staged ("segments.json"), io::jsonText (segmentsJson (segments_, geometry), 1) + "\n");
+  segmentation::writeSegmentsJson (staged ("segments.json"), segments_, geometry);
   io::writeTumTrajectory (staged ("trajectory.txt"), result_.trajectory);
   if (!result_.reference.empty ())  // for evaluating the estimate with any TUM tool
     io::writeTumTrajectory (staged ("reference_trajectory.txt"), result_.reference);

@@ -8,6 +8,7 @@
 #include <cuefusion/io/map_io.h>
 #include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
+#include <cuefusion/segmentation/segments_file.h>
 
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
@@ -239,7 +240,7 @@ TEST (FileIO, ReadersRefuseFoldersDevicesAndPipesByName)
     {"readIntrinsics", [] (const std::string& p) { io::readIntrinsics (p); }},
     {"readTumTrajectory", [] (const std::string& p) { io::readTumTrajectory (p); }},
     {"readPCD", [] (const std::string& p) { io::readPCD (p); }},
-    {"readSegmentsJson", [] (const std::string& p) { io::readSegmentsJson (p); }},
+    {"readSegmentsJson", [] (const std::string& p) { segmentation::readSegmentsJson (p); }},
     {"readMeshPLY", [] (const std::string& p) { io::readMeshPLY (p); }},
   };
   for (const auto& [name, read] : readers)

@@ -11,10 +11,12 @@
 #include <cuefusion/segmentation/global_segment_map.h>
 #include <cuefusion/segmentation/object_geometry.h>
 #include <cuefusion/segmentation/segment_propagation.h>
+#include <cuefusion/segmentation/segments_file.h>
 
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -589,6 +591,56 @@ TEST (FragmentationReport, CountsSegmentsAndSurfaceBySize)
   EXPECT_THROW (f.shareBelow (500), ParameterError);
   EXPECT_EQ (fragmentationReport ({}).segments, 0u);
   EXPECT_EQ (fragmentationReport ({}).shareBelow (100), 0.0);
+}
+
+TEST (SegmentsFile, WhatRunWritesEvalReadsBack)
+{
+  // Two segments: a mug voted in 4 of its 5 frames (score 3.2 summed) with points in the
+  // map, and a 50-voxel splinter without a class or points.
+  SegmentRecord mug, splinter;
+  mug.id = 3;
+  mug.first_frame = 2;
+  mug.last_frame = 9;
+  mug.frames_seen = 5;
+  mug.voxels = 500;
+  mug.class_votes["cup"] = {4, 3.2f};
+  mug.bounds = Eigen::AlignedBox3f (Eigen::Vector3f (0.1f, 0.2f, 0.7f), Eigen::Vector3f (0.2f, 0.3f, 0.85f));
+  splinter.id = 7;
+  splinter.voxels = 50;
+  ObjectGeometry geometry;
+  geometry.points = 120;
+  geometry.centroid = Eigen::Vector3f (0.15f, 0.25f, 0.78f);
+  geometry.box.center = Eigen::Vector3f (0.15f, 0.25f, 0.775f);
+  geometry.box.extents = Eigen::Vector3f (0.15f, 0.1f, 0.1f);
+  const test::TempDir dir;
+  const std::string path = dir / "segments.json";
+  writeSegmentsJson (path, {mug, splinter}, {{3u, geometry}});
+
+  const std::vector<SegmentEntry> read = readSegmentsJson (path);
+  ASSERT_EQ (read.size (), 2u);
+  EXPECT_EQ (read[0].id, 3u);
+  EXPECT_EQ (read[0].class_name, "cup");
+  EXPECT_NEAR (read[0].score, 0.8, 1e-6);  // the mean score of the frames that voted
+  EXPECT_EQ (read[1].id, 7u);
+  EXPECT_EQ (read[1].class_name, "");
+  EXPECT_EQ (read[1].score, -1.0);
+
+  const nlohmann::json doc = nlohmann::json::parse (test::readFile (path));
+  const nlohmann::json& first = doc["segments"][0];
+  EXPECT_EQ (first["voxels"], 500);
+  EXPECT_EQ (first["frames_seen"], 5);
+  EXPECT_EQ (first["class_votes"]["cup"], 4);
+  EXPECT_EQ (first["points"], 120);
+  EXPECT_NEAR (first["centroid"][2].get<double> (), 0.78, 1e-6);
+  EXPECT_NEAR (first["oriented_box"]["extents"][0].get<double> (), 0.15, 1e-6);
+  EXPECT_NEAR (first["bounds"]["max"][2].get<double> (), 0.85, 1e-6);
+  const nlohmann::json& second = doc["segments"][1];
+  EXPECT_EQ (second["points"], 0);
+  EXPECT_TRUE (second["centroid"].is_null ());
+  EXPECT_TRUE (second["class"].is_null ());
+  EXPECT_EQ (doc["fragmentation"]["segments"], 2);
+  EXPECT_EQ (doc["fragmentation"]["segments_at_least_100_voxels"], 1);
+  EXPECT_NEAR (doc["fragmentation"]["share_of_surface_below_100_voxels"].get<double> (), 50.0 / 550.0, 1e-9);
 }
 
 TEST (ObjectGeometry, CentroidAndOrientedBoxOfRotatedBoxes)

@@ -38,20 +38,5 @@ saveMapPCD (const std::string& path, const pcl::PointCloud<pcl::PointXYZRGBL>& c
   */
 void
 saveMeshPLY (const std::string& path, const pcl::PolygonMesh& mesh);
-/** \brief One entry of a run's segments.json: the segment's id and, where the masks
-  * gave them, its class and score. */
-struct SegmentEntry
-{
-  std::uint32_t id = 0;
-  std::string class_name;  ///< "" when the segment has no class
-  double score = -1.0;     ///< in [0, 1]; -1 when it has none
-};
-
-/** \brief Reads a run's segments.json (`{"segments": [{"id": …, "class": …, "score": …}, …]}`);
-  * cuefusion::Error naming the file for anything else: ids must be integers in
-  * [1, 2^32) and unique, classes strings or null, scores numbers in [0, 1] or null. */
-std::vector<SegmentEntry>
-readSegmentsJson (const std::string& path);
-
 }  // namespace io
 }  // namespace cuefusion

@@ -377,42 +377,5 @@ saveMapPCD (const std::string& path, const pcl::PointCloud<pcl::PointXYZRGBL>& c
   });
 }
 
-std::vector<SegmentEntry>
-readSegmentsJson (const std::string& path)
-{
-  const FileContext context (path);
-  const nlohmann::json doc = readJsonFile (path);
-  if (!doc.is_object () || !doc.contains ("segments") || !doc.at ("segments").is_array ())
-    throw Error (path, "malformed segments.json: no list \"segments\"");
-  std::vector<SegmentEntry> entries;
-  std::set<std::uint32_t> seen;
-  for (const nlohmann::json& s : doc.at ("segments"))
-  {
-    const auto bad = [&] (const std::string& what) { return Error (path, "malformed segments.json: " + what); };
-    if (!s.is_object () || !s.contains ("id") || !s.at ("id").is_number_unsigned () || s.at ("id").get<std::uint64_t> () == 0 ||
-        s.at ("id").get<std::uint64_t> () > std::numeric_limits<std::uint32_t>::max ())
-      throw bad ("every segment needs an integer \"id\" in [1, 2^32), got " +
-                 (s.is_object () && s.contains ("id") ? jsonText (s.at ("id")) : std::string ("none")));
-    SegmentEntry entry;
-    entry.id = s.at ("id").get<std::uint32_t> ();
-    if (!seen.insert (entry.id).second)
-      throw bad ("segment id " + std::to_string (entry.id) + " appears twice");
-    if (s.contains ("class") && !s.at ("class").is_null ())
-    {
-      if (!s.at ("class").is_string ())
-        throw bad ("segment " + std::to_string (entry.id) + ": \"class\" must be a string or null");
-      entry.class_name = s.at ("class").get<std::string> ();
-    }
-    if (s.contains ("score") && !s.at ("score").is_null ())
-    {
-      entry.score = s.at ("score").is_number () ? s.at ("score").get<double> () : -1.0;
-      if (!(entry.score >= 0.0 && entry.score <= 1.0))
-        throw bad ("segment " + std::to_string (entry.id) + ": \"score\" must be a number in [0, 1] or null, got " +
-                   jsonText (s.at ("score")));
-    }
-    entries.push_back (entry);
-  }
-  return entries;
-}
 }  // namespace io
 }  // namespace cuefusion

@@ -27,6 +27,12 @@ namespace reconstruction
 {
 namespace
 {
+/** Newton near a depth hint (refineNearHint and its eight-lane form): a field value of at
+  * least this (in truncation units) is truncated, no surface close by ... */
+constexpr float kNewtonTruncated = 0.9f;
+/** ... and a step shorter than this (voxels) has settled: the last is taken unread. */
+constexpr float kNewtonSettledVoxels = 0.25f;
+
 /** \brief Conservative depth range of a block seen from a camera, per 8×8 pixel tile. */
 struct RangeTiles
 {
@@ -274,7 +280,7 @@ refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, co
     float f;
     if (!access.interpolate (origin + dir * z, f, *gradient))
       return 0.f;
-    if (!(std::abs (f) < 0.9f))
+    if (!(std::abs (f) < kNewtonTruncated))
       return 0.f;  // truncated: no surface close by
     const float slope = gradient->dot (dir);  // truncation units per unit of z
     if (!(slope < 0.f))
@@ -286,7 +292,7 @@ refineNearHint (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, co
     // Along a ray the trilinear field is a cubic with small higher terms: from within a
     // quarter voxel one Newton step lands within a few hundredths of a voxel (0.1 mm at
     // 1 cm voxels), so the step is taken without reading the cell again.
-    if (std::abs (dz) * voxels_per_z < 0.25f)
+    if (std::abs (dz) * voxels_per_z < kNewtonSettledVoxels)
     {
       hit->voxel = access.get (nearestVoxel (origin + dir * z), hit->number);
       return hit->voxel != nullptr ? z : 0.f;
@@ -410,7 +416,7 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
     const __m256i bits = _mm256_setr_epi32 (1, 2, 4, 8, 16, 32, 64, 128);
     __m256 ok = _mm256_castsi256_ps (
         _mm256_cmpeq_epi32 (_mm256_and_si256 (_mm256_set1_epi32 (read), bits), bits));
-    ok = _mm256_and_ps (ok, _mm256_cmp_ps (avx2::abs (f), _mm256_set1_ps (0.9f), _CMP_LT_OQ));  // else truncated
+    ok = _mm256_and_ps (ok, _mm256_cmp_ps (avx2::abs (f), _mm256_set1_ps (kNewtonTruncated), _CMP_LT_OQ));  // else truncated
     const __m256 slope = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (grad_x, dx), _mm256_mul_ps (grad_y, dy)),
                                         _mm256_mul_ps (grad_z, dz));
     ok = _mm256_and_ps (ok, _mm256_cmp_ps (slope, zero, _CMP_LT_OQ));  // else back face or corner
@@ -419,7 +425,7 @@ refineNearHint8 (detail::VoxelAccessor& access, const Eigen::Vector3f& origin, c
     ok = _mm256_and_ps (ok, _mm256_cmp_ps (_mm256_mul_ps (avx2::abs (_mm256_sub_ps (z_next, z_hint)), voxels_per_z),
                                            reach, _CMP_LE_OQ));  // else wandered off
     const __m256 settled = _mm256_and_ps (
-        ok, _mm256_cmp_ps (_mm256_mul_ps (avx2::abs (step_z), voxels_per_z), _mm256_set1_ps (0.25f), _CMP_LT_OQ));
+        ok, _mm256_cmp_ps (_mm256_mul_ps (avx2::abs (step_z), voxels_per_z), _mm256_set1_ps (kNewtonSettledVoxels), _CMP_LT_OQ));
     z_result = _mm256_blendv_ps (z_result, z_next, settled);
     gx_result = _mm256_blendv_ps (gx_result, grad_x, settled);
     gy_result = _mm256_blendv_ps (gy_result, grad_y, settled);

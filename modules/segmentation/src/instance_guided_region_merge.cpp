@@ -50,6 +50,22 @@ InstanceGuidedRegionMerge::setConfig (const InstanceGuidedRegionMergeConfig& con
 
 namespace
 {
+/** \brief Breadth-first growth over the 4-connected pixels of a \a rows × \a cols image
+  * from every index in \a queue: a neighbour j of a reached pixel i is reached when
+  * join(i, j) accepts (and marks) it. \a queue ends holding every pixel reached. */
+template <typename Join>
+void
+growFourConnected (std::vector<int>& queue, int rows, int cols, Join&& join)
+{
+  for (std::size_t k = 0; k < queue.size (); ++k)
+  {
+    const int i = queue[k], x = i % cols, y = i / cols;
+    for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
+      if (j >= 0 && join (i, j))
+        queue.push_back (j);
+  }
+}
+
 /** \brief Per label of \a labels (CV_32S, 1..max): its pixel count and the instance ids
   * of \a ids it meets, with their pixels; with \a color (CV_8UC3) and \a sums, also
   * those pixels' summed colour (BGR), sums[l][e] for entry e of label l. */
@@ -606,16 +622,12 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
     // largest piece.
     auto* p = part.ptr<std::int32_t> ();
     const auto* g = geometric.ptr<std::int32_t> ();
-    for (std::size_t k = 0; k < queue.size (); ++k)
-    {
-      const int i = queue[k], x = i % cols, y = i / cols;
-      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < geometric.rows ? i + cols : -1})
-        if (j >= 0 && p[j] == -1 && g[j] == g[i])
-        {
-          p[j] = p[i];
-          queue.push_back (j);
-        }
-    }
+    growFourConnected (queue, geometric.rows, cols, [&] (int i, int j) {
+      if (p[j] != -1 || g[j] != g[i])
+        return false;
+      p[j] = p[i];
+      return true;
+    });
     const int total = geometric.rows * cols;
     for (int i = 0; i < total; ++i)
       if (p[i] == -1)
@@ -669,18 +681,14 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
     for (int i = 0; i < total; ++i)
       if (out[i] > 0 && info[static_cast<std::size_t> (out[i])].instance >= 0)
         queue.push_back (i);
-    for (std::size_t k = 0; k < queue.size (); ++k)
-    {
-      const int i = queue[k], x = i % cols, y = i / cols;
+    growFourConnected (queue, rows, cols, [&] (int i, int j) {
       const int claimed = info[static_cast<std::size_t> (out[i])].instance + 1;
-      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
-        if (j >= 0 && out[j] == 0 && id[j] == claimed && std::isfinite (z[j]) &&
-            std::abs (z[j] - z[i]) <= config_.max_depth_jump * std::min (z[i], z[j]))
-        {
-          out[j] = out[i];
-          queue.push_back (j);
-        }
-    }
+      if (out[j] != 0 || id[j] != claimed || !std::isfinite (z[j]) ||
+          !(std::abs (z[j] - z[i]) <= config_.max_depth_jump * std::min (z[i], z[j])))
+        return false;
+      out[j] = out[i];
+      return true;
+    });
   }
   if (segments)
     segments->swap (info);
