@@ -255,6 +255,8 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf), its voxels' labels as map.pcd's (volume.labels) and the relocalisation keyframes (volume.keyframes)")
     ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (with the volume.labels and volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
     ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
+    ("noise-scale", po::value (&s.pipeline.geometry.noise_scale)->default_value (s.pipeline.geometry.noise_scale),
+     "the depth's noise as a multiple of the Kinect model's, which scales every noise threshold (0 = measured on the first frames)")
     ("color-split", po::value (&s.pipeline.instance_merge.color_split_distance)->default_value (s.pipeline.instance_merge.color_split_distance),
      "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
     ("masks", po::value (&s.masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
@@ -684,7 +686,8 @@ RunSession::trackingJson ()
   tracking["segmentation"] = {{"mode", pipeline::segmentationModeName (pipeline_config_.mode)},
                               {"mask_source", mask_source_ ? mask_source_->name () : std::string ()},
                               {"frames_without_masks", result_.frames_without_masks},
-                              {"merges", result_.merges}};
+                              {"merges", result_.merges},
+                              {"noise_scale", fusion_.noiseScale ()}};
   tracking["volume"] = {{"blocks", volume.blockCount ()}, {"bytes", volume.memoryUsage ()},
                         {"voxel_size", volume.getConfig ().voxel_size}, {"truncation_voxels", volume.getConfig ().truncation_voxels}};
   if (!s_.load_volume.empty ())
@@ -796,7 +799,10 @@ RunSession::printSummary () const
             << " merges)\n"
             << "  fragments:  " << fragmentation.segments_at_least_100 () << " segments of >= 100 voxels; "
             << std::fixed << std::setprecision (1) << 100.0 * fragmentation.shareBelow (1000)
-            << " % of the surface in segments below 1000 voxels\n" << std::defaultfloat
+            << " % of the surface in segments below 1000 voxels\n"
+            << "  noise:      depth noise " << std::setprecision (2) << fusion_.noiseScale () << " x the Kinect model's"
+            << (s_.pipeline.geometry.noise_scale > 0.f ? " (--noise-scale)" : " (measured; --noise-scale sets it)") << "\n"
+            << std::defaultfloat
             << "  volume:     " << volume.blockCount () << " blocks, "
             << volume.memoryUsage () / (1024 * 1024) << " MiB\n";
 }

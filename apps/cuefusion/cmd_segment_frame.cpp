@@ -370,6 +370,8 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
      "the concavity threshold gives way to the normals' noise: cos of this x sigma_z(z)/z where lower (0 = off)")
     ("convexity-test", po::value (&convexity)->default_value (convexity), "when a neighbour is convex: divergence (normals turn apart) or tangent (thesis: below the tangent plane)")
     ("concavity-step", po::value (&geo.concavity.neighbour_step)->default_value (geo.concavity.neighbour_step), "concavity neighbour distance (px)")
+    ("noise-scale", po::value (&geo.noise_scale)->default_value (geo.noise_scale),
+     "the depth's noise as a multiple of the Kinect model's, which scales every noise threshold (0 = measured per frame)")
     ("noise-factor", po::value (&geo.discontinuity.noise_factor)->default_value (geo.discontinuity.noise_factor), "depth edge where Gamma > k * sigma_d")
     ("depth-edge-step", po::value (&geo.discontinuity.neighbour_step)->default_value (geo.discontinuity.neighbour_step), "depth-edge neighbour distance (px)")
     ("no-concavity", setsWhenGiven (geo.use_concavity_edges, false), "ablation: no concavity edges")
@@ -549,6 +551,12 @@ FrameSegmenter::segment (const std::string& path, std::size_t index, double& seg
   const Cloud::Ptr cloud = load (path, t);
   try
   {
+    // The frame's noise sets the thresholds written in sensor-noise units
+    // (GeometricSegmentationConfig::noise_scale), as GeometricSegmentation::segment does.
+    segmentation::GeometricSegmentationConfig geo = s_.geo;
+    geo.noise_scale = segmentation::resolveNoiseScale (s_.geo, *cloud);
+    preprocessor_.setConfig (geo.noiseScaled (geo.noise_scale).preprocessing);
+    segmenter_.setConfig (geo);
     preprocessor_.setInputCloud (cloud);
     preprocessor_.compute (planes_);
     t.smoothing_ms = preprocessor_.getSmoothingTime ();
@@ -592,12 +600,13 @@ FrameSegmenter::segment (const std::string& path, std::size_t index, double& seg
   segmentation_ms = t.segmentation ();
   if (s_.verbose)
     std::cout << std::fixed << std::setprecision (2) << fs::path (path).filename ().string () << ": "
-              << distinct.size () << " segments; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
+              << distinct.size () << " segments; noise " << segmenter_.getNoiseScale () << " x Kinect's; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
               << ", normals " << t.normals_ms << ", edges (concave + depth) " << t.edges_ms << ", labelling " << t.labeling_ms << ", segmentation total "
               << t.segmentation () << (s_.drop_plane ? ", plane " + std::to_string (t.plane_ms) : std::string ())
               << ", write " << t.write_ms << "\n";
   return {{"input", path},
           {"segments", distinct.size ()},
+          {"noise_scale", segmenter_.getNoiseScale ()},
           {"load_ms", t.load_ms},
           {"smoothing_ms", t.smoothing_ms},
           {"normals_ms", t.normals_ms},

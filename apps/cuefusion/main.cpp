@@ -97,6 +97,7 @@ main (int argc, char** argv)
       {"ConcavityEdgeEstimationConfig::threshold", "--concavity-threshold"},
       {"ConcavityEdgeEstimationConfig::neighbour_step", "--concavity-step"},
       {"DepthDiscontinuityEdgeEstimationConfig::noise_factor", "--noise-factor"},
+      {"GeometricSegmentationConfig::noise_scale", "--noise-scale"},
       {"DepthDiscontinuityEdgeEstimationConfig::neighbour_step", "--depth-edge-step"},
       {"EdgeLabelingConfig::closing_iterations", "--closings"},
       {"EdgeLabelingConfig::min_segment_size", "--min-segment-size"},

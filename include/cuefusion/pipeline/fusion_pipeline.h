@@ -64,6 +64,15 @@ struct FusionPipelineConfig
     * one more normal map per frame.
     */
   bool share_smoothing = true;
+  /** With geometry.noise_scale 0 (the default), the depth noise is measured on the first
+    * this many frames with enough surface (reconstruction::estimateDepthNoise, from the raw
+    * depth before any smoothing) and their median ratio, at least 1, is the scale of every
+    * threshold written in sensor-noise units from then on: the smoothing's range σ shared
+    * with tracking, the concavity's noise slope, the depth-edge factor
+    * (GeometricSegmentationConfig::noiseScaled) and the propagation's distance test
+    * (SegmentPropagationConfig::noise_factor). Until the first measurement the scale is 1.
+    */
+  int noise_estimation_frames = 10;
   void validate () const;
 };
 
@@ -83,6 +92,7 @@ struct PipelineFrameReport
 {
   reconstruction::FrameReport reconstruction;
   bool segmented = false;        ///< false when the frame was not fused (tracking lost)
+  float noise_scale = 1.f;       ///< the depth noise scale this frame ran with (FusionPipelineConfig::noise_estimation_frames)
   bool had_masks = false;
   int frame_segments = 0;        ///< labelled segments of L^p
   int fresh_segments = 0;
@@ -130,6 +140,10 @@ public:
 
   const reconstruction::DenseReconstruction& reconstruction () const { return reconstruction_; }
   const segmentation::GlobalSegmentMap& segmentMap () const { return map_; }
+  /** \brief The depth noise scale the thresholds follow now (geometry.noise_scale, or as
+    * measured so far: FusionPipelineConfig::noise_estimation_frames).
+    */
+  float noiseScale () const { return noise_scale_; }
   /** \brief The label layer beside the volume (§4.2.4): each voxel's label (as stored, not
     * resolved) and confidence Ψ.
     */
@@ -174,6 +188,14 @@ private:
     */
   std::uint32_t settledLabel (std::uint32_t label, bool exact) const;
   void refreshSettled (bool exact) const;
+  /** \brief Measures the noise of \a frame while the estimate is open and, when the scale
+    * changes, gives the stages their thresholds at the new scale.
+    */
+  void followNoise (const RGBDFrame& frame);
+  /** \brief The stages' noise thresholds at \a scale (config_'s times \a scale). */
+  void applyNoiseScale (float scale);
+  float noise_scale_ = 1.f;
+  std::vector<float> noise_ratios_;  ///< the frames' measured ratios so far
   static constexpr std::size_t kViewSettleFrames = 30;
   std::size_t processed_ = 0;  ///< frames given to process()
   mutable std::size_t settled_at_ = static_cast<std::size_t> (-1);

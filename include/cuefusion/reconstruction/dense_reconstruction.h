@@ -126,6 +126,10 @@ public:
   explicit DenseReconstruction (const DenseReconstructionConfig& config = DenseReconstructionConfig ());
 
   const DenseReconstructionConfig& getConfig () const { return config_; }
+  /** \brief Preprocessing from the next frame on with \a config (validated first; a bad
+    * config changes nothing): FusionPipeline's smoothing follows the measured depth noise.
+    */
+  void setPreprocessingConfig (const DepthPreprocessorConfig& config);
 
   FrameReport
   process (const RGBDFrame& frame);

@@ -54,8 +54,43 @@ struct GeometricSegmentationConfig
   ConcavityEdgeEstimationConfig concavity;
   DepthDiscontinuityEdgeEstimationConfig discontinuity;
   EdgeLabelingConfig labeling;
+  /** The depth's noise as a multiple of the Kinect model σ_z(z) (Nguyen et al. 2012) that
+    * the segmentation's noise thresholds are written in: the smoothing's range σ
+    * (preprocessing.bilateral.noise_range_sigma), the concavity's noise slope and the
+    * depth-edge factor k are multiplied by it (noiseScaled). 0 (the default): measured
+    * from each cloud's depth before smoothing (reconstruction::estimateDepthNoise) and
+    * never taken below 1, since the thresholds were set on Kinect-class noise — so a
+    * RealSense-like stereo camera (about twice that noise beyond a metre) is segmented
+    * as a Kinect is, instead of into splinters; > 0: this scale. segment (planes) cannot
+    * measure (its depth is smoothed already) and uses 1 when this is 0.
+    */
+  float noise_scale = 0.f;
   void validate () const;
+  /** \brief A copy whose noise thresholds (see noise_scale) are multiplied by \a scale. */
+  GeometricSegmentationConfig noiseScaled (float scale) const;
 };
+
+/** \brief The scale noise_scale stands for on a depth image (CV_32F metres, 0 or NaN
+  * invalid, before smoothing): \a config.noise_scale when above 0, else the depth's
+  * measured noise ratio (reconstruction::estimateDepthNoise), at least 1 — 1 too where no
+  * patch could be measured.
+  */
+float
+resolveNoiseScale (const GeometricSegmentationConfig& config, const cv::Mat& raw_depth);
+
+/** \brief The same on an organized cloud as the sensor gave it (its z). */
+template <typename PointT>
+float
+resolveNoiseScale (const GeometricSegmentationConfig& config, const pcl::PointCloud<PointT>& cloud)
+{
+  if (config.noise_scale > 0.f)
+    return config.noise_scale;
+  cv::Mat raw_depth (static_cast<int> (cloud.height), static_cast<int> (cloud.width), CV_32F);
+  float* z = raw_depth.ptr<float> ();
+  for (std::size_t i = 0; i < cloud.size (); ++i)
+    z[i] = cloud[i].z;
+  return resolveNoiseScale (config, raw_depth);
+}
 
 /** \brief Milliseconds spent per stage by the last GeometricSegmentation::segment. */
 struct GeometricSegmentationTimings
@@ -119,8 +154,8 @@ public:
     * as missing depth and labelled 0. \a PointLT is any point type with a label field:
     * pcl::Label gets only the label, types with coordinates (pcl::PointXYZL,
     * pcl::PointXYZRGBL, ...) also the input's x, y, z and colour, ready for pcl_viewer.
-    * With preprocessing (the default) the whole cloud is smoothed and its normals found,
-    * then the points outside the indices are dropped; without, setInputNormals is needed.
+    * With preprocessing (the default) the whole cloud's noise is measured (noise_scale),
+    * it is smoothed and its normals found, then the points outside the indices are dropped; without, setInputNormals is needed.
     * Throws cuefusion::Error on unorganized, empty or all-NaN input, normals of another
     * size and an index outside the cloud.
     */
@@ -142,6 +177,11 @@ public:
     */
   void segment (const SurfacePlanes& planes);
 
+  /** \brief The noise scale the last segment() used (GeometricSegmentationConfig::noise_scale
+    * resolved: measured on a cloud, or as configured).
+    */
+  float getNoiseScale () const { return noise_scale_; }
+
   /** \brief Results of the last segment(): L^G (CV_32S), the edge maps (CV_8U, 1 = edge;
     * the union is before closing), the number of segments and the timings.
     */
@@ -155,6 +195,10 @@ public:
 protected:
   /** \brief The input as SurfacePlanes: preprocessed (config preprocess) or as given. */
   void inputPlanes ();
+  /** \brief segment (planes) with the noise thresholds multiplied by noise_scale_. */
+  void segmentPlanes (const SurfacePlanes& planes);
+
+  float noise_scale_ = 1.f;
 
   SurfacePlanes planes_;  ///< reused between frames
   cv::Mat label_image_, concavity_edges_, discontinuity_edges_, edges_;

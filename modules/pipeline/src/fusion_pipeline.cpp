@@ -2,9 +2,11 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/reconstruction/noise_estimation.h>
 
 #include <pcl/common/time.h>
 
+#include <algorithm>
 #include <cstring>
 #include <set>
 
@@ -48,6 +50,8 @@ FusionPipelineConfig::validate () const
   propagation.validate ();
   merging.validate ();
   update.validate ();
+  if (noise_estimation_frames < 0)
+    throw ParameterError ("FusionPipelineConfig::noise_estimation_frames", "must not be negative");
 }
 
 namespace
@@ -70,11 +74,11 @@ sharesNormals (const FusionPipelineConfig& config)
   * where they are shared.
   */
 reconstruction::DenseReconstructionConfig
-reconstructionConfig (const FusionPipelineConfig& config)
+reconstructionConfig (const FusionPipelineConfig& config, float noise_scale)
 {
   reconstruction::DenseReconstructionConfig out = config.reconstruction;
   if (sharesSmoothing (config))
-    out.preprocessing.bilateral = config.geometry.preprocessing.bilateral;
+    out.preprocessing.bilateral = config.geometry.noiseScaled (noise_scale).preprocessing.bilateral;
   if (sharesNormals (config))
   {
     out.preprocessing.normals = config.geometry.preprocessing.normals;
@@ -86,13 +90,21 @@ reconstructionConfig (const FusionPipelineConfig& config)
 
 FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
   : config_ (config)
-  , reconstruction_ (reconstructionConfig (config))
+  , reconstruction_ (reconstructionConfig (config, 1.f))
   , geometry_ (config.geometry)
   , instance_merge_ (config.instance_merge)
   , propagation_ (config.propagation)
   , map_ (config.merging)
 {
   config_.validate ();
+  // Until the noise is measured (or as configured), the thresholds' own scale.
+  noise_scale_ = config_.geometry.noise_scale > 0.f ? config_.geometry.noise_scale : 1.f;
+  if (noise_scale_ != 1.f)
+  {
+    const float scale = noise_scale_;
+    noise_scale_ = 1.f;
+    applyNoiseScale (scale);
+  }
   // The label update (§4.2.4) reads the voxels each integration saw in the band.
   reconstruction_.volume ().setRecordObservedSurface (true);
 }
@@ -132,11 +144,47 @@ FusionPipeline::saveVolume (const std::string& volume_path, const std::string& l
     reconstruction_.keyframesForContinuing ().save (keyframes_path, reconstruction_.volume ());
 }
 
+void
+FusionPipeline::applyNoiseScale (float scale)
+{
+  if (scale == noise_scale_)
+    return;
+  noise_scale_ = scale;
+  reconstruction_.setPreprocessingConfig (reconstructionConfig (config_, scale).preprocessing);
+  segmentation::GeometricSegmentationConfig geometry = config_.geometry;
+  geometry.noise_scale = scale;
+  geometry_.setConfig (geometry);
+  segmentation::SegmentPropagationConfig propagation = config_.propagation;
+  propagation.noise_factor *= scale;
+  propagation_ = segmentation::SegmentPropagation (propagation);
+}
+
+void
+FusionPipeline::followNoise (const RGBDFrame& frame)
+{
+  if (config_.geometry.noise_scale > 0.f ||
+      noise_ratios_.size () >= static_cast<std::size_t> (config_.noise_estimation_frames))
+    return;
+  // A frame showing little surface (a blackout, a far wall half out of range) is not
+  // measured: a hundred 8 × 8 patches are 2 % of a 640 × 480 image, 8 % of 320 × 240.
+  constexpr int kMinPatches = 100;
+  const reconstruction::DepthNoiseEstimate estimate = reconstruction::estimateDepthNoise (frame.depth);
+  if (estimate.patches < kMinPatches)
+    return;
+  noise_ratios_.push_back (estimate.ratio);
+  std::vector<float> ratios = noise_ratios_;
+  const auto middle = ratios.begin () + static_cast<std::ptrdiff_t> (ratios.size () / 2);
+  std::nth_element (ratios.begin (), middle, ratios.end ());
+  applyNoiseScale (std::max (1.f, *middle));
+}
+
 PipelineFrameReport
 FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* instances)
 {
   PipelineFrameReport report;
   ++processed_;
+  followNoise (frame);
+  report.noise_scale = noise_scale_;
   // The model raycast samples the labels (L^m); set per frame, as a moved pipeline's layer
   // lives elsewhere.
   reconstruction_.setModelValues (&labels_.labelValues ());
@@ -174,7 +222,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   else
   {
     planes_.assignDepth (frame.depth, camera.fx, camera.fy, camera.cx, camera.cy);
-    segmentation::preprocessPlanes (planes_, config_.geometry.preprocessing);
+    segmentation::preprocessPlanes (planes_, config_.geometry.noiseScaled (noise_scale_).preprocessing);
   }
   geometry_.segment (planes_);
   report.segmentation.geometry_ms = watch.getTime ();

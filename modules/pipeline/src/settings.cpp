@@ -189,6 +189,7 @@ fields (V& v, GeometricSegmentationConfig& c)
   v ("concavity", c.concavity);
   v ("discontinuity", c.discontinuity);
   v ("labeling", c.labeling);
+  v ("noise_scale", c.noise_scale);
 }
 
 template <class V>
@@ -261,6 +262,7 @@ fields (V& v, FusionPipelineConfig& c)
   v ("merging", c.merging);
   v ("update", c.update);
   v ("share_smoothing", c.share_smoothing);
+  v ("noise_estimation_frames", c.noise_estimation_frames);
 }
 
 namespace

@@ -95,6 +95,14 @@ DenseReconstruction::DenseReconstruction (const DenseReconstructionConfig& confi
 }
 
 void
+DenseReconstruction::setPreprocessingConfig (const DepthPreprocessorConfig& config)
+{
+  config.validate ();
+  config_.preprocessing = config;
+  preprocessor_ = DepthPreprocessor (config);
+}
+
+void
 DenseReconstruction::reset ()
 {
   volume_.reset ();

@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Parameter checks of the segmentation configs: one ParameterError naming the config field
-// (apps/cuefusion/main.cpp maps fields to the options that set them).
+// (apps/cuefusion/main.cpp maps fields to the options that set them); the noise scale a
+// GeometricSegmentationConfig stands for.
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/reconstruction/noise_estimation.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
 #include <cuefusion/segmentation/support_plane_removal.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace cuefusion
@@ -56,6 +59,26 @@ GeometricSegmentationConfig::validate () const
   concavity.validate ();
   discontinuity.validate ();
   labeling.validate ();
+  require (std::isfinite (noise_scale) && noise_scale >= 0.f && noise_scale <= 100.f, "GeometricSegmentationConfig::noise_scale",
+           "must lie in [0, 100] (0 = measured from the depth)");
+}
+
+GeometricSegmentationConfig
+GeometricSegmentationConfig::noiseScaled (float scale) const
+{
+  GeometricSegmentationConfig out = *this;
+  out.preprocessing.bilateral.noise_range_sigma *= scale;
+  out.concavity.noise_slope *= scale;
+  out.discontinuity.noise_factor *= scale;
+  return out;
+}
+
+float
+resolveNoiseScale (const GeometricSegmentationConfig& config, const cv::Mat& raw_depth)
+{
+  if (config.noise_scale > 0.f)
+    return config.noise_scale;
+  return std::max (1.f, reconstruction::estimateDepthNoise (raw_depth).ratio);
 }
 
 void

@@ -26,10 +26,12 @@ GeometricSegmentation<PointT, PointNT>::inputPlanes ()
   if (!this->config_.preprocess)
   {
     this->toPlanes ("GeometricSegmentation", planes_);
+    noise_scale_ = this->config_.noise_scale > 0.f ? this->config_.noise_scale : 1.f;
     return;
   }
   checkOrganizedInput<PointT, PointNT> ("GeometricSegmentation", this->input_.get (), nullptr);  // normals unused
-  SurfacePreprocessing<PointT> preprocessing (this->config_.preprocessing);
+  noise_scale_ = resolveNoiseScale (this->config_, *this->input_);
+  SurfacePreprocessing<PointT> preprocessing (this->config_.noiseScaled (noise_scale_).preprocessing);
   preprocessing.setInputCloud (this->input_);
   preprocessing.compute (planes_);
   if (this->hasIndices ())
@@ -44,7 +46,7 @@ GeometricSegmentation<PointT, PointNT>::segment (pcl::PointCloud<PointLT>& label
   pcl::StopWatch watch;
   inputPlanes ();
   const double copy_ms = watch.getTime ();
-  segment (planes_);
+  segmentPlanes (planes_);
   timings_.preprocessing_ms = this->config_.preprocess ? copy_ms : 0.0;
   watch.reset ();
   const pcl::PointCloud<PointT>& input = *this->input_;
@@ -107,11 +109,19 @@ template <typename PointT, typename PointNT>
 void
 GeometricSegmentation<PointT, PointNT>::segment (const SurfacePlanes& planes)
 {
+  noise_scale_ = this->config_.noise_scale > 0.f ? this->config_.noise_scale : 1.f;
+  segmentPlanes (planes);
+}
+
+template <typename PointT, typename PointNT>
+void
+GeometricSegmentation<PointT, PointNT>::segmentPlanes (const SurfacePlanes& planes)
+{
   const int w = planes.width, h = planes.height;
   if (w < 2 || h < 2 || planes.z.size () != static_cast<std::size_t> (w) * h)
     throw Error ("GeometricSegmentation", "surface planes are empty or not organized");
   timings_ = GeometricSegmentationTimings ();
-  const GeometricSegmentationConfig& config = this->config_;
+  const GeometricSegmentationConfig config = this->config_.noiseScaled (noise_scale_);
   pcl::StopWatch watch;
   computeGeometricEdges (planes, config, concavity_edges_, discontinuity_edges_);
   timings_.edges_ms = watch.getTime ();
