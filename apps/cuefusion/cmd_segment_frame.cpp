@@ -600,10 +600,10 @@ FrameSegmenter::segment (const std::string& path, std::size_t index, double& seg
   segmentation_ms = t.segmentation ();
   if (s_.verbose)
     std::cout << std::fixed << std::setprecision (2) << fs::path (path).filename ().string () << ": "
-              << distinct.size () << " segments; noise " << segmenter_.getNoiseScale () << " x Kinect's; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
+              << distinct.size () << " segments; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
               << ", normals " << t.normals_ms << ", edges (concave + depth) " << t.edges_ms << ", labelling " << t.labeling_ms << ", segmentation total "
               << t.segmentation () << (s_.drop_plane ? ", plane " + std::to_string (t.plane_ms) : std::string ())
-              << ", write " << t.write_ms << "\n";
+              << ", write " << t.write_ms << "; depth noise " << segmenter_.getNoiseScale () << " x Kinect's\n";
   return {{"input", path},
           {"segments", distinct.size ()},
           {"noise_scale", segmenter_.getNoiseScale ()},

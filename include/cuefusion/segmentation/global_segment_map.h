@@ -64,6 +64,14 @@ struct GlobalSegmentMapConfig
     * saw it as one object.
     */
   float together_share = 0.5f;
+  /** An object is confirmed (shown as itself in outputs, GlobalSegmentMap::settledLabels)
+    * when its labels were seen in at least confirm_confidence frames and in at least this
+    * share of the frames that observed its surface (the mean TSDF weight of its voxels:
+    * one per integration, up to w_max). A splinter that a frame segment carried in 5 of
+    * the 100 frames its surface was fused is noise, not an object; it settles into the
+    * object it touches. 0 = confirm_confidence alone (before 0.4).
+    */
+  float confirm_share = 0.2f;
   void validate () const;
 };
 /// The name before 0.2 (one config per class, named after it).
@@ -203,13 +211,16 @@ public:
   std::vector<SegmentRecord> segments (const std::unordered_map<std::uint32_t, std::uint32_t>* settled = nullptr) const;
 
   /** \brief What each label shows as in outputs: the object it belongs to when that object
-    * was loaded, seen in at least confirm_confidence frames, or is still being seen (its last
-    * frame less than confirm_confidence frames before the latest); otherwise (a fragment
-    * seen briefly and no more:
-    * the rim of a surface at the edge of the view, a noise patch) the confirmed object
-    * whose voxels its voxels touch most (6-neighbourhood in \a volume, followed through
-    * other fragments), or 0 when it touches none. Labels not in the result are 0. Reads
-    * the volume; nothing is written, so a fragment confirmed later shows as itself.
+    * was loaded or is confirmed (GlobalSegmentMapConfig::confirm_confidence and
+    * confirm_share); otherwise (a fragment not confirmed: the rim of a surface at the edge of the view, a noise patch, a splinter
+    * born in the last frames of a run) the confirmed object whose voxels its voxels touch
+    * most (6-neighbourhood in \a volume, followed through other fragments); where it
+    * touches none, itself while it is still being seen (its last frame less than
+    * confirm_confidence frames before the latest), else 0. Labels not in the result are
+    * 0. Reads the volume; nothing is written, so a fragment confirmed later shows as
+    * itself. (Before 0.4 a fragment still being seen showed as itself whatever it
+    * touched: the 7-Scenes kitchen's map kept 72 such splinters of ≥ 100 voxels born in
+    * its last frames.)
     */
   std::unordered_map<std::uint32_t, std::uint32_t> settledLabels (const reconstruction::TSDFVolume& volume,
                                                                   const VoxelLabelLayer& labels) const;

@@ -38,6 +38,17 @@ struct SegmentPropagationConfig
     * masks leave out (1 − InstanceGuidedRegionMergeConfig::min_overlap by default).
     */
   float uncovered_overlap = 0.3f;
+  /** Two frame segments no mask speaks for, parted by a geometric edge, are judged on the
+    * fused surface (the raycast V^m, N^m): along the samples of their shared boundary
+    * where the frame shows a depth jump or a concave crease, Apart when at least this
+    * share shows it in the model too, Together when less — the frame's edge was sensor
+    * noise the fusion has averaged away (stuff surfaces of a room split by noise: a
+    * counter, a cabinet, a floor). Where fewer than 20 samples can be judged (the frame
+    * shows no geometric edge there: a cut along a colour boundary; or the model has no
+    * surface yet) the frame's word stands: Apart. 0 = every such edge parts them (the
+    * behaviour before 0.4).
+    */
+  float model_edge_share = 0.25f;
   void validate () const;
 };
 
@@ -69,9 +80,10 @@ struct PropagationResult
   * §4.2.3 as evidence: every map segment seen on ≥ min_segment_size agreeing pixels,
   * more than placement_share of them inside one frame segment, is judged against every
   * other such segment: Together when one frame segment holds both, or one instance claims
-  * both; Apart when the masks set them apart; Apart also when their frame segments touch
-  * (an edge between them) and no mask speaks for either. Apart votes are kept only for
-  * pairs the map already tracks or whose frame segments touch.
+  * both; Apart when the masks set them apart. When their frame segments touch (an edge
+  * between them) and no mask speaks for either, the fused surface decides: Apart where it
+  * shows the edge too, Together where it is smooth across (model_edge_share). Apart votes
+  * are kept only for pairs the map already tracks or whose frame segments touch.
   *
   * The cost is one pass over the image and a table of the pairs seen: it does not depend
   * on the map's size (§4.2.2.1). Frame labels are handled in increasing order, so fresh

@@ -216,6 +216,7 @@ fields (V& v, SegmentPropagationConfig& c)
   v ("min_segment_size", c.min_segment_size);
   v ("placement_share", c.placement_share);
   v ("uncovered_overlap", c.uncovered_overlap);
+  v ("model_edge_share", c.model_edge_share);
 }
 
 template <class V>
@@ -232,6 +233,7 @@ fields (V& v, GlobalSegmentMapConfig& c)
 {
   v ("confirm_confidence", c.confirm_confidence);
   v ("together_share", c.together_share);
+  v ("confirm_share", c.confirm_share);
 }
 
 template <class V>

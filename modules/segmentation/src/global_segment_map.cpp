@@ -47,6 +47,8 @@ GlobalSegmentMapConfig::validate () const
     throw ParameterError ("GlobalSegmentMapConfig::confirm_confidence", "must lie in [1, 1000]");
   if (!(together_share >= 0.f && together_share < 1.f))
     throw ParameterError ("GlobalSegmentMapConfig::together_share", "must lie in [0, 1)");
+  if (!(confirm_share >= 0.f && confirm_share < 1.f))
+    throw ParameterError ("GlobalSegmentMapConfig::confirm_share", "must lie in [0, 1)");
 }
 
 PairEvidence::PairEvidence (const GlobalSegmentMapConfig& config) : config_ (config) { config_.validate (); }
@@ -285,15 +287,61 @@ GlobalSegmentMap::segments (const std::unordered_map<std::uint32_t, std::uint32_
   return out;
 }
 
+namespace
+{
+/** \brief Per object (label resolved by \a resolve): the mean TSDF weight of its voxels,
+  * which counts the frames that observed them (one per integration, up to w_max).
+  */
+template <class Resolve>
+std::unordered_map<std::uint32_t, double>
+meanObservations (const reconstruction::VoxelBlockStore& blocks, const VoxelLabelLayer& labels, const Resolve& resolve)
+{
+  std::unordered_map<std::uint32_t, std::pair<double, std::size_t>> sums;
+  for (std::size_t id = 0; id < std::min (blocks.size (), labels.blockCount ()); ++id)
+    for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
+    {
+      const std::uint32_t label = labels.block (id).labels[static_cast<std::size_t> (i)];
+      const float weight = blocks.block (id).voxels[static_cast<std::size_t> (i)].weight;
+      if (weight <= 0.f || label == 0)
+        continue;
+      auto& sum = sums[resolve (label)];
+      sum.first += weight;
+      ++sum.second;
+    }
+  std::unordered_map<std::uint32_t, double> out;
+  for (const auto& [object, sum] : sums)
+    out[object] = sum.first / static_cast<double> (sum.second);
+  return out;
+}
+}  // namespace
+
 std::unordered_map<std::uint32_t, std::uint32_t>
 GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels) const
 {
-  const auto confirm = static_cast<std::size_t> (evidence_.getConfig ().confirm_confidence);
-  std::unordered_map<std::uint32_t, bool> kept;  // object → confirmed or still being seen
+  const GlobalSegmentMapConfig& config = evidence_.getConfig ();
+  const auto confirm = static_cast<std::size_t> (config.confirm_confidence);
+  std::unordered_map<std::uint32_t, bool> loaded, recent;  // object → loaded, still being seen
+  std::unordered_map<std::uint32_t, std::size_t> most, seen;  // object → frames its most seen label was, all its labels were
   for (const auto& [label, record] : records_)
   {
-    bool& k = kept[resolve (label)];
-    k = k || record.loaded || record.frames_seen >= confirm || latest_frame_ - record.last_frame < confirm;
+    const std::uint32_t object = resolve (label);
+    loaded[object] = loaded[object] || record.loaded;
+    recent[object] = recent[object] || latest_frame_ - record.last_frame < confirm;
+    most[object] = std::max (most[object], record.frames_seen);
+    seen[object] += record.frames_seen;
+  }
+  // Confirmed: loaded, or one of its labels seen in confirm_confidence frames and its
+  // labels in confirm_share of the frames that observed its surface (summed: an object
+  // whose label changed over the run still counts every frame).
+  const std::unordered_map<std::uint32_t, double> observed =
+    config.confirm_share > 0.f ? meanObservations (volume.store (), labels, [this] (std::uint32_t l) { return resolve (l); })
+                               : std::unordered_map<std::uint32_t, double> ();
+  std::unordered_map<std::uint32_t, bool> kept;  // object → confirmed
+  for (const auto& [object, frames] : seen)
+  {
+    const auto it = observed.find (object);
+    kept[object] = loaded[object] || (most[object] >= confirm && (it == observed.end () ||
+                                                            static_cast<double> (frames) >= config.confirm_share * it->second));
   }
   std::unordered_map<std::uint32_t, std::uint32_t> target;  // object → what it shows as (fragments: once settled)
   for (const auto& [object, keep] : kept)
@@ -347,6 +395,16 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
                            return a.second < b.second || (a.second == b.second && a.first > b.first);
                          })->first;
   }
+  // A fragment still being seen that touches no confirmed object (the first frames of a
+  // run, a surface just come into view on its own) shows as itself until it is confirmed.
+  for (const auto& [object, keep] : kept)
+    if (!keep && recent[object] && !target.count (object))
+      target[object] = object;
+  // A fragment still being seen that touches no confirmed object (the first frames of a
+  // run, a surface just come into view on its own) shows as itself until it is confirmed.
+  for (const auto& [object, keep] : kept)
+    if (!keep && recent[object] && !target.count (object))
+      target[object] = object;
   std::unordered_map<std::uint32_t, std::uint32_t> out;
   for (const auto& [label, record] : records_)
   {

@@ -3,6 +3,7 @@
 #include <cuefusion/common/cpu_features.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
+#include <cuefusion/segmentation/concavity_edge_estimation.h>
 #include <cuefusion/segmentation/edge_operators.h>
 #include <cuefusion/segmentation/parallel.h>
 #include <cuefusion/segmentation/segment_propagation.h>
@@ -376,19 +377,49 @@ placeMapSegments (const SegmentPropagationConfig& config, const FrameOverlaps& o
   return placed;
 }
 
+/** How two frame segments that touch are parted: boundary samples where the frame shows a
+  * geometric edge and the model (V^m, N^m) is there on both sides, and those of them where
+  * the model shows the edge too. */
+struct Boundary
+{
+  int judged = 0, edges = 0;
+};
+using TouchingSegments = std::map<std::pair<std::size_t, std::size_t>, Boundary>;
+
+/** \brief Whether a surface (vertex and normal maps, CV_32FC3) shows an edge between pixels
+  * \a p and \a q: a depth jump of more than k·σ_d off either tangent plane (Γ, the
+  * depth-edge test) or a concave crease (Φ below the thesis's threshold, symmetric
+  * convexity test). -1 where it has no surface at one of them.
+  */
+inline int
+edgeBetween (const cv::Vec3f* vm, const cv::Vec3f* nm, std::size_t p, std::size_t q, float noise_factor)
+{
+  const Eigen::Vector3f vp (vm[p][0], vm[p][1], vm[p][2]), vq (vm[q][0], vm[q][1], vm[q][2]);
+  const Eigen::Vector3f np (nm[p][0], nm[p][1], nm[p][2]), nq (nm[q][0], nm[q][1], nm[q][2]);
+  if (!isFiniteVector (vp) || !isFiniteVector (vq) || !isFiniteVector (np) || !isFiniteVector (nq))
+    return -1;
+  static const float crease = ConcavityEdgeEstimationConfig ().threshold;
+  const bool jump = isDepthDiscontinuity (discontinuityTerm (vp, np, vq), noise_factor, vp, np) ||
+                    isDepthDiscontinuity (discontinuityTerm (vq, nq, vp), noise_factor, vq, nq);
+  return jump || concavityTermSymmetric (vp, np, vq, nq) < crease ? 1 : 0;
+}
+
 /** Frame segments that touch (within 2 pixels along a row or a column: an edge, or a
-  * mask's cut, lies between them), as sorted unique (smaller, larger) pairs. Pairs are
-  * gathered per row chunk (a repeat of the last pair is skipped: boundaries run along rows
-  * and columns), then sorted and made unique. */
-std::vector<std::pair<std::size_t, std::size_t>>
-touchingSegments (const cv::Mat& frame_labels)
+  * mask's cut, lies between them), by (smaller, larger) pair, with what the model shows
+  * across the samples of their boundary where the frame shows an edge. Gathered per row
+  * chunk, then summed. */
+TouchingSegments
+touchingSegments (const cv::Mat& frame_labels, const cv::Mat& vertices, const cv::Mat& normals, const cv::Mat& model_vertices,
+                  const cv::Mat& model_normals, float noise_factor)
 {
   const cv::Size size = frame_labels.size ();
-  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> chunk_touching (
-    static_cast<std::size_t> (chunkCount (size.height, kRowsPerChunk)));
+  const auto* v = vertices.ptr<cv::Vec3f> ();
+  const auto* n = normals.ptr<cv::Vec3f> ();
+  const auto* vm = model_vertices.ptr<cv::Vec3f> ();
+  const auto* nm = model_normals.ptr<cv::Vec3f> ();
+  std::vector<TouchingSegments> chunk_touching (static_cast<std::size_t> (chunkCount (size.height, kRowsPerChunk)));
   parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
-    auto& found = chunk_touching[static_cast<std::size_t> (k)];
-    std::pair<std::size_t, std::size_t> last (0, 0);
+    TouchingSegments& found = chunk_touching[static_cast<std::size_t> (k)];
     for (int y = begin; y < end; ++y)
     {
       const std::int32_t* row = frame_labels.ptr<std::int32_t> (y);
@@ -401,32 +432,53 @@ touchingSegments (const cv::Mat& frame_labels)
           continue;
         const std::int32_t others[4] = {x + 1 < size.width ? row[x + 1] : 0, x + 2 < size.width ? row[x + 2] : 0,
                                         below[0] ? below[0][x] : 0, below[1] ? below[1][x] : 0};
-        for (const std::int32_t b : others)
-          if (b > 0 && b != a)
+        const std::size_t here = static_cast<std::size_t> (y) * size.width + x;
+        const std::size_t there[4] = {here + 1, here + 2, here + size.width, here + 2 * static_cast<std::size_t> (size.width)};
+        for (int o = 0; o < 4; ++o)
+        {
+          const std::int32_t b = others[o];
+          if (b <= 0 || b == a)
+            continue;
+          Boundary& boundary = found[{static_cast<std::size_t> (std::min (a, b)), static_cast<std::size_t> (std::max (a, b))}];
+          // Only where the frame's own surface parts them: a cut along a mask or a colour
+          // boundary is no geometric edge for the model to confirm or deny.
+          if (edgeBetween (v, n, here, there[o], noise_factor) != 1)
+            continue;
+          const int edge = edgeBetween (vm, nm, here, there[o], noise_factor);
+          if (edge >= 0)
           {
-            const std::pair<std::size_t, std::size_t> pair (static_cast<std::size_t> (std::min (a, b)),
-                                                            static_cast<std::size_t> (std::max (a, b)));
-            if (pair != last)
-              found.push_back (last = pair);
+            ++boundary.judged;
+            boundary.edges += edge;
           }
+        }
       }
     }
   });
-  std::vector<std::pair<std::size_t, std::size_t>> touching;
-  for (const auto& found : chunk_touching)
-    touching.insert (touching.end (), found.begin (), found.end ());
-  std::sort (touching.begin (), touching.end ());
-  touching.erase (std::unique (touching.begin (), touching.end ()), touching.end ());
+  TouchingSegments touching;
+  for (const TouchingSegments& found : chunk_touching)
+    for (const auto& [pair, boundary] : found)
+    {
+      Boundary& sum = touching[pair];
+      sum.judged += boundary.judged;
+      sum.edges += boundary.edges;
+    }
   return touching;
 }
 
 /** The votes on each pair of placed map segments: together when one frame segment or one
   * instance holds both, apart when the masks set them apart (adjacent, or already a tracked
-  * pair) or when unsure segments touch. */
+  * pair). Where no mask speaks for either and they touch, the fused surface decides
+  * (SegmentPropagationConfig::model_edge_share): apart where it shows an edge along enough
+  * of their boundary (or cannot be judged), together where the frame's edge was noise it
+  * has averaged away. */
 void
-voteOnPairs (const std::vector<std::pair<std::uint32_t, std::size_t>>& placed, const std::vector<std::pair<std::size_t, std::size_t>>& touching,
-             const std::vector<int>& identity, const GlobalSegmentMap& map, PropagationResult& result)
+voteOnPairs (const SegmentPropagationConfig& config, const std::vector<std::pair<std::uint32_t, std::size_t>>& placed,
+             const TouchingSegments& touching, const std::vector<int>& identity, const GlobalSegmentMap& map,
+             PropagationResult& result)
 {
+  // Fewer judged samples than this (a corner, a boundary the model has not seen) leave the
+  // frame's edge to speak: two pixels' worth of boundary along 10 rows or columns.
+  constexpr int kMinJudged = 20;
   for (std::size_t p = 0; p < placed.size (); ++p)
     for (std::size_t q = p + 1; q < placed.size (); ++q)
     {
@@ -438,7 +490,8 @@ voteOnPairs (const std::vector<std::pair<std::uint32_t, std::size_t>>& placed, c
         continue;
       }
       const int ia = identity[ja], ib = identity[jb];
-      const bool adjacent = std::binary_search (touching.begin (), touching.end (), std::make_pair (std::min (ja, jb), std::max (ja, jb)));
+      const auto boundary = touching.find (std::make_pair (std::min (ja, jb), std::max (ja, jb)));
+      const bool adjacent = boundary != touching.end ();
       if (ia >= 0 && ia == ib)
         result.votes.emplace_back (a, b, PairVote::Together);
       else if ((ia >= 0 && ib >= 0) || (ia >= 0 && ib == kLeftOut) || (ia == kLeftOut && ib >= 0))
@@ -447,7 +500,11 @@ voteOnPairs (const std::vector<std::pair<std::uint32_t, std::size_t>>& placed, c
           result.votes.emplace_back (a, b, PairVote::Apart);
       }
       else if (adjacent && ia < 0 && ib < 0)
-        result.votes.emplace_back (a, b, PairVote::Apart);
+      {
+        const Boundary& seen = boundary->second;  // judged: where the frame shows an edge
+        const bool smooth = seen.judged >= kMinJudged && seen.edges < config.model_edge_share * seen.judged;
+        result.votes.emplace_back (a, b, smooth ? PairVote::Together : PairVote::Apart);
+      }
     }
 }
 }  // namespace
@@ -468,6 +525,8 @@ SegmentPropagationConfig::validate () const
     throw ParameterError ("SegmentPropagationConfig::noise_factor", "must be positive");
   if (min_segment_size < 1)
     throw ParameterError ("SegmentPropagationConfig::min_segment_size", "must be at least 1 pixel");
+  if (!(model_edge_share >= 0.f && model_edge_share <= 1.f))
+    throw ParameterError ("SegmentPropagationConfig::model_edge_share", "must lie in [0, 1]");
 }
 
 void
@@ -506,7 +565,9 @@ SegmentPropagation::propagate (const cv::Mat& vertices, const cv::Mat& normals, 
   const std::vector<std::uint32_t> given = giveLabels (config_, overlaps, wanted, identity, segments, map, frame, result);
   const std::vector<std::pair<std::uint32_t, std::size_t>> placed = placeMapSegments (config_, overlaps);
   if (placed.size () >= 2)
-    voteOnPairs (placed, touchingSegments (frame_labels), identity, map, result);
+    voteOnPairs (config_, placed,
+                 touchingSegments (frame_labels, vertices, normals, model_vertices, model_normals, config_.noise_factor),
+                 identity, map, result);
   finishLabels (frame_labels, given, result);
 }
 
