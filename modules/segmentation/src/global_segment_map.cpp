@@ -400,11 +400,6 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
   for (const auto& [object, keep] : kept)
     if (!keep && recent[object] && !target.count (object))
       target[object] = object;
-  // A fragment still being seen that touches no confirmed object (the first frames of a
-  // run, a surface just come into view on its own) shows as itself until it is confirmed.
-  for (const auto& [object, keep] : kept)
-    if (!keep && recent[object] && !target.count (object))
-      target[object] = object;
   std::unordered_map<std::uint32_t, std::uint32_t> out;
   for (const auto& [label, record] : records_)
   {
