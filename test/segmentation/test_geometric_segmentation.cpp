@@ -231,8 +231,10 @@ TEST (GeometricSegmentation, AStereoCamerasFrameIsSegmentedAtItsMeasuredNoise)
     // frame turns on single pixels, at either scale (the can joins the table at 1, the
     // ball at the measured scale): left to the map, which sees many frames.
     if (distance < 2.0)
+    {
       for (const std::uint16_t id : {2, 3, 4})
         EXPECT_NE (scoreObject (s, id).best_label, table.best_label) << "object " << id << ", " << where;
+    }
     const auto at_kinects = coverage (1.f, nullptr);
     EXPECT_LT (at_kinects.coverage, table.coverage - 0.1) << where;
     if (std::getenv ("CUEFUSION_TEST_VERBOSE"))

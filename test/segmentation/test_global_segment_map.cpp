@@ -189,9 +189,9 @@ protected:
   /** Integrate frame i, raycast, propagate, update the voxels; returns L^p. */
   cv::Mat
   step (std::size_t i, const cv::Mat& frame_labels_override = cv::Mat (),
-        const std::function<void (cv::Mat& normals)>& perturb_normals = nullptr)
+        const std::function<void (cv::Mat& normals)>& perturb_normals = nullptr, RGBDFrame::Ptr rendered = nullptr)
   {
-    const RGBDFrame::Ptr frame = sequence->frame (i);
+    const RGBDFrame::Ptr frame = rendered ? rendered : sequence->frame (i);  // a frame the test rendered already
     const Eigen::Isometry3d pose = sequence->poseAt (i);
     volume->integrate (frame->depth, frame->color, frame->camera, pose);
     reconstruction::RaycastResult model;
@@ -473,7 +473,9 @@ TEST_F (PropagationFixture, AnEdgeTheFusedSurfaceDoesNotShowUnitesThePiecesItPar
           if (frame->instance_mask.at<std::uint16_t> (y, x) == 4)
             labels.at<std::int32_t> (y, x) = x == middle ? 0 : 200;  // the right half: its own frame segment
       const cv::Mat mask = frame->instance_mask.clone ();
-      const cv::Mat lp = step (i, labels, [&] (cv::Mat& normals) {
+      const cv::Mat lp = step (
+        i, labels,
+        [&] (cv::Mat& normals) {
         for (int y = 0; y < normals.rows; ++y)
           for (int x = middle - 2; x <= middle + 2; ++x)
             if (x != middle && mask.at<std::uint16_t> (y, x) == 4)
@@ -482,7 +484,8 @@ TEST_F (PropagationFixture, AnEdgeTheFusedSurfaceDoesNotShowUnitesThePiecesItPar
               n[0] += x < middle ? 0.3f : -0.3f;  // turned towards each other: a valley
               n /= cv::norm (n);
             }
-      });
+        },
+        frame);
       cv::Mat left_half = cv::Mat::zeros (truth.size (), CV_16U), right_half = cv::Mat::zeros (truth.size (), CV_16U);
       truth.colRange (0, middle).copyTo (left_half.colRange (0, middle));
       truth.colRange (middle + 1, truth.cols).copyTo (right_half.colRange (middle + 1, truth.cols));
@@ -541,7 +544,7 @@ TEST_F (PropagationFixture, ASplinterCarriedInFewOfTheFramesThatSawItSettlesInto
           labels.at<std::int32_t> (y, x) = 0;
       }
     ASSERT_GE (centre.x, 0) << "the patch is not in view, frame " << i;
-    const cv::Mat lp = step (i, labels);
+    const cv::Mat lp = step (i, labels, nullptr, frame);
     if (i == 0)
       splinter = static_cast<std::uint32_t> (lp.at<std::int32_t> (centre));
     table = majority (lp, 4);
