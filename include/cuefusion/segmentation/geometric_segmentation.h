@@ -12,6 +12,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -68,6 +69,11 @@ struct GeometricSegmentationConfig
   void validate () const;
   /** \brief A copy whose noise thresholds (see noise_scale) are multiplied by \a scale. */
   GeometricSegmentationConfig noiseScaled (float scale) const;
+  /** \brief True when the scale is measured (noise_scale 0). */
+  bool measuresNoise () const { return noise_scale <= 0.f; }
+  /** \brief The scale the thresholds take: noise_scale when above 0, else \a measured_ratio
+    * (a depth's noise over the Kinect model's), never below 1. The one home of that rule. */
+  float scaleFor (float measured_ratio) const { return measuresNoise () ? std::max (1.f, measured_ratio) : noise_scale; }
 };
 
 /** \brief The scale noise_scale stands for on a depth image (CV_32F metres, 0 or NaN
@@ -83,8 +89,8 @@ template <typename PointT>
 float
 resolveNoiseScale (const GeometricSegmentationConfig& config, const pcl::PointCloud<PointT>& cloud)
 {
-  if (config.noise_scale > 0.f)
-    return config.noise_scale;
+  if (!config.measuresNoise ())
+    return config.scaleFor (0.f);
   cv::Mat raw_depth (static_cast<int> (cloud.height), static_cast<int> (cloud.width), CV_32F);
   float* z = raw_depth.ptr<float> ();
   for (std::size_t i = 0; i < cloud.size (); ++i)

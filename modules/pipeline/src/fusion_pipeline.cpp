@@ -98,7 +98,7 @@ FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
 {
   config_.validate ();
   // Until the noise is measured (or as configured), the thresholds' own scale.
-  noise_scale_ = config_.geometry.noise_scale > 0.f ? config_.geometry.noise_scale : 1.f;
+  noise_scale_ = config_.geometry.scaleFor (1.f);
   if (noise_scale_ != 1.f)
   {
     const float scale = noise_scale_;
@@ -162,7 +162,7 @@ FusionPipeline::applyNoiseScale (float scale)
 void
 FusionPipeline::followNoise (const RGBDFrame& frame)
 {
-  if (config_.geometry.noise_scale > 0.f ||
+  if (!config_.geometry.measuresNoise () ||
       noise_ratios_.size () >= static_cast<std::size_t> (config_.noise_estimation_frames))
     return;
   // A frame showing little surface (a blackout, a far wall half out of range) is not
@@ -175,7 +175,7 @@ FusionPipeline::followNoise (const RGBDFrame& frame)
   std::vector<float> ratios = noise_ratios_;
   const auto middle = ratios.begin () + static_cast<std::ptrdiff_t> (ratios.size () / 2);
   std::nth_element (ratios.begin (), middle, ratios.end ());
-  applyNoiseScale (std::max (1.f, *middle));
+  applyNoiseScale (config_.geometry.scaleFor (*middle));
 }
 
 PipelineFrameReport

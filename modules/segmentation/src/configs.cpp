@@ -76,9 +76,7 @@ GeometricSegmentationConfig::noiseScaled (float scale) const
 float
 resolveNoiseScale (const GeometricSegmentationConfig& config, const cv::Mat& raw_depth)
 {
-  if (config.noise_scale > 0.f)
-    return config.noise_scale;
-  return std::max (1.f, reconstruction::estimateDepthNoise (raw_depth).ratio);
+  return config.measuresNoise () ? config.scaleFor (reconstruction::estimateDepthNoise (raw_depth).ratio) : config.scaleFor (0.f);
 }
 
 void
