@@ -420,6 +420,10 @@ touchingSegments (const cv::Mat& frame_labels, const cv::Mat& vertices, const cv
   std::vector<TouchingSegments> chunk_touching (static_cast<std::size_t> (chunkCount (size.height, kRowsPerChunk)));
   parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
     TouchingSegments& found = chunk_touching[static_cast<std::size_t> (k)];
+    // Boundary samples come in runs of one pair: the last pair's entry saves a map lookup
+    // per sample (std::map's nodes stay where they are as others are added).
+    std::pair<std::size_t, std::size_t> last_pair{0, 0};
+    Boundary* last = nullptr;
     for (int y = begin; y < end; ++y)
     {
       const std::int32_t* row = frame_labels.ptr<std::int32_t> (y);
@@ -439,7 +443,13 @@ touchingSegments (const cv::Mat& frame_labels, const cv::Mat& vertices, const cv
           const std::int32_t b = others[o];
           if (b <= 0 || b == a)
             continue;
-          Boundary& boundary = found[{static_cast<std::size_t> (std::min (a, b)), static_cast<std::size_t> (std::max (a, b))}];
+          const std::pair<std::size_t, std::size_t> pair{static_cast<std::size_t> (std::min (a, b)), static_cast<std::size_t> (std::max (a, b))};
+          if (!last || pair != last_pair)
+          {
+            last = &found[pair];
+            last_pair = pair;
+          }
+          Boundary& boundary = *last;
           // Only where the frame's own surface parts them: a cut along a mask or a colour
           // boundary is no geometric edge for the model to confirm or deny.
           if (edgeBetween (v, n, here, there[o], noise_factor) != 1)
