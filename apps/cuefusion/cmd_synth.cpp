@@ -3,6 +3,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/progress.h>
+#include <cuefusion/io/random_room.h>
 #include <cuefusion/io/random_scene.h>
 #include <cuefusion/io/synthetic_sequence.h>
 
@@ -28,17 +29,20 @@ parseSize (const std::string& size, int& width, int& height)
 int
 runSynth (const std::vector<std::string>& args)
 {
-  std::string scene_name, layout_name, out, size;
+  std::string scene_name, room, layout_name, out, size;
   io::SyntheticSequenceConfig config;
   long long frames = 0;  // signed: "-5" must not wrap to 2^64 - 5
   std::string sensor = "kinect";
   io::DetectorErrorConfig& det = config.detector;
   po::options_description options ("options");
   options.add_options ()
-    ("scene", po::value (&scene_name)->required (), "scene NAME (data/scenes/NAME.scene) or scene FILE")
+    ("scene", po::value (&scene_name), "scene NAME (data/scenes/NAME.scene) or scene FILE")
+    ("room", po::value (&room), "instead of --scene: a random room of this kind (kitchen, office, living) drawn from --seed, "
+     "seen along a hand-held path from 1-4 m")
+    ("print-scene", "print the scene file (of --scene or --room) and stop")
     ("frames", po::value (&frames)->default_value (static_cast<long long> (config.frames)), "number of frames")
     ("layout", po::value (&layout_name)->default_value ("tum"), "dataset layout: tum, scannet, redwood, 7scenes")
-    ("out", po::value (&out)->required (), "output folder (must not exist or be empty)")
+    ("out", po::value (&out), "output folder (must not exist or be empty)")
     ("seed", po::value (&config.seed)->default_value (config.seed), "seed of every random choice")
     ("size", po::value (&size), "image size WxH (default: the scene's camera), e.g. 320x240")
     ("fps", po::value (&config.fps)->default_value (config.fps), "frame rate of the timestamps")
@@ -64,8 +68,12 @@ runSynth (const std::vector<std::string>& args)
     ("overwrite", "replace OUT if it exists");
   po::positional_options_description positional;
   po::variables_map vm;
-  if (!parseCommandLine ("synth", "--scene NAME|FILE --out DIR [options]", args, options, positional, vm))
+  if (!parseCommandLine ("synth", "--scene NAME|FILE|--room TYPE --out DIR [options]", args, options, positional, vm))
     return 0;
+  if (scene_name.empty () == room.empty ())
+    throw UsageError ("give one of --scene and --room");
+  if (out.empty () && !vm.count ("print-scene"))
+    throw UsageError ("the option '--out' is required but missing");
   if (frames < 1 || frames > 1000000)
     throw ParameterError ("--frames", "must lie in [1, 1000000], got " + std::to_string (frames));
   config.frames = static_cast<std::size_t> (frames);
@@ -79,8 +87,16 @@ runSynth (const std::vector<std::string>& args)
     parseSize (size, config.width, config.height);
   const io::DatasetLayout layout = io::parseDatasetLayout (layout_name);
   config.validate ();
-  const io::SyntheticScene scene =
-    io::SyntheticScene::load (io::resolveScenePath (scene_name, io::defaultScenesDir ()));
+  io::RoomConfig room_config;
+  if (!room.empty ())
+    room_config.type = io::parseRoomType (room, "--room");
+  const io::SyntheticScene scene = room.empty () ? io::SyntheticScene::load (io::resolveScenePath (scene_name, io::defaultScenesDir ()))
+                                                 : io::generateRoom (room_config, config.seed);
+  if (vm.count ("print-scene"))
+  {
+    std::cout << scene.text ();
+    return 0;
+  }
   const io::SyntheticSequence sequence (scene, config);
 
   ProgressReporter progress ("synth", sequence.size ());

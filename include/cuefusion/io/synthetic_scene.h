@@ -58,6 +58,9 @@ struct SceneObject
   /// poster: what features are found on in real scenes; flat shading has almost none)
   bool print = false;
   std::vector<Primitive> parts;
+
+  /** \brief Axis-aligned box around every part (world). */
+  Eigen::AlignedBox3d bounds () const;
 };
 
 /** \brief Camera-to-world pose (x right, y down, z forward) at \a eye looking at
@@ -81,6 +84,25 @@ struct OrbitTrajectory
   Eigen::Isometry3d poseAt (double s) const;
 };
 
+/** \brief A point of a hand-held camera path: where the camera is and the point it looks at. */
+struct CameraWaypoint
+{
+  Eigen::Vector3d eye = Eigen::Vector3d::Zero ();
+  Eigen::Vector3d target = Eigen::Vector3d::UnitX ();
+};
+
+/** \brief A hand-held camera's path through waypoints: the eye and the point looked at each
+  * follow a Catmull-Rom spline through theirs (it passes through every waypoint, with no
+  * kinks), the waypoints passed at equal steps of s, so the camera slows where they are near.
+  */
+struct CameraPath
+{
+  std::vector<CameraWaypoint> waypoints;
+
+  /** \brief Camera-to-world pose at s ∈ [0, 1]; needs two waypoints or more. */
+  Eigen::Isometry3d poseAt (double s) const;
+};
+
 /** \brief A procedural scene read from a small text file (data/scenes/NAME.scene):
   *
   * \code
@@ -94,6 +116,10 @@ struct OrbitTrajectory
   * object ball class=sports_ball color=40,40,200
   *   sphere center=-0.3,0,0.8 radius=0.06
   * \endcode
+  * A camera path through waypoints replaces the orbit (two or more lines, in order):
+  * \code
+  * waypoint eye=1.0,1.2,1.5 target=3.0,2.5,0.9
+  * \endcode
   * "_" in class names stands for a space. "detectable=no" marks stuff a detector does
   * not report (floor, walls), "texture=checker" a checkerboard, "texture=print" a printed pattern
   * (SceneObject::print). World z is up.
@@ -103,7 +129,12 @@ struct SyntheticScene
   std::string name;
   PinholeCamera camera;
   OrbitTrajectory trajectory;
+  CameraPath path;               ///< when it has waypoints, the camera follows it instead of the orbit
   std::vector<SceneObject> objects;
+
+  /** \brief Camera-to-world pose at s ∈ [0, 1] of the sequence: along the path when it has
+    * waypoints, else on the orbit. */
+  Eigen::Isometry3d cameraPoseAt (double s) const;
 
   /** \brief Distinct class names in order of first appearance; class id = index + 1. */
   std::vector<std::string> classNames () const;
@@ -111,6 +142,8 @@ struct SyntheticScene
   const SceneObject* objectById (std::uint16_t id) const;
 
   static SyntheticScene parse (const std::string& text, const std::string& source);
+  /** \brief The scene as the text parse() reads (numbers to 6 significant digits). */
+  std::string text () const;
   static SyntheticScene load (const std::string& path);
 };
 

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <iomanip>
 #include <map>
 #include <sstream>
 
@@ -255,6 +256,53 @@ lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::
   return pose;
 }
 
+Eigen::Isometry3d
+CameraPath::poseAt (double s) const
+{
+  if (waypoints.size () < 2)
+    throw ParameterError ("CameraPath::waypoints", "a path needs two waypoints or more");
+  const double x = std::clamp (s, 0.0, 1.0) * static_cast<double> (waypoints.size () - 1);
+  const std::size_t i = std::min (static_cast<std::size_t> (x), waypoints.size () - 2);
+  const double t = x - static_cast<double> (i);
+  const auto point = [&] (std::ptrdiff_t k) {
+    return waypoints[static_cast<std::size_t> (std::clamp<std::ptrdiff_t> (k, 0, static_cast<std::ptrdiff_t> (waypoints.size ()) - 1))];
+  };
+  // Uniform Catmull-Rom through P1 (t = 0) and P2 (t = 1), the ends repeated.
+  const auto spline = [t] (const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
+                           const Eigen::Vector3d& p3) -> Eigen::Vector3d {
+    return 0.5 * (2.0 * p1 + (p2 - p0) * t + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * t * t +
+                  (3.0 * p1 - p0 - 3.0 * p2 + p3) * t * t * t);
+  };
+  const auto k = static_cast<std::ptrdiff_t> (i);
+  const Eigen::Vector3d eye = spline (point (k - 1).eye, point (k).eye, point (k + 1).eye, point (k + 2).eye);
+  const Eigen::Vector3d target = spline (point (k - 1).target, point (k).target, point (k + 1).target, point (k + 2).target);
+  return lookAt (eye, target);
+}
+
+Eigen::AlignedBox3d
+SceneObject::bounds () const
+{
+  Eigen::AlignedBox3d box;
+  for (const Primitive& p : parts)
+  {
+    Eigen::Vector3d half = p.half_size;
+    if (p.type == Primitive::Type::Box)
+    {
+      const double c = std::abs (std::cos (p.yaw)), s = std::abs (std::sin (p.yaw));
+      half.head<2> () = Eigen::Vector2d (c * p.half_size.x () + s * p.half_size.y (), s * p.half_size.x () + c * p.half_size.y ());
+    }
+    box.extend (p.center - half);
+    box.extend (p.center + half);
+  }
+  return box;
+}
+
+Eigen::Isometry3d
+SyntheticScene::cameraPoseAt (double s) const
+{
+  return path.waypoints.empty () ? trajectory.poseAt (s) : path.poseAt (s);
+}
+
 std::vector<std::string>
 SyntheticScene::classNames () const
 {
@@ -442,6 +490,16 @@ SyntheticScene::parse (const std::string& text, const std::string& source)
       t.bob = p.scalar ("bob", t.bob);
       requirePositive (where, "radius", t.radius);
     }
+    else if (kind == "waypoint")
+    {
+      CameraWaypoint w;
+      w.eye = p.vector3 ("eye", w.eye, true);
+      w.target = p.vector3 ("target", w.target, true);
+      const Eigen::Vector3d view = w.target - w.eye;
+      if (!(view.norm () > 1e-3) || !(view.head<2> ().norm () > 1e-3 * view.norm ()))
+        throw Error (where, "a waypoint's target must lie away from its eye, and not straight above or below it");
+      scene.path.waypoints.push_back (w);
+    }
     else if (kind == "object")
     {
       if (p.positional ().size () != 1)
@@ -499,15 +557,59 @@ SyntheticScene::parse (const std::string& text, const std::string& source)
       scene.objects.back ().parts.push_back (prim);
     }
     else
-      throw Error (where, "unknown line '" + kind + "' (scene, camera, trajectory, object, box, cylinder, sphere)");
+      throw Error (where, "unknown line '" + kind + "' (scene, camera, trajectory, waypoint, object, box, cylinder, sphere)");
     p.finish ();
   }
   if (scene.objects.empty ())
     throw Error (source, "scene has no objects");
+  if (scene.path.waypoints.size () == 1)
+    throw Error (source, "a camera path needs two waypoints or more, found one");
   for (const SceneObject& o : scene.objects)
     if (o.parts.empty ())
       throw Error (source, "object '" + o.name + "' has no box, cylinder or sphere");
   return scene;
+}
+
+std::string
+SyntheticScene::text () const
+{
+  std::ostringstream out;
+  out << std::setprecision (6);
+  const auto v3 = [&out] (const Eigen::Vector3d& v) -> std::ostream& { return out << v.x () << "," << v.y () << "," << v.z (); };
+  out << "scene " << name << "\ncamera " << camera.width << " " << camera.height << " " << camera.fx << " " << camera.fy << " "
+      << camera.cx << " " << camera.cy << "\n";
+  out << "trajectory target=";
+  v3 (trajectory.target) << " radius=" << trajectory.radius << " height=" << trajectory.height << " start=" << trajectory.start_deg
+                         << " sweep=" << trajectory.sweep_deg << " bob=" << trajectory.bob << "\n";
+  for (const CameraWaypoint& w : path.waypoints)
+  {
+    out << "waypoint eye=";
+    v3 (w.eye) << " target=";
+    v3 (w.target) << "\n";
+  }
+  for (const SceneObject& o : objects)
+  {
+    out << "object " << o.name << " class=" << boost::algorithm::replace_all_copy (o.class_name, " ", "_") << " color="
+        << int (o.rgb[0]) << "," << int (o.rgb[1]) << "," << int (o.rgb[2]) << " detectable=" << (o.detectable ? "yes" : "no")
+        << " texture=" << (o.checker ? "checker" : o.print ? "print" : "plain") << "\n";
+    for (const Primitive& p : o.parts)
+    {
+      out << "  " << (p.type == Primitive::Type::Box ? "box" : p.type == Primitive::Type::Cylinder ? "cylinder" : "sphere")
+          << " center=";
+      v3 (p.center);
+      if (p.type == Primitive::Type::Box)
+      {
+        out << " size=";
+        v3 (2.0 * p.half_size) << " yaw=" << p.yaw * 180.0 / kPi;
+      }
+      else if (p.type == Primitive::Type::Cylinder)
+        out << " radius=" << p.half_size.x () << " height=" << 2.0 * p.half_size.z ();
+      else
+        out << " radius=" << p.half_size.x ();
+      out << "\n";
+    }
+  }
+  return out.str ();
 }
 
 SyntheticScene

@@ -45,7 +45,7 @@ Eigen::Isometry3d
 SyntheticSequence::poseAt (std::size_t i) const
 {
   const double s = config_.frames > 1 ? static_cast<double> (i) / static_cast<double> (config_.frames - 1) : 0.0;
-  return scene_.trajectory.poseAt (s);
+  return scene_.cameraPoseAt (s);
 }
 
 RGBDFrame::Ptr
@@ -137,7 +137,8 @@ sceneJson (const SyntheticSequence& sequence)
                           {"name", o.name},
                           {"class_id", scene.classIdOf (o)},
                           {"class_name", o.class_name},
-                          {"detectable", o.detectable}});
+                          {"detectable", o.detectable},
+                          {"size", {o.bounds ().sizes ().x (), o.bounds ().sizes ().y (), o.bounds ().sizes ().z ()}}});
   const PinholeCamera& c = sequence.camera ();
   nlohmann::json j = {{"scene", scene.name},
                       {"frames", sequence.size ()},
