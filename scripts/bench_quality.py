@@ -14,10 +14,15 @@ build on the same sequences (scored by this build's eval). `--distance MIN-MAX` 
 each scene from across a room instead: per scene and seed a distance drawn uniformly in
 [MIN, MAX] m and an elevation in 15-30 degrees (a hand-held camera looking at a table from
 standing height), the scene's own azimuths, and the runs given the true poses
-(`--use-gt-poses`: tracking is not the question). Prints Markdown for docs/benchmarks.md:
-medians over seeds, with min-max.
+(`--use-gt-poses`: tracking is not the question). Scenes named kitchen, office or living
+are random rooms instead (`cuefusion synth --room TYPE --seed SEED`: a new room per seed,
+3-6 m across, a hand-held path from 1-4 m, `--room-frames` frames); for them the report
+adds the mean object IoU by object size (largest side < 0.3 m, 0.3-1 m, >= 1 m, stuff
+included) and segments per object and stuff surface. Prints Markdown for
+docs/benchmarks.md: medians over seeds, with min-max.
 """
 import argparse
+import csv
 import datetime
 import json
 import math
@@ -32,6 +37,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_reconstruction import machine  # noqa: E402
 
 SCENES = ["tabletop", "clutter"]
+ROOMS = ["kitchen", "office", "living"]  # random rooms (cuefusion synth --room)
+SIZES = [("small (< 0.3 m)", 0.0, 0.3), ("medium (0.3–1 m)", 0.3, 1.0), ("large (≥ 1 m)", 1.0, float("inf"))]
 # Simulated detector settings (cuefusion synth --mask-* options). Merges and splits are
 # drawn per pair/mask and frame, as real networks fail in some views and not in others.
 LEVELS = [
@@ -76,6 +83,20 @@ def run(cmd):
         sys.exit("bench_quality: %s failed (exit %d): %s" % (" ".join(cmd), done.returncode, done.stderr.strip()[-2000:]))
 
 
+def iou_by_size(seq, report_dir):
+    """Mean object IoU of the instances in each of SIZES (by the largest side of their box)."""
+    with open(os.path.join(seq, "scene.json")) as f:
+        sizes = {i["id"]: max(i["size"]) for i in json.load(f)["instances"]}
+    by_size = {name: [] for name, _, _ in SIZES}
+    with open(os.path.join(report_dir, "object_iou.csv")) as f:
+        for row in csv.DictReader(f):
+            extent = sizes[int(row["instance"])]
+            for name, lo, hi in SIZES:
+                if lo <= extent < hi:
+                    by_size[name].append(float(row["mean_iou"]))
+    return {name: statistics.mean(v) if v else float("nan") for name, v in by_size.items()}
+
+
 def evaluate(binary, seq, run_dir, report_dir):
     run([binary, "eval", "--run", run_dir, "--gt", seq, "--out", report_dir, "--no-plots"])
     with open(os.path.join(report_dir, "report.json")) as f:
@@ -87,6 +108,8 @@ def evaluate(binary, seq, run_dir, report_dir):
     return {"iou": r["object_iou"]["mean"] or 0.0, "ap": ap["ap"], "ap50": ap["ap50"], "ap25": ap["ap25"],
             "ate": r["tracking"]["ate"]["rmse"] if r["tracking"] else float("nan"),
             "segments": sum(1 for s in segments if s["voxels"] >= 100),
+            "per_surface": sum(1 for s in segments if s["voxels"] >= 100) / scene_objects(seq),
+            "by_size": iou_by_size(seq, report_dir),
             "over": counts.get("over_segmented", float("nan")), "under": counts.get("under_segmented", float("nan"))}
 
 
@@ -112,6 +135,7 @@ def main():
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--model", default=NETWORK, help="the network of the `network` level (default: the shipped one)")
     parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--room-frames", type=int, default=150, help="frames of a room's sequence")
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--levels", default=",".join(name for name, _ in LEVELS))
     parser.add_argument("--distance", help="MIN-MAX: view the scenes from this far (m, drawn per seed) with the true poses")
@@ -136,9 +160,11 @@ def main():
                         scene_arg, distance, elevation = far_scene(scene, seed, distance_range, seq + ".scene")
                         if level == levels[0][0]:
                             drawn.append(f"{scene} seed {seed}: {distance:.2f} m, {elevation:.0f}°")
-                    run([args.binary, "synth", "--scene", scene_arg, "--frames", str(args.frames), "--layout", "redwood",
+                    source = ["--room", scene, "--frames", str(args.room_frames)] if scene in ROOMS else \
+                        ["--scene", scene_arg, "--frames", str(args.frames)]
+                    run([args.binary, "synth"] + source + ["--layout", "redwood",
                          "--noise", "--sensor", args.sensor, "--seed", str(seed), "--out", seq] + options)
-                    objects[scene] = scene_objects(seq)
+                    objects.setdefault(scene, set()).add(scene_objects(seq))
                     for mode in modes:
                         if mode == "geometry" and geometry is not None:
                             results.setdefault((scene, level, mode), []).append(geometry)
@@ -154,6 +180,7 @@ def main():
                             geometry = scores
                         results.setdefault((scene, level, mode), []).append(scores)
                         print(f"{scene} seed {seed} {level:9s} {mode:14s} IoU {scores['iou']:.3f} AP50 {scores['ap50']:.3f} "
+                              + " ".join(f"{k.split()[0]} {v:.2f}" for k, v in scores["by_size"].items()) + " "
                               f"AP25 {scores['ap25']:.3f} segments {scores['segments']} over {scores['over']} "
                               f"under {scores['under']} ATE {scores['ate']*100:.2f} cm", file=sys.stderr)
                     subprocess.run(["rm", "-rf", seq] + [os.path.join(tmp, d) for d in os.listdir(tmp) if d.startswith("run-")])
@@ -164,7 +191,7 @@ def main():
     scenes_option = "" if args.scenes == ",".join(SCENES) else f" --scenes {args.scenes}"
     sensor = {"kinect": "Kinect depth noise", "realsense": "RealSense-like stereo depth (noise ∝ z², speckle, edge fattening, holes on dark surfaces)"}[args.sensor]
     print(f"Command: `scripts/bench quality {args.seeds}{only}{scenes_option}{far}` ({datetime.date.today()}, {machine()}). "
-          f"Scenes {', '.join(scenes)}; {args.frames} frames at 640×480 with {sensor}, "
+          f"Scenes {', '.join(scenes)}; {args.frames} frames ({args.room_frames} for a room) at 640×480 with {sensor}, "
           + (f"seen from {args.distance} m ({'; '.join(drawn)}), the true poses given; " if distance_range else "camera tracked by ICP; ") +
           f"seeds 1–{args.seeds} (noise and detector errors). "
           "Scores: mean per-frame object IoU of the final map seen from the estimated poses; class-agnostic "
@@ -180,7 +207,9 @@ def main():
         else:
             print(f"- {level}: `{' '.join(options) if options else '(none)'}`")
     for scene in scenes:
-        print(f"\n#### {scene} ({objects[scene]} objects and stuff surfaces)\n")
+        counts = sorted(objects[scene])
+        shown = str(counts[0]) if len(counts) == 1 else f"{counts[0]}–{counts[-1]}"
+        print(f"\n#### {scene} ({shown} objects and stuff surfaces{', a new room per seed' if scene in ROOMS else ''})\n")
         print("| detector | mode | mean object IoU | AP50 | AP25 | AP | segments ≥ 100 voxels | over | under | ATE (cm) |")
         print("|---|---|---|---|---|---|---|---|---|---|")
         for level, _ in levels:
@@ -199,6 +228,18 @@ def main():
             ok = all(med["fused"][k] >= med[m][k] for k in ("iou", "ap50") for m in ("geometry", "masks"))
             print(f"| {scene} | {level} | {med['fused']['iou']:.2f} / {med['geometry']['iou']:.2f} / {med['masks']['iou']:.2f} | "
                   f"{med['fused']['ap50']:.2f} / {med['geometry']['ap50']:.2f} / {med['masks']['ap50']:.2f} | {'✓' if ok else '✗'} |")
+    rooms = [scene for scene in scenes if scene in ROOMS]
+    if rooms:
+        print("\nRooms: mean object IoU by object size (largest side of its box; stuff is large) and segments of ≥ 100 voxels "
+              "per object and stuff surface (medians over seeds, min–max):\n")
+        print("| room | detector | mode | " + " | ".join(name for name, _, _ in SIZES) + " | segments per surface |")
+        print("|---|---|---|" + "---|" * len(SIZES) + "---|")
+        for scene in rooms:
+            for level, _ in levels:
+                for mode in modes:
+                    s = results[(scene, level, mode)]
+                    print(f"| {scene} | {level} | {mode} | " + " | ".join(cell([x['by_size'][name] for x in s]) for name, _, _ in SIZES)
+                          + f" | {cell([x['per_surface'] for x in s])} |")
 
 
 if __name__ == "__main__":
