@@ -158,6 +158,8 @@ fields (V& v, ConcavityEdgeEstimationConfig& c)
   v ("threshold", c.threshold);
   v ("neighbour_step", c.neighbour_step);
   v ("noise_slope", c.noise_slope);
+  v ("wide_step", c.wide_step);
+  v ("wide_noise_slope", c.wide_noise_slope);
 }
 
 template <class V>

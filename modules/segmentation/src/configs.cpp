@@ -33,6 +33,9 @@ ConcavityEdgeEstimationConfig::validate () const
   require (neighbour_step >= 1 && neighbour_step <= 16, "ConcavityEdgeEstimationConfig::neighbour_step", "must be 1..16 pixels");
   require (std::isfinite (noise_slope) && noise_slope >= 0.f && noise_slope <= 1000.f, "ConcavityEdgeEstimationConfig::noise_slope",
            "must lie in [0, 1000]");
+  require (wide_step >= 0 && wide_step <= 16, "ConcavityEdgeEstimationConfig::wide_step", "must be 0..16 pixels (0: no wide test)");
+  require (std::isfinite (wide_noise_slope) && wide_noise_slope >= 0.f && wide_noise_slope <= 1000.f,
+           "ConcavityEdgeEstimationConfig::wide_noise_slope", "must lie in [0, 1000]");
 }
 
 void
@@ -69,6 +72,7 @@ GeometricSegmentationConfig::noiseScaled (float scale) const
   GeometricSegmentationConfig out = *this;
   out.preprocessing.bilateral.noise_range_sigma *= scale;
   out.concavity.noise_slope *= scale;
+  out.concavity.wide_noise_slope *= scale;
   out.discontinuity.noise_factor *= scale;
   return out;
 }

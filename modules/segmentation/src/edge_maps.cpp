@@ -112,19 +112,79 @@ edgeRow (const SurfacePlanes& planes, int y, int step, ConvexityTest test, float
   }
 }
 
+/** Φ_w of row y for one direction (dx, dy) (ConcavityEdgeEstimationConfig::wide_step): the
+  * normals at u − s·(dx, dy) and u + s·(dx, dy), the same terms as edgeRowPass's. */
+template <bool kSymmetric>
+CUEFUSION_AVX2_CLONES void
+wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float* __restrict phi)
+{
+  const int w = p.width;
+  if (y - s * std::abs (dy) < 0 || y + s * std::abs (dy) >= p.height)
+    return;
+  const int x0 = s * std::abs (dx), x1 = w - s * std::abs (dx);
+  const std::ptrdiff_t a = static_cast<std::ptrdiff_t> (y - s * dy) * w - s * dx, b = static_cast<std::ptrdiff_t> (y + s * dy) * w + s * dx;
+  const float* __restrict X = p.x.data () + a;
+  const float* __restrict Y = p.y.data () + a;
+  const float* __restrict Z = p.z.data () + a;
+  const float* __restrict NX = p.nx.data () + a;
+  const float* __restrict NY = p.ny.data () + a;
+  const float* __restrict NZ = p.nz.data () + a;
+  const float* __restrict Xi = p.x.data () + b;
+  const float* __restrict Yi = p.y.data () + b;
+  const float* __restrict Zi = p.z.data () + b;
+  const float* __restrict NXi = p.nx.data () + b;
+  const float* __restrict NYi = p.ny.data () + b;
+  const float* __restrict NZi = p.nz.data () + b;
+  for (int x = x0; x < x1; ++x)
+  {
+    const float ex = Xi[x] - X[x], ey = Yi[x] - Y[x], ez = Zi[x] - Z[x];
+    const float agreement = NX[x] * NXi[x] + NY[x] * NYi[x] + NZ[x] * NZi[x];
+    const float convexity =
+      kSymmetric ? (NXi[x] - NX[x]) * ex + (NYi[x] - NY[x]) * ey + (NZi[x] - NZ[x]) * ez : -(ex * NX[x] + ey * NY[x] + ez * NZ[x]);
+    const bool convex = kSymmetric ? convexity >= 0.f : convexity > 0.f;
+    phi[x] = std::min (phi[x], convex ? 1.f : agreement);  // NaN when either side lacks a point or normal
+  }
+}
+
+/** Φ_w of row y over the four directions (1 where no pair of normals is concave). */
+void
+wideRow (const SurfacePlanes& planes, int y, int s, ConvexityTest test, float* phi)
+{
+  std::fill (phi, phi + planes.width, 1.f);
+  for (const auto& d : std::array<std::array<int, 2>, 4>{{{{1, 0}}, {{0, 1}}, {{1, 1}}, {{1, -1}}}})
+  {
+    if (test == ConvexityTest::NormalDivergence)
+      wideRowPass<true> (planes, y, s, d[0], d[1], phi);
+    else
+      wideRowPass<false> (planes, y, s, d[0], d[1], phi);
+  }
+}
+
 /** Φ < the threshold at each pixel's depth: the configured one, lowered where the
   * normals' noise exceeds it (ConcavityEdgeEstimationConfig::noise_slope): with θ = s·σ_z(z)/z,
-  * 1 − θ²/2 (the cosine to second order, so the loop vectorises).
+  * 1 − θ²/2 (the cosine to second order, so the loop vectorises). Where θ exceeds what a
+  * right-angle crease turns the normals by per pixel, also Φ_w (\a phi_wide, null without
+  * the wide test) < cos θ_w(z) (ConcavityEdgeEstimationConfig::wide_step).
   */
 CUEFUSION_AVX2_CLONES void
-concavityEdgeRow (const float* __restrict phi, const float* __restrict z, int w, float threshold, float noise_slope,
-                  std::uint8_t* __restrict out)
+concavityEdgeRow (const float* __restrict phi, const float* __restrict phi_wide, const float* __restrict z, int w,
+                  const ConcavityEdgeEstimationConfig& config, std::uint8_t* __restrict out)
 {
+  const float threshold = config.threshold, noise_slope = config.noise_slope, wide_slope = config.wide_noise_slope;
+  constexpr float kRightAngle = 1.57079633f;
+  const float blend = phi_wide ? kRightAngle / (2.f * static_cast<float> (config.wide_step)) : std::numeric_limits<float>::infinity ();
   for (int x = 0; x < w; ++x)
   {
-    const float theta = noise_slope * axialNoiseLowerBound (z[x]) / z[x];  // σ_z at normal incidence
+    const float relative_noise = axialNoiseLowerBound (z[x]) / z[x];  // σ_z at normal incidence over z
+    const float theta = noise_slope * relative_noise;
     const float t = std::min (threshold, 1.f - 0.5f * theta * theta);
-    out[x] = phi[x] < t ? 1 : 0;  // NaN compares false: no edge
+    bool edge = phi[x] < t;  // NaN compares false: no edge
+    if (theta > blend)
+    {
+      const float theta_wide = wide_slope * relative_noise;
+      edge = edge || phi_wide[x] < 1.f - 0.5f * theta_wide * theta_wide;
+    }
+    out[x] = edge ? 1 : 0;
   }
 }
 
@@ -175,9 +235,16 @@ void
 concavityEdges (const SurfacePlanes& planes, const cv::Mat& phi, const ConcavityEdgeEstimationConfig& config, cv::Mat& edges)
 {
   edges.create (phi.size (), CV_8U);
-  parallelFor (phi.rows, [&] (int y) {
-    concavityEdgeRow (phi.ptr<float> (y), planes.z.data () + static_cast<std::size_t> (y) * planes.width, phi.cols,
-                      config.threshold, config.noise_slope, edges.ptr<std::uint8_t> (y));
+  cuefusion::detail::serialUnderThreadSanitizer ();  // see common/parallel.h
+  cv::parallel_for_ (cv::Range (0, phi.rows), [&] (const cv::Range& rows) {
+    std::vector<float> wide (config.wide_step > 0 ? static_cast<std::size_t> (planes.width) : 0);
+    for (int y = rows.start; y < rows.end; ++y)
+    {
+      if (!wide.empty ())
+        wideRow (planes, y, config.wide_step, config.convexity_test, wide.data ());
+      concavityEdgeRow (phi.ptr<float> (y), wide.empty () ? nullptr : wide.data (),
+                        planes.z.data () + static_cast<std::size_t> (y) * planes.width, phi.cols, config, edges.ptr<std::uint8_t> (y));
+    }
   });
 }
 
@@ -199,11 +266,14 @@ computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeEstimationConf
   cuefusion::detail::serialUnderThreadSanitizer ();  // see common/parallel.h
   cv::parallel_for_ (cv::Range (0, planes.height), [&] (const cv::Range& rows) {
     std::vector<float> phi (static_cast<std::size_t> (planes.width)), gamma (phi.size ());
+    std::vector<float> wide (concavity.wide_step > 0 ? phi.size () : 0);
     for (int y = rows.start; y < rows.end; ++y)
     {
       edgeRow<kPhi | kGamma> (planes, y, concavity.neighbour_step, concavity.convexity_test, phi.data (), gamma.data ());
-      concavityEdgeRow (phi.data (), planes.z.data () + static_cast<std::size_t> (y) * planes.width, planes.width,
-                        concavity.threshold, concavity.noise_slope, concave.ptr<std::uint8_t> (y));
+      if (!wide.empty ())
+        wideRow (planes, y, concavity.wide_step, concavity.convexity_test, wide.data ());
+      concavityEdgeRow (phi.data (), wide.empty () ? nullptr : wide.data (), planes.z.data () + static_cast<std::size_t> (y) * planes.width,
+                        planes.width, concavity, concave.ptr<std::uint8_t> (y));
       discontinuityEdgeRow (planes, y, gamma.data (), noise_factor, depth_edges.ptr<std::uint8_t> (y));
     }
   });
