@@ -51,6 +51,7 @@ runSynth (const std::vector<std::string>& args)
      "realsense (active stereo, D400-like: noise growing with z^2, speckle, edge fattening, holes on dark surfaces)")
     ("gt-spacing", po::value (&config.gt_cloud_spacing)->default_value (config.gt_cloud_spacing),
      "point spacing of gt_cloud.pcd (m)")
+    ("gt-all-surfaces", "gt_cloud.pcd holds every surface point, not only those some frame measured")
     ("mask-boundary", po::value (&det.boundary_px)->default_value (det.boundary_px),
      "simulated detector: grow (>0, leaking) or shrink (<0) masks by this many pixels")
     ("mask-jitter", po::value (&det.boundary_jitter_px)->default_value (det.boundary_jitter_px),
@@ -77,6 +78,7 @@ runSynth (const std::vector<std::string>& args)
   if (frames < 1 || frames > 1000000)
     throw ParameterError ("--frames", "must lie in [1, 1000000], got " + std::to_string (frames));
   config.frames = static_cast<std::size_t> (frames);
+  config.gt_observed_only = vm.count ("gt-all-surfaces") == 0;
   if (sensor == "kinect" || sensor == "realsense")
     config.noise.sensor = sensor == "kinect" ? io::DepthSensor::Kinect : io::DepthSensor::RealSense;
   else

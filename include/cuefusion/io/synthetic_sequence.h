@@ -29,6 +29,12 @@ struct SyntheticSequenceConfig
   DepthNoiseConfig noise;            ///< off by default: exact depth
   DetectorErrorConfig detector;      ///< perfect detector by default
   double gt_cloud_spacing = 0.01;    ///< metres between ground-truth cloud points
+  /** writeSyntheticSequence's gt_cloud.pcd holds only the surface some frame measured (the
+    * point is the frame's surface at its pixel: the same object, valid depth within 1 cm +
+    * 3 % of it), as ScanNet's annotations lie on the reconstructed mesh: the back of a
+    * cabinet, a ceiling the camera never faced or a counter lost at grazing angles is no
+    * instance point a map could have. false: every surface point (groundTruthCloud). */
+  bool gt_observed_only = true;
 
   void validate () const;
 };
@@ -44,6 +50,7 @@ public:
   std::size_t size () const { return config_.frames; }
   const PinholeCamera& camera () const { return camera_; }
   const SyntheticScene& scene () const { return scene_; }
+  const SyntheticSequenceConfig& config () const { return config_; }
 
   Eigen::Isometry3d poseAt (std::size_t i) const;
   /** \brief Renders frame \a i (deterministic for a given seed). */
@@ -52,6 +59,9 @@ public:
   DetectionResult detections (const RGBDFrame& frame) const;
   /** \brief Every visible-from-outside surface point, labelled with its object id. */
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr groundTruthCloud () const;
+  /** \brief Sets observed[i] for each point of \a cloud that \a frame measured (see
+    * SyntheticSequenceConfig::gt_observed_only); \a observed has the cloud's size. */
+  static void markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, const RGBDFrame& frame, std::vector<char>& observed);
 
 private:
   SyntheticScene scene_;

@@ -8,6 +8,7 @@
 #include <pcl/io/pcd_io.h>
 
 #include <cmath>
+#include <map>
 
 namespace fs = boost::filesystem;
 
@@ -125,11 +126,36 @@ SyntheticSequence::groundTruthCloud () const
   return cloud;
 }
 
+void
+SyntheticSequence::markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, const RGBDFrame& frame, std::vector<char>& observed)
+{
+  if (observed.size () != cloud.size () || !frame.pose)
+    throw Error ("SyntheticSequence::markObserved", "needs one flag per point and a frame with its pose");
+  const Eigen::Isometry3f to_camera = frame.pose->inverse ().cast<float> ();
+  const PinholeCamera& k = frame.camera;
+  for (std::size_t i = 0; i < cloud.size (); ++i)
+  {
+    if (observed[i])
+      continue;
+    const Eigen::Vector3f p = to_camera * cloud[i].getVector3fMap ();
+    if (!(p.z () > 0.f))
+      continue;
+    const int u = static_cast<int> (std::lround (k.fx * p.x () / p.z () + k.cx)), v = static_cast<int> (std::lround (k.fy * p.y () / p.z () + k.cy));
+    if (u < 0 || v < 0 || u >= frame.depth.cols || v >= frame.depth.rows)
+      continue;
+    const float d = frame.depth.at<float> (v, u);
+    observed[i] = d > 0.f && frame.instance_mask.at<std::uint16_t> (v, u) == cloud[i].label && std::abs (p.z () - d) <= 0.01f + 0.03f * d;
+  }
+}
+
 namespace
 {
 std::string
-sceneJson (const SyntheticSequence& sequence)
+sceneJson (const SyntheticSequence& sequence, const pcl::PointCloud<pcl::PointXYZRGBL>& cloud)
 {
+  std::map<std::uint32_t, std::size_t> points;  // by instance, in gt_cloud.pcd
+  for (const auto& p : cloud)
+    ++points[p.label];
   const SyntheticScene& scene = sequence.scene ();
   nlohmann::json instances = nlohmann::json::array ();
   for (const SceneObject& o : scene.objects)
@@ -138,7 +164,8 @@ sceneJson (const SyntheticSequence& sequence)
                           {"class_id", scene.classIdOf (o)},
                           {"class_name", o.class_name},
                           {"detectable", o.detectable},
-                          {"size", {o.bounds ().sizes ().x (), o.bounds ().sizes ().y (), o.bounds ().sizes ().z ()}}});
+                          {"size", {o.bounds ().sizes ().x (), o.bounds ().sizes ().y (), o.bounds ().sizes ().z ()}},
+                          {"gt_points", points.count (o.id) ? points.at (o.id) : 0}});
   const PinholeCamera& c = sequence.camera ();
   nlohmann::json j = {{"scene", scene.name},
                       {"frames", sequence.size ()},
@@ -157,10 +184,14 @@ writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout,
     const fs::path staging (staging_dir);
     std::unique_ptr<SequenceWriter> writer = SequenceWriter::create (layout, staging.string (), sequence.camera ());
     fs::create_directories (staging / "detections");
+    auto cloud = sequence.groundTruthCloud ();
+    std::vector<char> observed (cloud->size (), sequence.config ().gt_observed_only ? 0 : 1);
     for (std::size_t i = 0; i < sequence.size (); ++i)
     {
       const RGBDFrame::Ptr frame = sequence.frame (i);
       writer->write (*frame);
+      if (sequence.config ().gt_observed_only)
+        SyntheticSequence::markObserved (*cloud, *frame, observed);
       const DetectionResult detections = sequence.detections (*frame);
       const std::string stem = (staging / "detections" / writer->frameName (*frame)).string ();
       writeImageAtomic (stem + ".png", detections.ids);
@@ -169,10 +200,16 @@ writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout,
         progress (i + 1);
     }
     writer->finish ();
-    const auto cloud = sequence.groundTruthCloud ();
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < cloud->size (); ++i)
+      if (observed[i])
+        (*cloud)[kept++] = (*cloud)[i];
+    cloud->resize (kept);
+    cloud->width = static_cast<std::uint32_t> (kept);
+    cloud->height = 1;
     writeFileAtomic ((staging / "gt_cloud.pcd").string (),
                      [&cloud] (const std::string& tmp) { return pcl::io::savePCDFileBinaryCompressed (tmp, *cloud) == 0; });
-    writeTextAtomic ((staging / "scene.json").string (), sceneJson (sequence));
+    writeTextAtomic ((staging / "scene.json").string (), sceneJson (sequence, *cloud));
   });
 }
 }  // namespace io
