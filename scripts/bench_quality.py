@@ -124,8 +124,9 @@ def cell(values, fmt="{:.2f}"):
 
 
 def scene_objects(seq):
+    """Objects and stuff surfaces some frame measured (points in gt_cloud.pcd)."""
     with open(os.path.join(seq, "scene.json")) as f:
-        return len(json.load(f)["instances"])
+        return sum(1 for i in json.load(f)["instances"] if i.get("gt_points", 1) > 0)
 
 
 def main():

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <pcl/io/pcd_io.h>
 #include <pcl/kdtree/kdtree_flann.h>
 
 #include <cmath>
@@ -302,6 +303,56 @@ TEST (SyntheticSequence, ContactFacesAreNotInTheGroundTruthCloud)
       EXPECT_LT (p.z, 0.7395f);  // and so is the table top under the mug
     }
   }
+}
+
+TEST (SyntheticSequence, TheWrittenTruthHoldsWhatSomeFrameMeasured)
+{
+  // gt_cloud.pcd (SyntheticSequenceConfig::gt_observed_only): the table top's upper face
+  // is seen from above, its underside and the floor under it never; every kept point lies
+  // on the surface some frame saw at its pixel, and the file holds exactly those points.
+  const io::SyntheticScene scene = tabletop ();
+  io::SyntheticSequenceConfig config;
+  config.frames = 6;
+  config.width = 160;
+  config.height = 120;
+  config.noise.enabled = true;
+  const io::SyntheticSequence sequence (scene, config);
+  const auto all = sequence.groundTruthCloud ();
+  std::vector<char> observed (all->size (), 0);
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+    sequence.markObserved (*all, i, sequence.render (i), observed);
+  const io::SceneObject* table = nullptr;
+  for (const io::SceneObject& o : scene.objects)
+    if (o.name == "table")
+      table = &o;
+  ASSERT_TRUE (table);
+  const double top = table->parts[0].center.z () + table->parts[0].half_size.z ();
+  const double bottom = table->parts[0].center.z () - table->parts[0].half_size.z ();
+  int upper = 0, upper_seen = 0, under_seen = 0;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < all->size (); ++i)
+  {
+    const auto& p = (*all)[i];
+    kept += observed[i] ? 1 : 0;
+    if (p.label != table->id)
+      continue;
+    if (std::abs (p.z - top) < 1e-4)
+    {
+      ++upper;
+      upper_seen += observed[i] ? 1 : 0;
+    }
+    if (std::abs (p.z - bottom) < 1e-4)
+      under_seen += observed[i] ? 1 : 0;
+  }
+  EXPECT_GT (upper_seen, upper / 2);
+  EXPECT_EQ (under_seen, 0);
+  EXPECT_LT (kept, all->size () * 9 / 10);
+
+  const test::TempDir dir;
+  io::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq", false);
+  pcl::PointCloud<pcl::PointXYZRGBL> written;
+  ASSERT_EQ (pcl::io::loadPCDFile (dir / "seq/gt_cloud.pcd", written), 0);
+  EXPECT_EQ (written.size (), kept);
 }
 
 TEST (SyntheticSequence, CameraLooksAtTheTarget)

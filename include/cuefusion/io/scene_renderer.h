@@ -53,6 +53,7 @@ struct RenderedView
   cv::Mat instance;    ///< CV_16U object id of the visible surface (0 = none)
   cv::Mat class_ids;   ///< CV_16U class id of the visible surface (0 = none)
   cv::Mat normals;     ///< CV_32FC3 camera-frame unit normal of the visible surface
+  cv::Mat exact_depth; ///< CV_32F z-depth of the visible surface before any noise or dropout (0 = none)
 };
 
 /** \brief Ray-casts a SyntheticScene through a pinhole camera, one ray per pixel centre.

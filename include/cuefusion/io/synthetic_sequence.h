@@ -29,11 +29,12 @@ struct SyntheticSequenceConfig
   DepthNoiseConfig noise;            ///< off by default: exact depth
   DetectorErrorConfig detector;      ///< perfect detector by default
   double gt_cloud_spacing = 0.01;    ///< metres between ground-truth cloud points
-  /** writeSyntheticSequence's gt_cloud.pcd holds only the surface some frame measured (the
-    * point is the frame's surface at its pixel: the same object, valid depth within 1 cm +
-    * 3 % of it), as ScanNet's annotations lie on the reconstructed mesh: the back of a
-    * cabinet, a ceiling the camera never faced or a counter lost at grazing angles is no
-    * instance point a map could have. false: every surface point (groundTruthCloud). */
+  /** writeSyntheticSequence's gt_cloud.pcd holds only the surface some frame measured
+    * (markObserved: the pixel shows the point's object with a depth, and the point lies on
+    * the surface seen there), as ScanNet's annotations lie on the reconstructed mesh: the
+    * back of a cabinet, a ceiling the camera never faced or a counter lost at grazing
+    * angles is no instance point a map could have. false: every surface point
+    * (groundTruthCloud). */
   bool gt_observed_only = true;
 
   void validate () const;
@@ -55,13 +56,21 @@ public:
   Eigen::Isometry3d poseAt (std::size_t i) const;
   /** \brief Renders frame \a i (deterministic for a given seed). */
   RGBDFrame::Ptr frame (std::size_t i) const;
+  /** \brief Frame \a i as the renderer gives it (exact depth and normals too). */
+  RenderedView render (std::size_t i) const;
+  /** \brief Frame \a i from its rendered \a view (render (i)). */
+  RGBDFrame::Ptr frame (std::size_t i, const RenderedView& view) const;
   /** \brief The simulated detector's output on a rendered frame. */
   DetectionResult detections (const RGBDFrame& frame) const;
   /** \brief Every visible-from-outside surface point, labelled with its object id. */
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr groundTruthCloud () const;
-  /** \brief Sets observed[i] for each point of \a cloud that \a frame measured (see
-    * SyntheticSequenceConfig::gt_observed_only); \a observed has the cloud's size. */
-  static void markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, const RGBDFrame& frame, std::vector<char>& observed);
+  /** \brief Sets observed[k] for each point of \a cloud that view \a i of this sequence
+    * (render (i)) measured: the pixel it projects to shows its object with a depth
+    * (not dropped), and the point lies within 5 mm of the surface seen there (the plane
+    * through the pixel's exact point and normal, so a slanted surface counts whole and
+    * the far side of a 2 cm board does not). \a observed has the cloud's size. */
+  void markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, std::size_t i, const RenderedView& view,
+                     std::vector<char>& observed) const;
 
 private:
   SyntheticScene scene_;

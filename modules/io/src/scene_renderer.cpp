@@ -114,13 +114,11 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
   view.instance = cv::Mat (camera.height, camera.width, CV_16U, cv::Scalar (0));
   view.class_ids = cv::Mat (camera.height, camera.width, CV_16U, cv::Scalar (0));
   view.normals = cv::Mat (camera.height, camera.width, CV_32FC3, cv::Scalar (0, 0, 0));
+  view.exact_depth = cv::Mat (camera.height, camera.width, CV_32F, cv::Scalar (0.f));
   const Eigen::Matrix3d rotation = pose.rotation ();
   const Eigen::Vector3d origin = pose.translation ();
   const double deg = 3.14159265358979323846 / 180.0;
   const bool stereo_fattening = noise.enabled && noise.sensor == DepthSensor::RealSense && noise.edge_fattening_px > 0;
-  cv::Mat exact_z;  // the surfaces' exact depth, for the fattening
-  if (stereo_fattening)
-    exact_z = cv::Mat (camera.height, camera.width, CV_32F, cv::Scalar (0.f));
 
   parallelForChunks (camera.height, 4, [&] (int, int begin, int end) {
     for (int v = begin; v < end; ++v)
@@ -147,8 +145,7 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
         view.normals.at<cv::Vec3f> (v, u) = cv::Vec3f (static_cast<float> (n_cam.x ()), static_cast<float> (n_cam.y ()),
                                                        static_cast<float> (n_cam.z ()));
         double z = (rotation.transpose () * (p - origin)).z ();
-        if (stereo_fattening)
-          exact_z.at<float> (v, u) = static_cast<float> (z);
+        view.exact_depth.at<float> (v, u) = static_cast<float> (z);
         if (noise.enabled)
         {
           const double incidence = std::acos (std::min (1.0, std::abs (n.dot (dir))));
@@ -173,7 +170,7 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
     }
   });
   if (stereo_fattening)
-    fattenEdges (view.depth, exact_z, noise.edge_fattening_px);
+    fattenEdges (view.depth, view.exact_depth, noise.edge_fattening_px);
   return view;
 }
 

@@ -49,8 +49,20 @@ SyntheticSequence::poseAt (std::size_t i) const
   return scene_.cameraPoseAt (s);
 }
 
+RenderedView
+SyntheticSequence::render (std::size_t i) const
+{
+  return renderer_.render (camera_, poseAt (i), config_.noise, mixSeed (config_.seed, i));
+}
+
 RGBDFrame::Ptr
 SyntheticSequence::frame (std::size_t i) const
+{
+  return frame (i, render (i));
+}
+
+RGBDFrame::Ptr
+SyntheticSequence::frame (std::size_t i, const RenderedView& view) const
 {
   auto f = std::make_shared<RGBDFrame> ();
   f->index = i;
@@ -58,7 +70,6 @@ SyntheticSequence::frame (std::size_t i) const
   f->name = std::to_string (i);
   f->camera = camera_;
   f->pose = poseAt (i);
-  RenderedView view = renderer_.render (camera_, *f->pose, config_.noise, mixSeed (config_.seed, i));
   f->depth = view.depth;
   f->color = view.color;
   f->instance_mask = view.instance;
@@ -127,24 +138,36 @@ SyntheticSequence::groundTruthCloud () const
 }
 
 void
-SyntheticSequence::markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, const RGBDFrame& frame, std::vector<char>& observed)
+SyntheticSequence::markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, std::size_t i, const RenderedView& view,
+                                 std::vector<char>& observed) const
 {
-  if (observed.size () != cloud.size () || !frame.pose)
-    throw Error ("SyntheticSequence::markObserved", "needs one flag per point and a frame with its pose");
-  const Eigen::Isometry3f to_camera = frame.pose->inverse ().cast<float> ();
-  const PinholeCamera& k = frame.camera;
-  for (std::size_t i = 0; i < cloud.size (); ++i)
+  if (observed.size () != cloud.size ())
+    throw Error ("SyntheticSequence::markObserved", "needs one flag per point");
+  const Eigen::Isometry3f to_camera = poseAt (i).inverse ().cast<float> ();
+  const PinholeCamera& k = camera_;
+  for (std::size_t p = 0; p < cloud.size (); ++p)
   {
-    if (observed[i])
+    if (observed[p])
       continue;
-    const Eigen::Vector3f p = to_camera * cloud[i].getVector3fMap ();
-    if (!(p.z () > 0.f))
+    const Eigen::Vector3f q = to_camera * cloud[p].getVector3fMap ();
+    if (!(q.z () > 0.f))
       continue;
-    const int u = static_cast<int> (std::lround (k.fx * p.x () / p.z () + k.cx)), v = static_cast<int> (std::lround (k.fy * p.y () / p.z () + k.cy));
-    if (u < 0 || v < 0 || u >= frame.depth.cols || v >= frame.depth.rows)
+    const float uf = static_cast<float> (k.fx) * q.x () / q.z () + static_cast<float> (k.cx);
+    const float vf = static_cast<float> (k.fy) * q.y () / q.z () + static_cast<float> (k.cy);
+    const int u = static_cast<int> (std::lround (uf)), v = static_cast<int> (std::lround (vf));
+    if (u < 0 || v < 0 || u >= view.depth.cols || v >= view.depth.rows || view.depth.at<float> (v, u) <= 0.f ||
+        view.instance.at<std::uint16_t> (v, u) != cloud[p].label)
       continue;
-    const float d = frame.depth.at<float> (v, u);
-    observed[i] = d > 0.f && frame.instance_mask.at<std::uint16_t> (v, u) == cloud[i].label && std::abs (p.z () - d) <= 0.01f + 0.03f * d;
+    // The seen surface's tangent plane through the pixel's exact point, along the point's ray.
+    const float z0 = view.exact_depth.at<float> (v, u);
+    const cv::Vec3f n = view.normals.at<cv::Vec3f> (v, u);
+    const Eigen::Vector3f normal (n[0], n[1], n[2]);
+    const Eigen::Vector3f centre ((static_cast<float> (u) - static_cast<float> (k.cx)) / static_cast<float> (k.fx) * z0,
+                                  (static_cast<float> (v) - static_cast<float> (k.cy)) / static_cast<float> (k.fy) * z0, z0);
+    const Eigen::Vector3f ray ((uf - static_cast<float> (k.cx)) / static_cast<float> (k.fx), (vf - static_cast<float> (k.cy)) / static_cast<float> (k.fy), 1.f);
+    const float along = normal.dot (ray);
+    const float z_plane = std::abs (along) > 1e-6f ? normal.dot (centre) / along : z0;
+    observed[p] = std::abs (q.z () - z_plane) <= 0.005f;
   }
 }
 
@@ -188,10 +211,11 @@ writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout,
     std::vector<char> observed (cloud->size (), sequence.config ().gt_observed_only ? 0 : 1);
     for (std::size_t i = 0; i < sequence.size (); ++i)
     {
-      const RGBDFrame::Ptr frame = sequence.frame (i);
+      const RenderedView view = sequence.render (i);
+      const RGBDFrame::Ptr frame = sequence.frame (i, view);
       writer->write (*frame);
       if (sequence.config ().gt_observed_only)
-        SyntheticSequence::markObserved (*cloud, *frame, observed);
+        sequence.markObserved (*cloud, i, view, observed);
       const DetectionResult detections = sequence.detections (*frame);
       const std::string stem = (staging / "detections" / writer->frameName (*frame)).string ();
       writeImageAtomic (stem + ".png", detections.ids);
