@@ -18,7 +18,8 @@ standing height), the scene's own azimuths, and the runs given the true poses
 are random rooms instead (`cuefusion synth --room TYPE --seed SEED`: a new room per seed,
 3-6 m across, a hand-held path from 1-4 m, `--room-frames` frames); for them the report
 adds the mean object IoU by object size (largest side < 0.3 m, 0.3-1 m, >= 1 m, stuff
-included) and segments per object and stuff surface. Prints Markdown for
+included) and segments per object and stuff surface; `--true-poses` gives any scene's runs
+the true poses (segmentation alone). Prints Markdown for
 docs/benchmarks.md: medians over seeds, with min-max.
 """
 import argparse
@@ -140,6 +141,8 @@ def main():
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--levels", default=",".join(name for name, _ in LEVELS))
     parser.add_argument("--distance", help="MIN-MAX: view the scenes from this far (m, drawn per seed) with the true poses")
+    parser.add_argument("--true-poses", action="store_true",
+                        help="give the runs the true poses (--use-gt-poses): segmentation alone, tracking not the question")
     parser.add_argument("--sensor", default="kinect", choices=["kinect", "realsense"],
                         help="the depth sensor `cuefusion synth --noise` imitates")
     args = parser.parse_args()
@@ -172,7 +175,8 @@ def main():
                             continue
                         out = os.path.join(tmp, f"run-{scene}-{seed}-{level}-{mode.split()[0]}{'-before' if 'before' in mode else ''}")
                         binary = args.compare_binary if "before" in mode else args.binary
-                        cmd = [binary, "run", seq, "--out", out, "--mode", mode.split()[0]] + (["--use-gt-poses"] if distance_range else [])
+                        cmd = [binary, "run", seq, "--out", out, "--mode", mode.split()[0]] + \
+                            (["--use-gt-poses"] if distance_range or args.true_poses else [])
                         if mode != "geometry":
                             cmd += ["--model", args.model] if level == "network" else ["--masks", os.path.join(seq, "detections")]
                         run(cmd)
@@ -189,11 +193,13 @@ def main():
     only = "" if args.levels == ",".join(name for name, _ in LEVELS) else f" --levels {args.levels}"
     far = f" --distance {args.distance}" if distance_range else ""
     far += "" if args.sensor == "kinect" else f" --sensor {args.sensor}"
+    far += " --true-poses" if args.true_poses else ""
     scenes_option = "" if args.scenes == ",".join(SCENES) else f" --scenes {args.scenes}"
     sensor = {"kinect": "Kinect depth noise", "realsense": "RealSense-like stereo depth (noise ∝ z², speckle, edge fattening, holes on dark surfaces)"}[args.sensor]
     print(f"Command: `scripts/bench quality {args.seeds}{only}{scenes_option}{far}` ({datetime.date.today()}, {machine()}). "
           f"Scenes {', '.join(scenes)}; {args.frames} frames ({args.room_frames} for a room) at 640×480 with {sensor}, "
-          + (f"seen from {args.distance} m ({'; '.join(drawn)}), the true poses given; " if distance_range else "camera tracked by ICP; ") +
+          + (f"seen from {args.distance} m ({'; '.join(drawn)}), the true poses given; " if distance_range
+             else "the true poses given; " if args.true_poses else "camera tracked by ICP; ") +
           f"seeds 1–{args.seeds} (noise and detector errors). "
           "Scores: mean per-frame object IoU of the final map seen from the estimated poses; class-agnostic "
           "3D instance AP of map.pcd against gt_cloud.pcd (ScanNet definition); segments of ≥ 100 voxels in "
