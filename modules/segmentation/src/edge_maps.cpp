@@ -112,17 +112,20 @@ edgeRow (const SurfacePlanes& planes, int y, int step, ConvexityTest test, float
   }
 }
 
-/** Φ_w of row y for one direction (dx, dy) (ConcavityEdgeEstimationConfig::wide_step): the
-  * normals at u − s·(dx, dy) and u + s·(dx, dy), the same terms as edgeRowPass's. */
+/** Φ_w,d of row y for one direction d = (dx, dy) (ConcavityEdgeEstimationConfig::wide_step):
+  * the normals at u − s·d and u + s·d, the same terms as edgeRowPass's; 1 where convex or
+  * either side lacks a point or normal. */
 template <bool kSymmetric>
 CUEFUSION_AVX2_CLONES void
-wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float* __restrict phi)
+wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float max_jump, float wide_slope, float* __restrict phi)
 {
   const int w = p.width;
-  if (y - s * std::abs (dy) < 0 || y + s * std::abs (dy) >= p.height)
+  std::fill (phi, phi + w, 1.f);
+  if (y - 3 * s * std::abs (dy) < 0 || y + 3 * s * std::abs (dy) >= p.height)
     return;
-  const int x0 = s * std::abs (dx), x1 = w - s * std::abs (dx);
-  const std::ptrdiff_t a = static_cast<std::ptrdiff_t> (y - s * dy) * w - s * dx, b = static_cast<std::ptrdiff_t> (y + s * dy) * w + s * dx;
+  const int x0 = 3 * s * std::abs (dx), x1 = w - 3 * s * std::abs (dx);
+  const auto at = [&] (int k) { return static_cast<std::ptrdiff_t> (y + k * s * dy) * w + k * s * dx; };
+  const std::ptrdiff_t a = at (-1), b = at (1), a2 = at (-3), b2 = at (3), u = at (0);
   const float* __restrict X = p.x.data () + a;
   const float* __restrict Y = p.y.data () + a;
   const float* __restrict Z = p.z.data () + a;
@@ -135,6 +138,7 @@ wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float* __rest
   const float* __restrict NXi = p.nx.data () + b;
   const float* __restrict NYi = p.ny.data () + b;
   const float* __restrict NZi = p.nz.data () + b;
+  const float* __restrict Zu = p.z.data () + u;
   for (int x = x0; x < x1; ++x)
   {
     const float ex = Xi[x] - X[x], ey = Yi[x] - Y[x], ez = Zi[x] - Z[x];
@@ -142,49 +146,100 @@ wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float* __rest
     const float convexity =
       kSymmetric ? (NXi[x] - NX[x]) * ex + (NYi[x] - NY[x]) * ey + (NZi[x] - NZ[x]) * ez : -(ex * NX[x] + ey * NY[x] + ez * NZ[x]);
     const bool convex = kSymmetric ? convexity >= 0.f : convexity > 0.f;
-    phi[x] = std::min (phi[x], convex ? 1.f : agreement);  // NaN when either side lacks a point or normal
+    // Only a pair on one continuous surface: 2s pixels apart its depths differ by at most
+    // max_jump of theirs (a surface up to 75° from the view); across an outline the two
+    // normals are of a foreground and a background, no crease (Γ marks the outline).
+    const bool continuous = std::abs (ez) <= max_jump * (Z[x] + Zi[x]);
+    // Only between two surfaces that each stay flat 2s pixels further out (the normals at
+    // u ∓ 3s·d agree with those at u ∓ s·d within the noise): walls, floors, furniture.
+    // A small far object's faces are a few pixels; its creases are Φ's and the masks' to
+    // find, and the wide pairs across it cut it into pieces the masks no longer unite.
+    const float theta = wide_slope * axialNoiseLowerBound (Zu[x]) / Zu[x], t = 1.f - 0.5f * theta * theta;
+    const float side_a = NX[x] * p.nx[static_cast<std::size_t> (a2 + x)] + NY[x] * p.ny[static_cast<std::size_t> (a2 + x)] +
+                         NZ[x] * p.nz[static_cast<std::size_t> (a2 + x)];
+    const float side_b = NXi[x] * p.nx[static_cast<std::size_t> (b2 + x)] + NYi[x] * p.ny[static_cast<std::size_t> (b2 + x)] +
+                         NZi[x] * p.nz[static_cast<std::size_t> (b2 + x)];
+    const bool flat_sides = side_a >= t && side_b >= t;  // NaN compares false
+    phi[x] = convex || !continuous || !flat_sides || agreement != agreement ? 1.f : agreement;
   }
 }
 
-/** Φ_w of row y over the four directions (1 where no pair of normals is concave). */
+constexpr std::array<std::array<int, 2>, 4> kWideDirections{{{{1, 0}}, {{0, 1}}, {{1, 1}}, {{1, -1}}}};
+
+/** The wide test's edges (ConcavityEdgeEstimationConfig::wide_step), CV_8U: Φ_w,d for each
+  * direction d over the image, then u is an edge where, for some d, Φ_w,d(u) < cos θ_w(z)
+  * and no smaller than at u ∓ d (non-maximum suppression across the crease: the pairs
+  * straddle a crease for 2s pixels, and a band that wide ate small objects whole; the
+  * crease's own line is one or two pixels, as Φ's), and only where θ(z) exceeds what a
+  * right-angle crease turns the normals by per pixel. */
 void
-wideRow (const SurfacePlanes& planes, int y, int s, ConvexityTest test, float* phi)
+wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& config, cv::Mat& edges)
 {
-  std::fill (phi, phi + planes.width, 1.f);
-  for (const auto& d : std::array<std::array<int, 2>, 4>{{{{1, 0}}, {{0, 1}}, {{1, 1}}, {{1, -1}}}})
+  const int w = planes.width, h = planes.height, s = config.wide_step;
+  edges = cv::Mat::zeros (h, w, CV_8U);
+  // The pixels' angular size, from two neighbouring points of the middle row (an
+  // organized cloud's rays): a surface 75° from the view changes depth by tan 75° of it
+  // per pixel, z · tan 75° · 2s · (1/f) over the pair (half of it per point of the sum).
+  float inverse_focal = 0.f;
+  for (int y = h / 2, x = 0; x + 1 < w && inverse_focal <= 0.f; ++x)
   {
-    if (test == ConvexityTest::NormalDivergence)
-      wideRowPass<true> (planes, y, s, d[0], d[1], phi);
-    else
-      wideRowPass<false> (planes, y, s, d[0], d[1], phi);
+    const std::size_t i = static_cast<std::size_t> (y) * w + x;
+    if (planes.z[i] > 0.f && planes.z[i + 1] > 0.f)
+      inverse_focal = planes.x[i + 1] / planes.z[i + 1] - planes.x[i] / planes.z[i];
   }
+  constexpr float kTan75 = 3.7320508f;
+  const float max_jump = inverse_focal > 0.f ? 0.5f * kTan75 * 2.f * static_cast<float> (s) * inverse_focal
+                                             : std::numeric_limits<float>::infinity ();
+  std::array<cv::Mat, 4> phi;
+  for (std::size_t k = 0; k < kWideDirections.size (); ++k)
+  {
+    phi[k].create (h, w, CV_32F);
+    parallelFor (h, [&] (int y) {
+      if (config.convexity_test == ConvexityTest::NormalDivergence)
+        wideRowPass<true> (planes, y, s, kWideDirections[k][0], kWideDirections[k][1], max_jump, config.wide_noise_slope,
+                           phi[k].ptr<float> (y));
+      else
+        wideRowPass<false> (planes, y, s, kWideDirections[k][0], kWideDirections[k][1], max_jump, config.wide_noise_slope,
+                            phi[k].ptr<float> (y));
+    });
+  }
+  constexpr float kRightAngle = 1.57079633f;
+  const float blend = kRightAngle / (2.f * static_cast<float> (s));
+  parallelFor (h, [&] (int y) {
+    const float* z = planes.z.data () + static_cast<std::size_t> (y) * w;
+    std::uint8_t* out = edges.ptr<std::uint8_t> (y);
+    for (int x = 1; x + 1 < w; ++x)
+    {
+      const float relative_noise = axialNoiseLowerBound (z[x]) / z[x];
+      if (!(config.noise_slope * relative_noise > blend))
+        continue;  // Φ sees such creases here (or no depth)
+      const float theta = config.wide_noise_slope * relative_noise, t = 1.f - 0.5f * theta * theta;
+      for (std::size_t k = 0; k < kWideDirections.size () && !out[x]; ++k)
+      {
+        const int dx = kWideDirections[k][0], dy = kWideDirections[k][1];
+        if (y - std::abs (dy) < 0 || y + std::abs (dy) >= h)
+          continue;
+        const float v = phi[k].at<float> (y, x);
+        out[x] = v < t && v <= phi[k].at<float> (y - dy, x - dx) && v <= phi[k].at<float> (y + dy, x + dx) ? 1 : 0;
+      }
+    }
+  });
 }
 
 /** Φ < the threshold at each pixel's depth: the configured one, lowered where the
   * normals' noise exceeds it (ConcavityEdgeEstimationConfig::noise_slope): with θ = s·σ_z(z)/z,
-  * 1 − θ²/2 (the cosine to second order, so the loop vectorises). Where θ exceeds what a
-  * right-angle crease turns the normals by per pixel, also Φ_w (\a phi_wide, null without
-  * the wide test) < cos θ_w(z) (ConcavityEdgeEstimationConfig::wide_step).
+  * 1 − θ²/2 (the cosine to second order, so the loop vectorises); or the wide test's edge
+  * (\a wide, null without it).
   */
 CUEFUSION_AVX2_CLONES void
-concavityEdgeRow (const float* __restrict phi, const float* __restrict phi_wide, const float* __restrict z, int w,
-                  const ConcavityEdgeEstimationConfig& config, std::uint8_t* __restrict out)
+concavityEdgeRow (const float* __restrict phi, const std::uint8_t* __restrict wide, const float* __restrict z, int w,
+                  float threshold, float noise_slope, std::uint8_t* __restrict out)
 {
-  const float threshold = config.threshold, noise_slope = config.noise_slope, wide_slope = config.wide_noise_slope;
-  constexpr float kRightAngle = 1.57079633f;
-  const float blend = phi_wide ? kRightAngle / (2.f * static_cast<float> (config.wide_step)) : std::numeric_limits<float>::infinity ();
   for (int x = 0; x < w; ++x)
   {
-    const float relative_noise = axialNoiseLowerBound (z[x]) / z[x];  // σ_z at normal incidence over z
-    const float theta = noise_slope * relative_noise;
+    const float theta = noise_slope * axialNoiseLowerBound (z[x]) / z[x];  // σ_z at normal incidence
     const float t = std::min (threshold, 1.f - 0.5f * theta * theta);
-    bool edge = phi[x] < t;  // NaN compares false: no edge
-    if (theta > blend)
-    {
-      const float theta_wide = wide_slope * relative_noise;
-      edge = edge || phi_wide[x] < 1.f - 0.5f * theta_wide * theta_wide;
-    }
-    out[x] = edge ? 1 : 0;
+    out[x] = phi[x] < t || (wide && wide[x]) ? 1 : 0;  // NaN compares false: no edge
   }
 }
 
@@ -235,16 +290,13 @@ void
 concavityEdges (const SurfacePlanes& planes, const cv::Mat& phi, const ConcavityEdgeEstimationConfig& config, cv::Mat& edges)
 {
   edges.create (phi.size (), CV_8U);
-  cuefusion::detail::serialUnderThreadSanitizer ();  // see common/parallel.h
-  cv::parallel_for_ (cv::Range (0, phi.rows), [&] (const cv::Range& rows) {
-    std::vector<float> wide (config.wide_step > 0 ? static_cast<std::size_t> (planes.width) : 0);
-    for (int y = rows.start; y < rows.end; ++y)
-    {
-      if (!wide.empty ())
-        wideRow (planes, y, config.wide_step, config.convexity_test, wide.data ());
-      concavityEdgeRow (phi.ptr<float> (y), wide.empty () ? nullptr : wide.data (),
-                        planes.z.data () + static_cast<std::size_t> (y) * planes.width, phi.cols, config, edges.ptr<std::uint8_t> (y));
-    }
+  cv::Mat wide;
+  if (config.wide_step > 0)
+    wideEdges (planes, config, wide);
+  parallelFor (phi.rows, [&] (int y) {
+    concavityEdgeRow (phi.ptr<float> (y), wide.empty () ? nullptr : wide.ptr<std::uint8_t> (y),
+                      planes.z.data () + static_cast<std::size_t> (y) * planes.width, phi.cols, config.threshold, config.noise_slope,
+                      edges.ptr<std::uint8_t> (y));
   });
 }
 
@@ -263,17 +315,18 @@ computeEdgeMasks (const SurfacePlanes& planes, const ConcavityEdgeEstimationConf
 {
   concave.create (planes.height, planes.width, CV_8U);
   depth_edges.create (planes.height, planes.width, CV_8U);
+  cv::Mat wide;
+  if (concavity.wide_step > 0)
+    wideEdges (planes, concavity, wide);
   cuefusion::detail::serialUnderThreadSanitizer ();  // see common/parallel.h
   cv::parallel_for_ (cv::Range (0, planes.height), [&] (const cv::Range& rows) {
     std::vector<float> phi (static_cast<std::size_t> (planes.width)), gamma (phi.size ());
-    std::vector<float> wide (concavity.wide_step > 0 ? phi.size () : 0);
     for (int y = rows.start; y < rows.end; ++y)
     {
       edgeRow<kPhi | kGamma> (planes, y, concavity.neighbour_step, concavity.convexity_test, phi.data (), gamma.data ());
-      if (!wide.empty ())
-        wideRow (planes, y, concavity.wide_step, concavity.convexity_test, wide.data ());
-      concavityEdgeRow (phi.data (), wide.empty () ? nullptr : wide.data (), planes.z.data () + static_cast<std::size_t> (y) * planes.width,
-                        planes.width, concavity, concave.ptr<std::uint8_t> (y));
+      concavityEdgeRow (phi.data (), wide.empty () ? nullptr : wide.ptr<std::uint8_t> (y),
+                        planes.z.data () + static_cast<std::size_t> (y) * planes.width, planes.width, concavity.threshold,
+                        concavity.noise_slope, concave.ptr<std::uint8_t> (y));
       discontinuityEdgeRow (planes, y, gamma.data (), noise_factor, depth_edges.ptr<std::uint8_t> (y));
     }
   });
