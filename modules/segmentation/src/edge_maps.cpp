@@ -190,11 +190,30 @@ wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& con
   constexpr float kTan75 = 3.7320508f;
   const float max_jump = inverse_focal > 0.f ? 0.5f * kTan75 * 2.f * static_cast<float> (s) * inverse_focal
                                              : std::numeric_limits<float>::infinity ();
+  // Where the wide test applies: θ(z) above what a right-angle crease turns the normals
+  // by per pixel (elsewhere Φ sees such creases, or there is no depth). Only the rows
+  // holding such a pixel, and their neighbours (the suppression reads them), get Φ_w,d: a
+  // near view computes none.
+  constexpr float kRightAngle = 1.57079633f;
+  const float blend = kRightAngle / (2.f * static_cast<float> (s));
+  const auto applies = [&] (float z) { return config.noise_slope * axialNoiseLowerBound (z) / z > blend; };
+  std::vector<char> needed (static_cast<std::size_t> (h), 0), computed (needed.size (), 0);
+  parallelFor (h, [&] (int y) {
+    const float* z = planes.z.data () + static_cast<std::size_t> (y) * w;
+    needed[static_cast<std::size_t> (y)] = std::any_of (z, z + w, applies) ? 1 : 0;
+  });
+  for (int y = 0; y < h; ++y)
+    for (int r = std::max (0, y - 1); r <= std::min (h - 1, y + 1); ++r)
+      computed[static_cast<std::size_t> (y)] |= needed[static_cast<std::size_t> (r)];
+  if (std::none_of (needed.begin (), needed.end (), [] (char n) { return n != 0; }))
+    return;
   std::array<cv::Mat, 4> phi;
   for (std::size_t k = 0; k < kWideDirections.size (); ++k)
   {
     phi[k].create (h, w, CV_32F);
     parallelFor (h, [&] (int y) {
+      if (!computed[static_cast<std::size_t> (y)])
+        return;
       if (config.convexity_test == ConvexityTest::NormalDivergence)
         wideRowPass<true> (planes, y, s, kWideDirections[k][0], kWideDirections[k][1], max_jump, config.wide_noise_slope,
                            phi[k].ptr<float> (y));
@@ -203,17 +222,16 @@ wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& con
                             phi[k].ptr<float> (y));
     });
   }
-  constexpr float kRightAngle = 1.57079633f;
-  const float blend = kRightAngle / (2.f * static_cast<float> (s));
   parallelFor (h, [&] (int y) {
+    if (!needed[static_cast<std::size_t> (y)])
+      return;
     const float* z = planes.z.data () + static_cast<std::size_t> (y) * w;
     std::uint8_t* out = edges.ptr<std::uint8_t> (y);
     for (int x = 1; x + 1 < w; ++x)
     {
-      const float relative_noise = axialNoiseLowerBound (z[x]) / z[x];
-      if (!(config.noise_slope * relative_noise > blend))
-        continue;  // Φ sees such creases here (or no depth)
-      const float theta = config.wide_noise_slope * relative_noise, t = 1.f - 0.5f * theta * theta;
+      if (!applies (z[x]))
+        continue;
+      const float theta = config.wide_noise_slope * axialNoiseLowerBound (z[x]) / z[x], t = 1.f - 0.5f * theta * theta;
       for (std::size_t k = 0; k < kWideDirections.size () && !out[x]; ++k)
       {
         const int dx = kWideDirections[k][0], dy = kWideDirections[k][1];
