@@ -20,6 +20,7 @@
 #include <cuefusion/segmentation/object_geometry.h>
 #include <cuefusion/segmentation/segments_file.h>
 #include <cuefusion/recognition/asynchronous_segmenter.h>
+#include <cuefusion/recognition/frame_prefetcher.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/visualization/frame_view.h>
@@ -93,6 +94,9 @@ struct RunOutputs
   std::vector<pipeline::SegmentationTimings> segmentation;  ///< per segmented frame
   std::vector<std::size_t> volume_bytes;  ///< after each frame: memory growth over the run
   std::vector<double> loop_ms;            ///< per segmented frame: every stage, the mask source excluded
+  std::vector<double> read_ms;            ///< per frame: reading and decoding its files (recorded sequences)
+  std::vector<double> masks_ms;           ///< per frame: the mask source (the network) on it; 0 without one
+  std::vector<double> wall_ms;            ///< per frame: from the previous frame's end to this one's
   std::size_t frames_without_masks = 0;
   std::size_t merges = 0;
 };
@@ -119,20 +123,24 @@ labelsAs16Bit (const cv::Mat& labels, const std::string& path)
   return out;
 }
 
+/** timings.json: per frame every stage (reading, the mask source, the loop's stages, the
+  * wall time), their medians and 90th percentiles, the run's frames per second. */
 nlohmann::json
-timingsJson (const std::vector<reconstruction::FrameReport>& reports,
-             const std::vector<pipeline::SegmentationTimings>& segmentation, const std::vector<std::size_t>& volume_bytes,
-             const std::vector<double>& loop_ms)
+timingsJson (const RunOutputs& run, double seconds)
 {
+  const std::vector<reconstruction::FrameReport>& reports = run.reports;
+  const auto at = [] (const std::vector<double>& v, std::size_t k) { return k < v.size () ? v[k] : 0.0; };
   std::vector<double> pre, track, integrate, raycast, core, relocalise, lost;
   nlohmann::json frames = nlohmann::json::array ();
   for (std::size_t k = 0; k < reports.size (); ++k)
   {
     const auto& r = reports[k];
     const auto& t = r.timings;
-    frames.push_back ({{"index", r.index}, {"preprocess_ms", t.preprocess_ms}, {"track_ms", t.track_ms},
+    frames.push_back ({{"index", r.index}, {"read_ms", at (run.read_ms, k)}, {"masks_ms", at (run.masks_ms, k)},
+                       {"preprocess_ms", t.preprocess_ms}, {"track_ms", t.track_ms},
                        {"integrate_ms", t.integrate_ms}, {"raycast_ms", t.raycast_ms}, {"relocalise_ms", t.relocalise_ms},
-                       {"volume_mib", k < volume_bytes.size () ? static_cast<double> (volume_bytes[k]) / (1024.0 * 1024.0) : 0.0}});
+                       {"wall_ms", at (run.wall_ms, k)},
+                       {"volume_mib", k < run.volume_bytes.size () ? static_cast<double> (run.volume_bytes[k]) / (1024.0 * 1024.0) : 0.0}});
     if (t.relocalise_ms > 0.0)  // frames whose tracking failed, relocalised or not
       relocalise.push_back (t.relocalise_ms);
     if (!r.tracked)
@@ -147,7 +155,7 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
     core.push_back (t.track_ms + t.integrate_ms + t.raycast_ms);
   }
   std::vector<double> geometry, instances, propagation, merging, update, segmentation_total;
-  for (const auto& t : segmentation)
+  for (const auto& t : run.segmentation)
   {
     geometry.push_back (t.geometry_ms);
     instances.push_back (t.instances_ms);
@@ -163,7 +171,9 @@ timingsJson (const std::vector<reconstruction::FrameReport>& reports,
                       {"geometric segmentation", timingSummary (geometry)}, {"instance merge", timingSummary (instances)},
                       {"propagation", timingSummary (propagation)}, {"segment merging", timingSummary (merging)},
                       {"label update", timingSummary (update)}, {"segmentation", timingSummary (segmentation_total)},
-                      {"whole loop", timingSummary (loop_ms)}}},
+                      {"whole loop", timingSummary (run.loop_ms)}, {"read", timingSummary (run.read_ms)},
+                      {"masks", timingSummary (run.masks_ms)}, {"wall per frame", timingSummary (run.wall_ms)}}},
+          {"frames_per_second", seconds > 0.0 ? static_cast<double> (reports.size ()) / seconds : 0.0},
           {"peak_memory_mib", peakMemoryMiB ()},
           {"frames", frames}};
 }
@@ -268,6 +278,7 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("boundary-threshold", po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
      "--model of the xyz layout: instances are cut where the boundary probability reaches this")
     ("async-masks", po::bool_switch (&s.async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
+    ("sequential", po::bool_switch (&s.sequential), "a recorded sequence: read, mask and process each frame in turn instead of reading and masking the next frames while the loop runs (the same outputs; slower, for profiling)")
     ("save-every", po::value (&s.save_every)->default_value (s.save_every), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
     ("render", po::value (&s.render_dir), "write per-frame PNGs to DIR: input colour, depth and the map's segments seen from the camera")
     ("video", po::value (&s.video_path), "the same panels as a video (.avi Motion-JPEG or .mp4)")
@@ -341,9 +352,16 @@ public:
   void printSummary () const;
 
 private:
+  /** A live camera's frame (the grabber's callback). */
   void onFrame (const RGBDFrame::ConstPtr& frame);
-  /** The frame's masks from the mask source; false when it has none. */
-  bool masksFor (const RGBDFrame& frame, std::vector<Instance>& instances);
+  /** One frame through the pipeline; \a read_ms: the time reading it took (a recorded
+    * sequence); \a masks_ahead: its masks, computed ahead (null: the mask source runs here). */
+  void processFrame (const RGBDFrame::ConstPtr& frame, std::optional<double> read_ms, recognition::PreparedFrame* masks_ahead);
+  /** A recorded sequence: frames read (and masked) ahead on another thread, or one after
+    * the other with --sequential. */
+  void processRecording ();
+  /** The frame's masks from the mask source (or \a masks_ahead's); false when it has none. */
+  bool masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, recognition::PreparedFrame* masks_ahead);
   /** labels/INDEX.png, --render's PNG and --video's frame of a segmented frame. */
   void writeFrameViews (const RGBDFrame& frame);
   void postToViewer (const RGBDFrame& frame, const reconstruction::FrameReport& report);
@@ -376,6 +394,7 @@ private:
   bool callback_error_named_ = false;  ///< callback_error_ names its file (else: the sequence's)
   ProgressReporter progress_;
   std::chrono::steady_clock::time_point t0_;
+  std::chrono::steady_clock::time_point last_frame_end_;
   // What writeOutputs found, for printSummary.
   double seconds_ = 0.0;
   std::size_t map_points_ = 0, triangles_ = 0, lost_ = 0, relocalised_ = 0;
@@ -455,11 +474,25 @@ RunSession::RunSession (const RunSettings& s, const po::variables_map& vm)
 }
 
 bool
-RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances)
+RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, recognition::PreparedFrame* masks_ahead)
 {
   if (!mask_source_ || pipeline_config_.mode == pipeline::SegmentationMode::Geometry)
     return false;
-  const bool have_masks = mask_source_->segment (frame, instances);
+  bool have_masks = false;
+  if (masks_ahead)
+  {
+    result_.masks_ms.push_back (masks_ahead->masks_ms);
+    if (masks_ahead->mask_error)
+      std::rethrow_exception (masks_ahead->mask_error);
+    have_masks = masks_ahead->have_masks;
+    instances = std::move (masks_ahead->instances);
+  }
+  else
+  {
+    const auto t0 = std::chrono::steady_clock::now ();
+    have_masks = mask_source_->segment (frame, instances);
+    result_.masks_ms.push_back (std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count ());
+  }
   if (!have_masks && result_.frames_without_masks++ == 0 && !asynchronous_masks_)
     std::cerr << "cuefusion run: no masks for frame " << frame.index << " (nor, maybe, for later frames): "
               << "geometry only there\n";
@@ -509,6 +542,12 @@ RunSession::postToViewer (const RGBDFrame& frame, const reconstruction::FrameRep
 void
 RunSession::onFrame (const RGBDFrame::ConstPtr& frame)
 {
+  processFrame (frame, std::nullopt, nullptr);
+}
+
+void
+RunSession::processFrame (const RGBDFrame::ConstPtr& frame, std::optional<double> read_ms, recognition::PreparedFrame* masks_ahead)
+{
   const std::lock_guard<std::mutex> lock (mutex_);
   const std::size_t max_frames = static_cast<std::size_t> (s_.frames);
   if (!callback_error_.empty () || (max_frames && result_.reports.size () >= max_frames))
@@ -530,7 +569,7 @@ RunSession::onFrame (const RGBDFrame::ConstPtr& frame)
       return;
     }
     std::vector<Instance> instances;
-    const bool have_masks = masksFor (*frame, instances);
+    const bool have_masks = masksFor (*frame, instances, masks_ahead);
     const pipeline::PipelineFrameReport full = fusion_.process (*frame, have_masks ? &instances : nullptr);
     reconstruction::FrameReport report = full.reconstruction;
     if (full.segmented)
@@ -548,6 +587,11 @@ RunSession::onFrame (const RGBDFrame::ConstPtr& frame)
       result_.reference.push_back ({frame->timestamp, *frame->pose});
     result_.reports.push_back (std::move (report));
     result_.volume_bytes.push_back (fusion_.reconstruction ().volume ().memoryUsage ());
+    if (read_ms)
+      result_.read_ms.push_back (*read_ms);
+    const auto now = std::chrono::steady_clock::now ();
+    result_.wall_ms.push_back (std::chrono::duration<double, std::milli> (now - last_frame_end_).count ());
+    last_frame_end_ = now;
     progress_.update (result_.reports.size ());
   }
   catch (const std::exception& e)  // a live camera's thread must not die with an exception
@@ -561,14 +605,7 @@ RunSession::grabFrames ()
 {
   grabber_->start ();
   if (dataset_)
-  {
-    while (!InterruptHandlers::interrupted () && dataset_->trigger ())
-    {
-      const std::lock_guard<std::mutex> lock (mutex_);
-      if (!callback_error_.empty ())
-        break;
-    }
-  }
+    processRecording ();
   else
   {
     std::cerr << "cuefusion run: reconstructing from " << s_.source << "; Ctrl-C stops and writes the map\n";
@@ -583,6 +620,39 @@ RunSession::grabFrames ()
     }
   }
   grabber_->stop ();
+}
+
+void
+RunSession::processRecording ()
+{
+  const auto failed = [this] {
+    const std::lock_guard<std::mutex> lock (mutex_);
+    return !callback_error_.empty ();
+  };
+  if (s_.sequential)
+  {
+    for (std::size_t i = 0; i < dataset_->size () && !InterruptHandlers::interrupted () && !failed (); ++i)
+    {
+      const auto t0 = std::chrono::steady_clock::now ();
+      const RGBDFrame::ConstPtr frame = dataset_->readFrame (i);
+      processFrame (frame, std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count (), nullptr);
+    }
+    return;
+  }
+  // The masks of a frame do not depend on the map: reading, decoding and the network run
+  // one or two frames ahead of the loop, and every frame still gets its own masks. With
+  // --async-masks the mask source stays in the loop (it hands out its newest masks).
+  const bool masks_ahead = mask_source_ && !asynchronous_masks_ && pipeline_config_.mode != pipeline::SegmentationMode::Geometry;
+  const io::DatasetGrabber::Ptr dataset = dataset_;
+  recognition::FramePrefetcher ahead ([dataset] (std::size_t i) { return dataset->readFrame (i); }, dataset_->size (),
+                                      masks_ahead ? mask_source_ : nullptr);
+  while (!InterruptHandlers::interrupted () && !failed ())
+  {
+    std::optional<recognition::PreparedFrame> prepared = ahead.next ();
+    if (!prepared)
+      break;
+    processFrame (prepared->frame, prepared->read_ms, masks_ahead ? &*prepared : nullptr);
+  }
 }
 
 void
@@ -634,6 +704,7 @@ void
 RunSession::run ()
 {
   t0_ = std::chrono::steady_clock::now ();
+  last_frame_end_ = t0_;
   const boost::signals2::connection connection =
     grabber_->registerCallback (std::function<io::RGBDGrabber::sig_cb_rgbd_frame> ([this] (const RGBDFrame::ConstPtr& frame) { onFrame (frame); }));
   if (viewer_)
@@ -753,7 +824,7 @@ RunSession::writeOutputs ()
     fusion_.saveVolume (staged ("volume.tsdf"), staged ("volume.labels"), staged ("volume.keyframes"));
   io::writeTextAtomic (staged ("tracking.json"), io::jsonText (trackingJson (), 2) + "\n");
   io::writeTextAtomic (staged ("timings.json"),
-                       io::jsonText (timingsJson (result_.reports, result_.segmentation, result_.volume_bytes, result_.loop_ms), 2) + "\n");
+                       io::jsonText (timingsJson (result_, seconds_), 2) + "\n");
   nlohmann::json files = nlohmann::json::array ();
   for (const std::string& name : kRunOutputs)
     if (fs::exists (fs::path (outputs_.stagingPath (name))))

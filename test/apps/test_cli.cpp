@@ -241,6 +241,38 @@ TEST_F (Cli, ARunRepeatsFromItsRecordedCommandLine)
   EXPECT_EQ (test::runCuefusion ("run --config settings.json", dir, true).code, 2);
 }
 
+TEST_F (Cli, APipelinedRunWritesWhatTheSequentialRunWrites)
+{
+  // Reading and the network run ahead of the loop on another thread; every frame still
+  // gets its own masks, so the outputs are those of reading, masking and processing each
+  // frame in turn (--sequential), byte for byte, tracking by ICP included.
+  Result r = run ("synth --scene clutter --frames 10 --size 160x120 --layout redwood --out " + (dir / "seq"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  for (const std::string name : {"ahead", "sequential"})
+  {
+    r = run ("run " + (dir / "seq") + " --out " + (dir / name) + " --voxel 0.02 --model xyz_instances" +
+             (name == "sequential" ? " --sequential" : ""));
+    ASSERT_EQ (r.code, 0) << r.err;
+  }
+  for (const char* file : {"map.pcd", "mesh.ply", "segments.json", "trajectory.txt", "tracking.json"})
+    EXPECT_EQ (test::readFile (dir / ("ahead/" + std::string (file))), test::readFile (dir / ("sequential/" + std::string (file)))) << file;
+  // timings.json: every frame's reading and network time beside the loop's stages, and
+  // the run's rate.
+  for (const std::string name : {"ahead", "sequential"})
+  {
+    const nlohmann::json timings = nlohmann::json::parse (test::readFile (dir / (name + "/timings.json")));
+    ASSERT_EQ (timings.at ("frames").size (), 10u);
+    for (const auto& f : timings.at ("frames"))
+    {
+      EXPECT_GT (f.at ("read_ms").get<double> (), 0.0) << name;
+      EXPECT_GT (f.at ("masks_ms").get<double> (), 0.0) << name;
+      EXPECT_GT (f.at ("wall_ms").get<double> (), 0.0) << name;
+    }
+    EXPECT_EQ (timings.at ("stages").at ("masks").at ("frames"), 10);
+    EXPECT_GT (timings.at ("frames_per_second").get<double> (), 0.0);
+  }
+}
+
 TEST_F (Cli, ScalarAndVectorRunsWriteTheSameMapWithinTolerance)
 {
   // CUEFUSION_NO_AVX2=1 runs the scalar kernels: the map may differ by rounding only
