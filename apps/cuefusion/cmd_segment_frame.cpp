@@ -11,6 +11,7 @@
 #include <cuefusion/io/map_io.h>
 #include <cuefusion/common/instance.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/pipeline/frame_segmentation.h>
 #include <cuefusion/pipeline/settings.h>
 #include <cuefusion/recognition/settings.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
@@ -149,27 +150,6 @@ edgePicture (const cv::Mat& concavity, const cv::Mat& discontinuity, const Cloud
         bgr[1] = 255;
     }
   return picture;
-}
-
-/** L_t = InstanceGuidedRegionMerge (L^G, masks), the masks completing rims on \a planes' points
-  * and divided by \a color. */
-cv::Mat
-fuseWithMasks (const segmentation::InstanceGuidedRegionMerge& merger, const cv::Mat& geometric,
-               const std::vector<Instance>& instances, const segmentation::SurfacePlanes& planes, const cv::Mat& color,
-               std::vector<segmentation::SegmentInstance>& segments)
-{
-  cv::Mat fused;
-  merger.merge (geometric, instances, fused, &segments, &planes, color);
-  return fused;
-}
-
-cv::Mat
-masksOnlyLabels (const std::vector<Instance>& instances, const segmentation::SurfacePlanes& planes,
-                 std::vector<segmentation::SegmentInstance>& segments)
-{
-  cv::Mat labels;
-  segmentation::masksAsSegments (instances, planes, labels, &segments);
-  return labels;
 }
 
 /** What each label of the output is: its instance's class and score, or geometry only. */
@@ -420,6 +400,17 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
   return true;
 }
 
+/** The library's single-frame segmentation with the options' Configs and mode. */
+pipeline::FrameSegmentationConfig
+frameSegmentationConfig (const SegmentFrameSettings& s)
+{
+  pipeline::FrameSegmentationConfig config;
+  config.geometry = s.geo;
+  config.instance_merge = s.merge;
+  config.mode = pipeline::parseSegmentationMode (s.mode);
+  return config;
+}
+
 /** Segments one input after another with the same objects (the fast path: smoothed
   * points and normals stay in SurfacePlanes, reused from frame to frame, without copies
   * into PCL clouds; the PCL-typed interface gives the same labels). */
@@ -451,17 +442,14 @@ private:
   const FolderOutputs* outputs_;
   const bool folder_;
   std::unique_ptr<recognition::InstanceSegmenter> source_;
-  const segmentation::InstanceGuidedRegionMerge merger_;
   std::optional<PinholeCamera> camera_;
   bool warned_missing_ = false;
-  segmentation::SurfacePreprocessing<pcl::PointXYZRGBA> preprocessor_;
-  segmentation::GeometricSegmentation<pcl::PointXYZRGBA, pcl::Normal> segmenter_;
+  pipeline::FrameSegmentation frame_;  ///< smoothed points and normals reused from input to input
   segmentation::SupportPlaneRemoval<pcl::PointXYZRGBA> plane_removal_;
-  segmentation::SurfacePlanes planes_;
 };
 
 FrameSegmenter::FrameSegmenter (const SegmentFrameSettings& s, const FolderOutputs* outputs)
-  : s_ (s), outputs_ (outputs), folder_ (outputs != nullptr), merger_ (s.merge), preprocessor_ (s.geo.preprocessing), segmenter_ (s.geo), plane_removal_ (s.plane)
+  : s_ (s), outputs_ (outputs), folder_ (outputs != nullptr), frame_ (frameSegmentationConfig (s)), plane_removal_ (s.plane)
 {
   boost::system::error_code ec;
   if (!s.masks.empty ())
@@ -523,8 +511,7 @@ FrameSegmenter::applyMasks (const std::string& path, std::size_t index, const Cl
   }
   if (!have_masks)
     return label_image;
-  return s_.mode == "fused" ? fuseWithMasks (merger_, label_image, instances, planes_, frame.color, segments)
-                            : masksOnlyLabels (instances, planes_, segments);
+  return frame_.applyMasks (instances, frame.color, &segments);
 }
 
 void
@@ -540,7 +527,7 @@ FrameSegmenter::write (const std::string& path, const Cloud& cloud, const cv::Ma
                          segmentsJson (segments, label_image));
   if (!s_.edges_png.empty ())
     io::writeImageAtomic (outputPath (s_.edges_png, path, ".png"),
-                          edgePicture (segmenter_.getConcavityEdges (), segmenter_.getDiscontinuityEdges (), cloud));
+                          edgePicture (frame_.geometricSegmentation ().getConcavityEdges (), frame_.geometricSegmentation ().getDiscontinuityEdges (), cloud));
   io::saveMapPCD (outputPath (s_.out, path, ".pcd"), labelled);  // last: in folder mode the last input's is the set's marker
 }
 
@@ -551,17 +538,9 @@ FrameSegmenter::segment (const std::string& path, std::size_t index, double& seg
   const Cloud::Ptr cloud = load (path, t);
   try
   {
-    // The frame's noise sets the thresholds written in sensor-noise units
-    // (GeometricSegmentationConfig::noise_scale), as GeometricSegmentation::segment does.
-    segmentation::GeometricSegmentationConfig geo = s_.geo;
-    geo.noise_scale = segmentation::resolveNoiseScale (s_.geo, *cloud);
-    preprocessor_.setConfig (geo.noiseScaled (geo.noise_scale).preprocessing);
-    segmenter_.setConfig (geo);
-    preprocessor_.setInputCloud (cloud);
-    preprocessor_.compute (planes_);
-    t.smoothing_ms = preprocessor_.getSmoothingTime ();
-    t.normals_ms = preprocessor_.getNormalTime ();
-    segmenter_.segment (planes_);
+    frame_.segmentGeometry (cloud);
+    t.smoothing_ms = frame_.smoothingTime ();
+    t.normals_ms = frame_.normalTime ();
   }
   catch (const ParameterError&)
   {
@@ -571,10 +550,10 @@ FrameSegmenter::segment (const std::string& path, std::size_t index, double& seg
   {
     throw Error (path, e.what ());
   }
-  const auto& st = segmenter_.getTimings ();
+  const auto& st = frame_.geometricSegmentation ().getTimings ();
   t.edges_ms = st.edges_ms;
   t.labeling_ms = st.labeling_ms;
-  cv::Mat label_image = segmenter_.getLabelImage ().clone ();
+  cv::Mat label_image = frame_.geometricSegmentation ().getLabelImage ().clone ();
   std::vector<segmentation::SegmentInstance> segments;
   pcl::StopWatch watch;
   if (s_.mode != "geometry")
@@ -585,7 +564,7 @@ FrameSegmenter::segment (const std::string& path, std::size_t index, double& seg
   if (s_.drop_plane)
   {
     watch.reset ();
-    plane_removal_.apply (planes_, label_image);
+    plane_removal_.apply (frame_.planes (), label_image);
     t.plane_ms = watch.getTime ();
   }
   watch.reset ();
@@ -603,10 +582,10 @@ FrameSegmenter::segment (const std::string& path, std::size_t index, double& seg
               << distinct.size () << " segments; ms: load " << t.load_ms << ", smoothing " << t.smoothing_ms
               << ", normals " << t.normals_ms << ", edges (concave + depth) " << t.edges_ms << ", labelling " << t.labeling_ms << ", segmentation total "
               << t.segmentation () << (s_.drop_plane ? ", plane " + std::to_string (t.plane_ms) : std::string ())
-              << ", write " << t.write_ms << "; depth noise " << segmenter_.getNoiseScale () << " x Kinect's\n";
+              << ", write " << t.write_ms << "; depth noise " << frame_.noiseScale () << " x Kinect's\n";
   return {{"input", path},
           {"segments", distinct.size ()},
-          {"noise_scale", segmenter_.getNoiseScale ()},
+          {"noise_scale", frame_.noiseScale ()},
           {"load_ms", t.load_ms},
           {"smoothing_ms", t.smoothing_ms},
           {"normals_ms", t.normals_ms},
