@@ -14,7 +14,7 @@ LINE = "// SPDX-License-Identifier: BSD-3-Clause"
 missing = []
 if not os.path.isfile(os.path.join(root, "LICENSE")):
     missing.append("LICENSE: missing")
-for top in ("include", "modules", "apps", "examples", "fuzz", "bench", "test"):
+for top in ("include", "modules", "apps", "examples", "fuzz", "bench", "test", "python"):
     for folder, _, files in os.walk(os.path.join(root, top)):
         for name in sorted(files):
             if name.endswith((".cpp", ".h", ".hpp")):

@@ -33,6 +33,11 @@ struct SegmentEntry
   double score = -1.0;     ///< in [0, 1]; -1 when it has none
 };
 
+/** \brief segments.json's text: \a segments with their \a geometry and the fragmentation
+  * report, as writeSegmentsJson writes it (the Python binding's segments() parses it). */
+std::string
+segmentsJsonText (const std::vector<SegmentRecord>& segments, const std::map<std::uint32_t, ObjectGeometry>& geometry);
+
 /** \brief Writes \a segments (GlobalSegmentMap::segments(), after refreshStatistics) to
   * \a path atomically, each with its \a geometry (by label; objectGeometry of the map
   * written beside it) where it has one, and their fragmentation report. Throws

@@ -25,9 +25,8 @@ jsonVector (const Eigen::Vector3f& v)
 }
 }  // namespace
 
-void
-writeSegmentsJson (const std::string& path, const std::vector<SegmentRecord>& segments,
-                   const std::map<std::uint32_t, ObjectGeometry>& geometry)
+std::string
+segmentsJsonText (const std::vector<SegmentRecord>& segments, const std::map<std::uint32_t, ObjectGeometry>& geometry)
 {
   nlohmann::json list = nlohmann::json::array ();
   for (const auto& s : segments)
@@ -77,7 +76,14 @@ writeSegmentsJson (const std::string& path, const std::vector<SegmentRecord>& se
                                         {"share_of_surface_below_1000_voxels", f.shareBelow (1000)},
                                         {"by_size", classes}};
   const nlohmann::json doc = {{"segments", list}, {"fragmentation", fragmentation}};
-  io::writeTextAtomic (path, io::jsonText (doc, 1) + "\n");
+  return io::jsonText (doc, 1) + "\n";
+}
+
+void
+writeSegmentsJson (const std::string& path, const std::vector<SegmentRecord>& segments,
+                   const std::map<std::uint32_t, ObjectGeometry>& geometry)
+{
+  io::writeTextAtomic (path, segmentsJsonText (segments, geometry));
 }
 
 std::vector<SegmentEntry>
