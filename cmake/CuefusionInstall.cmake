@@ -50,6 +50,9 @@ set(_cuefusion_packages
   dev "libcuefusion-dev"
   command "cuefusion"
   data "cuefusion-data")
+if(TARGET cuefusion_python)
+  list(APPEND _cuefusion_packages python "python3-cuefusion")
+endif()
 file(MAKE_DIRECTORY ${PROJECT_BINARY_DIR}/packaging)
 add_custom_command(OUTPUT ${PROJECT_BINARY_DIR}/packaging/changelog.gz
   COMMAND gzip -9n < ${PROJECT_SOURCE_DIR}/packaging/changelog > ${PROJECT_BINARY_DIR}/packaging/changelog.gz
@@ -72,6 +75,9 @@ set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEB_COMPONENT_INSTALL ON)
 set(CPACK_COMPONENTS_ALL runtime dev command data)
+if(TARGET cuefusion_python)
+  list(APPEND CPACK_COMPONENTS_ALL python)
+endif()
 set(CPACK_STRIP_FILES ON)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 # shlibs: what a package built against the libraries depends on (this exact version).
@@ -122,4 +128,13 @@ set(CPACK_DEBIAN_DATA_DESCRIPTION "object-level 3D maps from RGB-D sequences (da
 The procedural scenes cuefusion's generator renders, the class lists of
 instance segmenters, and xyz_instances, cuefusion's own depth-only instance
 network (ONNX).")
+set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
+set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS "libcuefusion${_cuefusion_abi} ${_cuefusion_exact}, python3 (>= ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}), python3 (<< ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}.99), python3-numpy")
+set(CPACK_DEBIAN_PYTHON_PACKAGE_RECOMMENDS "cuefusion-data ${_cuefusion_exact}")
+set(CPACK_DEBIAN_PYTHON_DESCRIPTION "object-level 3D maps from RGB-D sequences (Python 3)
+cuefusion turns an RGB-D sequence into a 3D map in which every object is its
+own labelled segment, by fusing geometry with instance masks, on the CPU.
+.
+This package holds the Python 3 module: import cuefusion, numpy arrays in
+and out (frames, masks from any Python detector, the labelled map).")
 include(CPack)

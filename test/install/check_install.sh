@@ -6,8 +6,9 @@
 #     run against the prefix: segment_pcd on an organized PCD, live_segmentation on a
 #     sequence through its pcl::Grabber; the README's snippet, built the same way, gives
 #     segment-frame's segments on a noisy frame;
-#  3. `cpack -G DEB` makes the four Debian packages (libcuefusion<M.m>, libcuefusion-dev,
-#     cuefusion, cuefusion-data): each holds its own files, copyright and changelog; the
+#  3. `cpack -G DEB` makes the five Debian packages (libcuefusion<M.m>, libcuefusion-dev,
+#     cuefusion, cuefusion-data, python3-cuefusion): each holds its own files, copyright and
+#     changelog; the Python module imports from the unpacked packages; the
 #     run-time ones, unpacked into a scratch root, run segment-frame --model xyz_instances;
 #     the -dev one builds the examples; lintian reports no errors.
 # usage: check_install.sh BUILD_DIR SOURCE_DIR
@@ -109,7 +110,7 @@ done
 version=$("$bin" --version | awk '{ print $2 }')
 abi=${version%.*}
 declare -A deb
-for p in "libcuefusion$abi" libcuefusion-dev cuefusion cuefusion-data; do
+for p in "libcuefusion$abi" libcuefusion-dev cuefusion cuefusion-data python3-cuefusion; do
   deb[$p]=$(ls "$tmp"/package/"${p}"_"${version}"_*.deb 2>/dev/null | head -1)
   [ -n "${deb[$p]}" ] || fail "cpack made no ${p}_${version}_*.deb ($(ls "$tmp/package"))"
   dpkg-deb -c "${deb[$p]}" | awk '{ print $6 }' >"$tmp/$p.contents"
@@ -126,6 +127,8 @@ has cuefusion "^\./usr/lib/cuefusion/libcuefusion_commands\.so$"
 has cuefusion "^\./usr/lib/cuefusion/libcuefusion_run_display\.so$"
 has cuefusion "^\./usr/share/man/man1/cuefusion\.1\.gz$"
 has cuefusion-data "^\./usr/share/cuefusion/models/xyz_instances\.onnx$"
+has python3-cuefusion "^\./usr/lib/python3/dist-packages/cuefusion/__init__\.py$"
+has python3-cuefusion "^\./usr/lib/python3/dist-packages/cuefusion/_cuefusion\..*\.so$"
 for p in "${!deb[@]}"; do
   has "$p" "^\./usr/share/doc/$p/copyright$"
   has "$p" "^\./usr/share/doc/$p/changelog\.gz$"
@@ -140,7 +143,7 @@ dpkg-deb -f "${deb[cuefusion]}" Maintainer | grep -q '@localhost' && fail "the m
 # The run-time packages only, unpacked into a scratch root: the command runs from there,
 # with the network by name, from a folder outside the source tree; every object stripped.
 root="$tmp/root"
-for p in "libcuefusion$abi" cuefusion cuefusion-data; do dpkg-deb -x "${deb[$p]}" "$root"; done
+for p in "libcuefusion$abi" cuefusion cuefusion-data python3-cuefusion; do dpkg-deb -x "${deb[$p]}" "$root"; done
 find "$root" -type f -name '*.so*' -o -type f -path '*/bin/*' | while read -r f; do
   file -b "$f" | grep -q 'not stripped' && fail "$f is not stripped"
   true
@@ -151,11 +154,16 @@ done
 ldd "$root/usr/lib/cuefusion/libcuefusion_commands.so" | grep libcuefusion_pipeline | grep -q "$root/" \
   || fail "the packaged commands library does not load the packaged libraries"
 cmp -s "$tmp/package-masks.pcd" "$tmp/masks.pcd" || fail "the packaged and the installed cuefusion segment differently"
+# The Python package from the unpacked packages, outside the source tree.
+(cd "$tmp" && PYTHONPATH="$root/usr/lib/python3/dist-packages" /usr/bin/python3 -c \
+  "import cuefusion; assert cuefusion.__file__.startswith('$root/'); print(len(cuefusion.open_sequence('$tmp/sequence')))" \
+  >"$tmp/package-python.log" 2>&1) && grep -q '^12$' "$tmp/package-python.log" \
+  || { cat "$tmp/package-python.log"; fail "the packaged Python module did not read the sequence"; }
 # The development package on top: the examples build against it.
 dpkg-deb -x "${deb[libcuefusion-dev]}" "$root"
 cmake -S "$source/examples" -B "$tmp/examples-deb" -DCMAKE_PREFIX_PATH="$root/usr" >"$tmp/examples-deb.log" 2>&1 \
   || { cat "$tmp/examples-deb.log"; fail "examples against the unpacked packages: configure failed"; }
-# Debian's own checks: no lintian errors on any of the four.
+# Debian's own checks: no lintian errors on any of the five.
 if command -v lintian >/dev/null; then
   lintian --fail-on error --no-tag-display-limit "${deb[@]}" >"$tmp/lintian.log" 2>&1 || { cat "$tmp/lintian.log"; fail "lintian reports errors"; }
   echo "lintian: $(grep -c '^E:' "$tmp/lintian.log") errors, $(grep -c '^W:' "$tmp/lintian.log") warnings"
