@@ -151,8 +151,11 @@ instanceFromTuple (const py::handle& item, cv::Size size, std::size_t k)
   if (!a.dtype ().is (py::dtype::of<bool> ()) && !a.dtype ().is (py::dtype::of<std::uint8_t> ()))
     throw py::value_error (name + "'s mask must be bool or uint8, got dtype " + dtypeText (a));
   Instance instance;
-  instance.mask = cv::Mat (size, CV_8U, const_cast<void*> (a.data ())) != 0;
-  instance.mask &= 1;
+  const cv::Mat view (size, CV_8U, const_cast<void*> (a.data ()));
+  if (a.dtype ().is (py::dtype::of<bool> ()))
+    instance.mask = view.clone ();  // numpy's bool is one byte, 0 or 1: a copy is the mask
+  else
+    cv::min (view, 1, instance.mask);  // one pass: any non-zero byte becomes 1
   instance.box = cv::boundingRect (instance.mask);
   if (t.size () >= 2)
   {
