@@ -4,9 +4,9 @@
 // SurfacePreprocessing's central differences (several steps) and PCL's
 // IntegralImageNormalEstimation. Used by scripts/bench; prints one Markdown table.
 // Usage: cuefusion_bench_normals SCENE_FILE [FRAMES]
-#include <cuefusion/io/scene_renderer.h>
-#include <cuefusion/io/synthetic_scene.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/scene_renderer.h>
+#include <cuefusion/simulation/synthetic_scene.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
 
 #include <algorithm>
@@ -27,12 +27,12 @@ main (int argc, char** argv)
     return 2;
   }
   const int frames = argc > 2 ? std::max (1, std::atoi (argv[2])) : 8;
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = static_cast<std::size_t> (frames);
   config.noise.enabled = true;
-  const io::SyntheticScene scene = io::SyntheticScene::load (argv[1]);
-  const io::SyntheticSequence sequence (scene, config);
-  const io::SceneRenderer renderer (scene);
+  const simulation::SyntheticScene scene = simulation::SyntheticScene::load (argv[1]);
+  const simulation::SyntheticSequence sequence (scene, config);
+  const simulation::SceneRenderer renderer (scene);
 
   struct Variant
   {
@@ -56,8 +56,8 @@ main (int argc, char** argv)
 
   for (int f = 0; f < frames; ++f)
   {
-    const io::RenderedView view =
-      renderer.render (sequence.camera (), sequence.poseAt (static_cast<std::size_t> (f)), config.noise, io::mixSeed (1, f));
+    const simulation::RenderedView view =
+      renderer.render (sequence.camera (), sequence.poseAt (static_cast<std::size_t> (f)), config.noise, simulation::mixSeed (1, f));
     const PinholeCamera& c = sequence.camera ();
     pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ> (view.depth.cols, view.depth.rows));
     for (int y = 0; y < view.depth.rows; ++y)

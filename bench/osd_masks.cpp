@@ -6,7 +6,7 @@
 // Usage: cuefusion_bench_osd_masks GT_DIR OUT_DIR [--dilate PX] [--jitter PX] [--merge P] [--miss P] [--split P] [--false-positives N] [--seed N]
 // Writes OUT_DIR/<stem>.png (16-bit instance ids) and <stem>.json per GT cloud.
 #include <cuefusion/io/file_io.h>
-#include <cuefusion/io/simulated_detector.h>
+#include <cuefusion/simulation/simulated_detector.h>
 
 #include <boost/filesystem.hpp>
 
@@ -28,7 +28,7 @@ main (int argc, char** argv)
     std::cerr << "usage: cuefusion_bench_osd_masks GT_DIR OUT_DIR [--dilate PX] [--jitter PX] [--merge P] [--miss P] [--split P] [--false-positives N] [--seed N]\n";
     return 2;
   }
-  io::DetectorErrorConfig errors;
+  simulation::DetectorErrorConfig errors;
   errors.boundary_px = 2;
   errors.boundary_jitter_px = 1;
   errors.merge_probability = 0.2;
@@ -86,19 +86,19 @@ main (int argc, char** argv)
         const auto it = ids.emplace (p.label / 10, static_cast<std::uint16_t> (ids.size () + 1)).first;
         truth.at<std::uint16_t> (y, x) = it->second;
       }
-    io::SyntheticScene scene;  // one detectable "object" per GT object, for the detector
+    simulation::SyntheticScene scene;  // one detectable "object" per GT object, for the detector
     for (std::size_t i = 0; i < ids.size (); ++i)
     {
-      io::SceneObject object;
+      simulation::SceneObject object;
       object.id = static_cast<std::uint16_t> (i + 1);
       object.name = "object" + std::to_string (i + 1);
       object.class_name = "object";
       scene.objects.push_back (object);
     }
-    const io::DetectionResult result = io::SimulatedDetector (scene, errors, seed).detect (truth, f);
+    const simulation::DetectionResult result = simulation::SimulatedDetector (scene, errors, seed).detect (truth, f);
     const std::string stem = (fs::path (argv[2]) / inputs[f].stem ()).string ();
     io::writeImageAtomic (stem + ".png", result.ids);
-    io::writeTextAtomic (stem + ".json", io::detectionsToJson (result));
+    io::writeTextAtomic (stem + ".json", simulation::detectionsToJson (result));
   }
   return 0;
 }

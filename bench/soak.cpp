@@ -9,8 +9,8 @@
 // resident memory at the block's end, and the start/end comparison.
 // Usage: cuefusion_bench_soak SCENE_FILE [FRAMES=5000] [ORBIT=500] [WxH=320x240]
 #include <cuefusion/common/exceptions.h>
-#include <cuefusion/io/synthetic_scene.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_scene.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 
 #include <nlohmann/json.hpp>
@@ -62,14 +62,14 @@ main (int argc, char** argv)
     int width = 320, height = 240;
     if (argc > 4 && std::sscanf (argv[4], "%dx%d", &width, &height) != 2)
       throw Error (argv[4], "expected WxH");
-    io::SyntheticSequenceConfig config;
+    simulation::SyntheticSequenceConfig config;
     config.frames = orbit;
     config.width = width;
     config.height = height;
     config.noise.enabled = true;
     config.detector.merge_probability = 0.1;
     config.detector.miss_probability = 0.05;
-    const io::SyntheticSequence sequence (io::SyntheticScene::load (argv[1]), config);
+    const simulation::SyntheticSequence sequence (simulation::SyntheticScene::load (argv[1]), config);
 
     pipeline::FusionPipelineConfig pipeline_config;
     pipeline_config.mode = pipeline::SegmentationMode::Fused;
@@ -85,7 +85,7 @@ main (int argc, char** argv)
       RGBDFrame::Ptr frame = sequence.frame (view);
       frame->index = i;
       frame->timestamp = static_cast<double> (i) / 30.0;
-      const std::vector<Instance> instances = io::toInstances (sequence.detections (*frame));
+      const std::vector<Instance> instances = simulation::toInstances (sequence.detections (*frame));
       const auto t0 = std::chrono::steady_clock::now ();
       const pipeline::PipelineFrameReport report = fusion.process (*frame, &instances);
       block_ms.push_back (std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count ());

@@ -2,12 +2,12 @@
 // Scene files of `cuefusion synth` (data/scenes/*.scene).
 #include "fuzz_input.h"
 
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 
 extern "C" int
 LLVMFuzzerTestOneInput (const std::uint8_t* data, std::size_t size)
 {
   const std::string path = cuefusion::fuzz::writeInput (data, size, "input.scene");
-  cuefusion::fuzz::expectErrorOrSuccess ([&] { cuefusion::io::SyntheticScene::load (path); });
+  cuefusion::fuzz::expectErrorOrSuccess ([&] { cuefusion::simulation::SyntheticScene::load (path); });
   return 0;
 }

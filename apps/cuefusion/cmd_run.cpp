@@ -36,6 +36,9 @@
 #include <iostream>
 #include <mutex>
 #include <sys/resource.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <thread>
 
 namespace fs = boost::filesystem;
@@ -905,6 +908,13 @@ runRun (const std::vector<std::string>& args)
     if (!vm.count (required))
       throw UsageError (std::string ("the option '--") + required + "' is required but missing");
   settings.command_line = args;
+#if defined(__GLIBC__)
+  // One malloc arena for every thread: glibc gives each thread that allocates (the thread
+  // reading and masking frames ahead, OpenCV's pool) an arena of its own, whose freed
+  // memory the others cannot reuse. Measured on 7-Scenes kitchen fused with the network,
+  // read ahead: peak resident 339 -> 296 MiB (the sequential run's 298), time unchanged.
+  mallopt (M_ARENA_MAX, 1);
+#endif
   RunSession session (settings, vm);
   session.run ();
   session.writeOutputs ();

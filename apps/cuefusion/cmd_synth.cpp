@@ -3,9 +3,9 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/progress.h>
-#include <cuefusion/io/random_room.h>
-#include <cuefusion/io/random_scene.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/random_room.h>
+#include <cuefusion/simulation/random_scene.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 
 #include <iostream>
 #include <sstream>
@@ -30,10 +30,10 @@ int
 runSynth (const std::vector<std::string>& args)
 {
   std::string scene_name, room, layout_name, out, size;
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   long long frames = 0;  // signed: "-5" must not wrap to 2^64 - 5
   std::string sensor = "kinect";
-  io::DetectorErrorConfig& det = config.detector;
+  simulation::DetectorErrorConfig& det = config.detector;
   po::options_description options ("options");
   options.add_options ()
     ("scene", po::value (&scene_name), "scene NAME (data/scenes/NAME.scene) or scene FILE")
@@ -80,7 +80,7 @@ runSynth (const std::vector<std::string>& args)
   config.frames = static_cast<std::size_t> (frames);
   config.gt_observed_only = vm.count ("gt-all-surfaces") == 0;
   if (sensor == "kinect" || sensor == "realsense")
-    config.noise.sensor = sensor == "kinect" ? io::DepthSensor::Kinect : io::DepthSensor::RealSense;
+    config.noise.sensor = sensor == "kinect" ? simulation::DepthSensor::Kinect : simulation::DepthSensor::RealSense;
   else
     throw ParameterError ("--sensor", "must be kinect or realsense, not '" + sensor + "'");
   if (given (vm, "sensor") && !config.noise.enabled)
@@ -89,20 +89,20 @@ runSynth (const std::vector<std::string>& args)
     parseSize (size, config.width, config.height);
   const io::DatasetLayout layout = io::parseDatasetLayout (layout_name);
   config.validate ();
-  io::RoomConfig room_config;
+  simulation::RoomConfig room_config;
   if (!room.empty ())
-    room_config.type = io::parseRoomType (room, "--room");
-  const io::SyntheticScene scene = room.empty () ? io::SyntheticScene::load (io::resolveScenePath (scene_name, io::defaultScenesDir ()))
-                                                 : io::generateRoom (room_config, config.seed);
+    room_config.type = simulation::parseRoomType (room, "--room");
+  const simulation::SyntheticScene scene = room.empty () ? simulation::SyntheticScene::load (simulation::resolveScenePath (scene_name, simulation::defaultScenesDir ()))
+                                                 : simulation::generateRoom (room_config, config.seed);
   if (vm.count ("print-scene"))
   {
     std::cout << scene.text ();
     return 0;
   }
-  const io::SyntheticSequence sequence (scene, config);
+  const simulation::SyntheticSequence sequence (scene, config);
 
   ProgressReporter progress ("synth", sequence.size ());
-  io::writeSyntheticSequence (sequence, layout, out, vm.count ("overwrite") > 0,
+  simulation::writeSyntheticSequence (sequence, layout, out, vm.count ("overwrite") > 0,
                               [&progress] (std::size_t done) { progress.update (done); });
   progress.finish ();
   const PinholeCamera& c = sequence.camera ();
@@ -117,7 +117,7 @@ runSynthViews (const std::vector<std::string>& args)
   std::string out, size = "320x240";
   std::size_t views = 0;
   std::uint64_t seed = 1;
-  io::RandomSceneConfig config;
+  simulation::RandomSceneConfig config;
   po::options_description options ("options");
   options.add_options ()
     ("views", po::value (&views)->required (), "number of views to render")
@@ -148,9 +148,9 @@ runSynthViews (const std::vector<std::string>& args)
   parseSize (size, width, height);
   if (views < 1 || views > 10000000)
     throw ParameterError ("--views", "must lie in [1, 10000000]");
-  const io::RandomSceneGenerator generator (config, seed);
+  const simulation::RandomSceneGenerator generator (config, seed);
   ProgressReporter progress ("synth-views", views);
-  io::writeRandomViews (generator, views, width, height, out, vm.count ("overwrite") > 0,
+  simulation::writeRandomViews (generator, views, width, height, out, vm.count ("overwrite") > 0,
                         [&progress] (std::size_t done) { progress.update (done); });
   progress.finish ();
   std::cout << "wrote " << views << " random views (" << width << "x" << height << ", seed " << seed << ") to " << out << "\n";

@@ -24,7 +24,7 @@ public:
   virtual void finish () = 0;
 };
 
-/** `run --view`: the live viewer window (visualization::LiveViewer), main thread only
+/** `run --view`: the live viewer window (viewer::LiveViewer), main thread only
   * except the post… calls. */
 class ViewerWindow
 {

@@ -5,7 +5,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/quiet_opencv_log.h>
-#include <cuefusion/visualization/live_viewer.h>
+#include <cuefusion/viewer/live_viewer.h>
 
 #include <boost/filesystem.hpp>
 #include <opencv2/videoio.hpp>
@@ -177,7 +177,7 @@ public:
   void saveScreenshot (const std::string& path) override { viewer_.saveScreenshot (path); }
 
 private:
-  visualization::LiveViewer viewer_;
+  viewer::LiveViewer viewer_;
 };
 
 class Display : public RunDisplay

@@ -3,23 +3,23 @@
 
 #include "test_utils.h"
 
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 
 namespace cuefusion
 {
 namespace test
 {
 /** The bundled tabletop scene rendered small: \a frames frames of width × height. */
-inline io::SyntheticSequence
+inline simulation::SyntheticSequence
 smallTabletop (std::size_t frames, int width, int height, bool noise = false, std::uint64_t seed = 1)
 {
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = frames;
   config.width = width;
   config.height = height;
   config.noise.enabled = noise;
   config.seed = seed;
-  return io::SyntheticSequence (io::SyntheticScene::load (tabletopScenePath ()), config);
+  return simulation::SyntheticSequence (simulation::SyntheticScene::load (tabletopScenePath ()), config);
 }
 }  // namespace test
 }  // namespace cuefusion

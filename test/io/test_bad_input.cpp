@@ -5,7 +5,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/sequence.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 
 #include <boost/filesystem.hpp>
 #include <opencv2/core.hpp>
@@ -24,10 +24,10 @@ protected:
   void
   SetUp () override
   {
-    const io::SyntheticSequence seq = test::smallTabletop (3, 64, 48);
-    io::writeSyntheticSequence (seq, io::DatasetLayout::SevenScenes, dir / "7s");
-    io::writeSyntheticSequence (seq, io::DatasetLayout::Redwood, dir / "redwood");
-    io::writeSyntheticSequence (seq, io::DatasetLayout::ScanNet, dir / "scannet");
+    const simulation::SyntheticSequence seq = test::smallTabletop (3, 64, 48);
+    simulation::writeSyntheticSequence (seq, io::DatasetLayout::SevenScenes, dir / "7s");
+    simulation::writeSyntheticSequence (seq, io::DatasetLayout::Redwood, dir / "redwood");
+    simulation::writeSyntheticSequence (seq, io::DatasetLayout::ScanNet, dir / "scannet");
   }
 
   test::TempDir dir;
@@ -139,12 +139,12 @@ TEST_F (BadInput, ColourOfAnotherAspectThanTheDepthIsRefused)
 
 TEST_F (BadInput, SyntheticOutputIsNeverHalfWritten)
 {
-  const io::SyntheticSequence seq = test::smallTabletop (2, 32, 24);
+  const simulation::SyntheticSequence seq = test::smallTabletop (2, 32, 24);
   // An existing sequence is not overwritten by accident...
-  test::expectError ([&] { io::writeSyntheticSequence (seq, io::DatasetLayout::TUM, dir / "7s"); }, "7s", "already exists");
+  test::expectError ([&] { simulation::writeSyntheticSequence (seq, io::DatasetLayout::TUM, dir / "7s"); }, "7s", "already exists");
   EXPECT_TRUE (fs::exists (dir / "7s/frame-000002.depth.png"));
   // ...and replaced whole when asked.
-  io::writeSyntheticSequence (seq, io::DatasetLayout::TUM, dir / "7s", true);
+  simulation::writeSyntheticSequence (seq, io::DatasetLayout::TUM, dir / "7s", true);
   EXPECT_EQ (io::openDataset (dir / "7s")->formatName (), "tum");
   EXPECT_FALSE (fs::exists (dir / "7s/frame-000002.depth.png"));
 }

@@ -3,7 +3,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/sequence.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 
 #include <gtest/gtest.h>
 
@@ -36,11 +36,11 @@ protected:
   SetUp () override
   {
     // Noise: invalid pixels and noisy depth must survive the round trip too.
-    sequence = std::make_unique<io::SyntheticSequence> (test::smallTabletop (4, 160, 120, true, 3));
-    io::writeSyntheticSequence (*sequence, GetParam ().layout, dir / "seq");
+    sequence = std::make_unique<simulation::SyntheticSequence> (test::smallTabletop (4, 160, 120, true, 3));
+    simulation::writeSyntheticSequence (*sequence, GetParam ().layout, dir / "seq");
   }
   test::TempDir dir;
-  std::unique_ptr<io::SyntheticSequence> sequence;
+  std::unique_ptr<simulation::SyntheticSequence> sequence;
 };
 }  // namespace
 
@@ -112,7 +112,7 @@ protected:
   void
   SetUp () override
   {
-    io::writeSyntheticSequence (test::smallTabletop (7, 64, 48), io::DatasetLayout::SevenScenes, dir / "seq");
+    simulation::writeSyntheticSequence (test::smallTabletop (7, 64, 48), io::DatasetLayout::SevenScenes, dir / "seq");
   }
   test::TempDir dir;
 };
@@ -179,11 +179,11 @@ TEST (OpenThreeDRecorderFolders, AreReadWithTheirIntrinsicsFileNames)
 {
   // Open3D's RealSense recorder writes color/, depth/ and camera_intrinsic.json; its Azure
   // Kinect recorder intrinsic.json; neither writes a trajectory or masks.
-  const io::SyntheticSequence sequence = test::smallTabletop (3, 160, 120, true, 3);
+  const simulation::SyntheticSequence sequence = test::smallTabletop (3, 160, 120, true, 3);
   for (const char* name : {"camera_intrinsic.json", "intrinsic.json"})
   {
     test::TempDir dir;
-    io::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq");
+    simulation::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq");
     boost::filesystem::rename (dir / "seq/image", dir / "seq/color");
     boost::filesystem::rename (dir / "seq/camera_intrinsics.json", dir / (std::string ("seq/") + name));
     for (const char* other : {"trajectory.log", "instance", "label"})

@@ -5,7 +5,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
-#include <cuefusion/io/random_scene.h>
+#include <cuefusion/simulation/random_scene.h>
 
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
@@ -18,9 +18,9 @@ using namespace cuefusion;
 
 TEST (RandomSceneGenerator, ViewsDependOnlyOnSeedAndIndex)
 {
-  const io::RandomSceneGenerator a (io::RandomSceneConfig (), 7), b (io::RandomSceneConfig (), 7), c (io::RandomSceneConfig (), 8);
-  const io::RandomView v3 = a.view (3, 160, 120);
-  const io::RandomView again = b.view (3, 160, 120);  // another generator, no view 0..2 before it
+  const simulation::RandomSceneGenerator a (simulation::RandomSceneConfig (), 7), b (simulation::RandomSceneConfig (), 7), c (simulation::RandomSceneConfig (), 8);
+  const simulation::RandomView v3 = a.view (3, 160, 120);
+  const simulation::RandomView again = b.view (3, 160, 120);  // another generator, no view 0..2 before it
   EXPECT_EQ (cv::countNonZero (v3.view.depth != again.view.depth), 0);
   EXPECT_EQ (cv::countNonZero (v3.objects != again.objects), 0);
   EXPECT_GT (cv::countNonZero (v3.view.depth != c.view (3, 160, 120).view.depth), 0);
@@ -29,27 +29,27 @@ TEST (RandomSceneGenerator, ViewsDependOnlyOnSeedAndIndex)
 
 TEST (RandomSceneGenerator, ScenesHoldSupportedObjectsAndTheTruthMatchesTheDepth)
 {
-  io::RandomSceneConfig config;
+  simulation::RandomSceneConfig config;
   config.min_objects = 4;
   config.max_objects = 8;
-  const io::RandomSceneGenerator generator (config, 11);
+  const simulation::RandomSceneGenerator generator (config, 11);
   int views_with_objects = 0, touching_views = 0;
   for (std::size_t i = 0; i < 12; ++i)
   {
-    const io::SyntheticScene scene = generator.scene (i);
+    const simulation::SyntheticScene scene = generator.scene (i);
     int objects = 0;
-    for (const io::SceneObject& o : scene.objects)
+    for (const simulation::SceneObject& o : scene.objects)
     {
       objects += o.detectable ? 1 : 0;
       // Nothing floats below the floor; every object has parts.
       EXPECT_FALSE (o.parts.empty ());
-      for (const io::Primitive& p : o.parts)
+      for (const simulation::Primitive& p : o.parts)
         EXPECT_GE (p.center.z () + p.half_size.z (), -0.02 - 1e-9) << o.name;
     }
     EXPECT_LE (objects, config.max_objects);
     EXPECT_GE (objects, 1);
 
-    const io::RandomView view = generator.view (i * config.views_per_scene, 160, 120);
+    const simulation::RandomView view = generator.view (i * config.views_per_scene, 160, 120);
     EXPECT_EQ (view.object_count, objects);
     // objects = instance with stuff removed; only detectable ids; depth wherever an object is
     // seen, except the Kinect-like dropout (grazing angles), which stays rare.
@@ -85,17 +85,17 @@ TEST (RandomSceneGenerator, ScenesHoldSupportedObjectsAndTheTruthMatchesTheDepth
 
 TEST (RandomSceneGenerator, RefusesAbsurdSettings)
 {
-  io::RandomSceneConfig config;
+  simulation::RandomSceneConfig config;
   config.max_objects = 0;
-  test::expectError ([&] { io::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::min_objects", "min_objects");
-  config = io::RandomSceneConfig ();
+  test::expectError ([&] { simulation::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::min_objects", "min_objects");
+  config = simulation::RandomSceneConfig ();
   config.touching_probability = 1.5;
-  EXPECT_THROW (io::RandomSceneGenerator (config, 1), ParameterError);
-  config = io::RandomSceneConfig ();
+  EXPECT_THROW (simulation::RandomSceneGenerator (config, 1), ParameterError);
+  config = simulation::RandomSceneConfig ();
   config.min_distance = 3.0;
   config.max_distance = 1.0;
-  EXPECT_THROW (io::RandomSceneGenerator (config, 1), ParameterError);
-  EXPECT_THROW (io::RandomSceneGenerator (io::RandomSceneConfig (), 1).view (0, 8, 8), ParameterError);
+  EXPECT_THROW (simulation::RandomSceneGenerator (config, 1), ParameterError);
+  EXPECT_THROW (simulation::RandomSceneGenerator (simulation::RandomSceneConfig (), 1).view (0, 8, 8), ParameterError);
 }
 
 TEST (RandomSceneGenerator, SynthViewsWritesTheWholeFolder)
@@ -106,14 +106,14 @@ TEST (RandomSceneGenerator, SynthViewsWritesTheWholeFolder)
   const nlohmann::json meta = nlohmann::json::parse (test::readFile (dir / "views/views.json"));
   ASSERT_EQ (meta.at ("views").size (), 5u);
   EXPECT_EQ (meta.at ("generator").at ("seed"), 4);
-  const io::RandomSceneGenerator generator (io::RandomSceneConfig (), 4);
+  const simulation::RandomSceneGenerator generator (simulation::RandomSceneConfig (), 4);
   for (int i = 0; i < 5; ++i)
   {
     const nlohmann::json& v = meta.at ("views").at (static_cast<std::size_t> (i));
     const std::string file = v.at ("file");
     const cv::Mat depth = io::readDepthImage (dir / ("views/depth/" + file), 1000.0);
     const cv::Mat ids = io::readLabelImage (dir / ("views/instance/" + file));
-    const io::RandomView truth = generator.view (static_cast<std::size_t> (i), 96, 72);
+    const simulation::RandomView truth = generator.view (static_cast<std::size_t> (i), 96, 72);
     EXPECT_EQ (cv::countNonZero (ids != truth.objects), 0);
     cv::Mat difference;
     cv::absdiff (depth, truth.view.depth, difference);
@@ -160,23 +160,23 @@ TEST (WriteFolderAtomic, AFailedFillLeavesTheOldFolderAndNoTemporary)
 
 TEST (RandomSceneGenerator, FiguresAreOneObjectOfSpheresAndOnlyWhenAskedFor)
 {
-  const auto spheres = [] (const io::SceneObject& o) {
-    return std::all_of (o.parts.begin (), o.parts.end (), [] (const io::Primitive& p) { return p.type == io::Primitive::Type::Sphere; });
+  const auto spheres = [] (const simulation::SceneObject& o) {
+    return std::all_of (o.parts.begin (), o.parts.end (), [] (const simulation::Primitive& p) { return p.type == simulation::Primitive::Type::Sphere; });
   };
-  io::RandomSceneConfig config;
+  simulation::RandomSceneConfig config;
   config.multipart_probability = 1.0;
   config.figure_probability = 1.0;
   int with_limbs = 0, objects = 0;
   double largest_body = 0.0;
   for (std::size_t i = 0; i < 4; ++i)
-    for (const io::SceneObject& o : io::RandomSceneGenerator (config, 3).scene (i).objects)
+    for (const simulation::SceneObject& o : simulation::RandomSceneGenerator (config, 3).scene (i).objects)
       if (o.detectable)
       {
         ++objects;
         EXPECT_TRUE (spheres (o)) << o.name;
         ASSERT_GE (o.parts.size (), 2u) << o.name;
         // The head rests on the body, sunk into it: one connected object.
-        const io::Primitive &body = o.parts[0], &head = o.parts[1];
+        const simulation::Primitive &body = o.parts[0], &head = o.parts[1];
         EXPECT_LT ((head.center - body.center).norm (), body.half_size.x () + head.half_size.x ());
         EXPECT_LT (head.half_size.x (), body.half_size.x ());
         with_limbs += o.parts.size () >= 4 ? 1 : 0;
@@ -191,10 +191,10 @@ TEST (RandomSceneGenerator, FiguresAreOneObjectOfSpheresAndOnlyWhenAskedFor)
   EXPECT_GT (largest_body, config.max_size / 4);
   // By default no figures: no object of more than two spheres (a snowman has two).
   for (std::size_t i = 0; i < 8; ++i)
-    for (const io::SceneObject& o : io::RandomSceneGenerator (io::RandomSceneConfig (), 3).scene (i).objects)
+    for (const simulation::SceneObject& o : simulation::RandomSceneGenerator (simulation::RandomSceneConfig (), 3).scene (i).objects)
       EXPECT_FALSE (spheres (o) && o.parts.size () > 2) << o.name;
   config.figure_probability = -0.1;
-  test::expectError ([&] { io::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::figure_probability", "[0, 1]");
+  test::expectError ([&] { simulation::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::figure_probability", "[0, 1]");
 }
 
 TEST (RandomSceneGenerator, AlignedFlushBoxesShareASideFace)
@@ -203,14 +203,14 @@ TEST (RandomSceneGenerator, AlignedFlushBoxesShareASideFace)
   // overlapping along the other: boxes that only meet at an edge are not a pair):
   // with aligned_probability 1 each placed pair has one side face in one plane, at 0 most
   // do not.
-  const auto flushPairs = [] (const io::RandomSceneConfig& config, int& aligned) {
+  const auto flushPairs = [] (const simulation::RandomSceneConfig& config, int& aligned) {
     int pairs = 0;
     aligned = 0;
     for (std::size_t i = 0; i < 12; ++i)
     {
-      std::vector<io::Primitive> boxes;
-      for (const io::SceneObject& o : io::RandomSceneGenerator (config, 5).scene (i).objects)
-        if (o.detectable && o.parts.size () == 1 && o.parts[0].type == io::Primitive::Type::Box)
+      std::vector<simulation::Primitive> boxes;
+      for (const simulation::SceneObject& o : simulation::RandomSceneGenerator (config, 5).scene (i).objects)
+        if (o.detectable && o.parts.size () == 1 && o.parts[0].type == simulation::Primitive::Type::Box)
           boxes.push_back (o.parts[0]);
       for (std::size_t a = 0; a < boxes.size (); ++a)
         for (std::size_t b = a + 1; b < boxes.size (); ++b)
@@ -232,7 +232,7 @@ TEST (RandomSceneGenerator, AlignedFlushBoxesShareASideFace)
     }
     return pairs;
   };
-  io::RandomSceneConfig config;
+  simulation::RandomSceneConfig config;
   config.touching_probability = 1.0;
   config.stacking_probability = 0.0;
   config.multipart_probability = 0.0;
@@ -246,5 +246,5 @@ TEST (RandomSceneGenerator, AlignedFlushBoxesShareASideFace)
   EXPECT_GE (unaligned_pairs, 5);
   EXPECT_LT (aligned, unaligned_pairs / 2);
   config.aligned_probability = 2.0;
-  test::expectError ([&] { io::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::aligned_probability", "[0, 1]");
+  test::expectError ([&] { simulation::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::aligned_probability", "[0, 1]");
 }

@@ -2,9 +2,9 @@
 #include "synthetic_fixtures.h"
 
 #include <cuefusion/common/exceptions.h>
-#include <cuefusion/io/scene_renderer.h>
-#include <cuefusion/io/simulated_detector.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/scene_renderer.h>
+#include <cuefusion/simulation/simulated_detector.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 
 #include <gtest/gtest.h>
 
@@ -19,24 +19,24 @@ using namespace cuefusion;
 
 namespace
 {
-io::SyntheticScene
+simulation::SyntheticScene
 sceneFromText (const std::string& text)
 {
-  return io::SyntheticScene::parse (text, "test.scene");
+  return simulation::SyntheticScene::parse (text, "test.scene");
 }
 
-io::SyntheticScene
+simulation::SyntheticScene
 tabletop ()
 {
-  return io::SyntheticScene::load (test::tabletopScenePath ());
+  return simulation::SyntheticScene::load (test::tabletopScenePath ());
 }
 }  // namespace
 
 TEST (SceneRenderer, SphereDepthMatchesAnalyticIntersection)
 {
-  const io::SyntheticScene scene = sceneFromText ("object ball\n sphere center=0.1,-0.05,3 radius=0.5\n");
+  const simulation::SyntheticScene scene = sceneFromText ("object ball\n sphere center=0.1,-0.05,3 radius=0.5\n");
   const PinholeCamera cam (100, 100, 39.5, 29.5, 80, 60);
-  const io::RenderedView view = io::SceneRenderer (scene).render (cam, Eigen::Isometry3d::Identity ());
+  const simulation::RenderedView view = simulation::SceneRenderer (scene).render (cam, Eigen::Isometry3d::Identity ());
   int hits = 0;
   const Eigen::Vector3d c (0.1, -0.05, 3.0);
   for (int v = 0; v < cam.height; ++v)
@@ -61,10 +61,10 @@ TEST (SceneRenderer, SphereDepthMatchesAnalyticIntersection)
 
 TEST (SceneRenderer, NearestSurfaceWinsAndBoxFaceIsFlat)
 {
-  const io::SyntheticScene scene = sceneFromText (
+  const simulation::SyntheticScene scene = sceneFromText (
     "object wall\n box center=0,0,2.05 size=10,10,0.1\nobject cube\n box center=0,0,1.0 size=0.2,0.2,0.2 yaw=30\n");
   const PinholeCamera cam (100, 100, 39.5, 29.5, 80, 60);
-  const io::RenderedView view = io::SceneRenderer (scene).render (cam, Eigen::Isometry3d::Identity ());
+  const simulation::RenderedView view = simulation::SceneRenderer (scene).render (cam, Eigen::Isometry3d::Identity ());
   EXPECT_NEAR (view.depth.at<float> (0, 0), 2.0f, 1e-6);
   EXPECT_EQ (view.instance.at<std::uint16_t> (0, 0), 1);
   EXPECT_NEAR (view.depth.at<float> (29, 39), 0.9f, 1e-5);  // front face of the cube
@@ -74,13 +74,13 @@ TEST (SceneRenderer, NearestSurfaceWinsAndBoxFaceIsFlat)
 
 TEST (SceneRenderer, NoiseFollowsTheAxialModel)
 {
-  const io::SyntheticScene scene = sceneFromText ("object wall\n box center=0,0,2.05 size=10,10,0.1\n");
+  const simulation::SyntheticScene scene = sceneFromText ("object wall\n box center=0,0,2.05 size=10,10,0.1\n");
   const PinholeCamera cam (300, 300, 79.5, 59.5, 160, 120);
-  io::DepthNoiseConfig noise;
+  simulation::DepthNoiseConfig noise;
   noise.enabled = true;
-  const io::SceneRenderer renderer (scene);
-  const io::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
-  const io::RenderedView noisy = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 7);
+  const simulation::SceneRenderer renderer (scene);
+  const simulation::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
+  const simulation::RenderedView noisy = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 7);
   double sum = 0, sum_sq = 0;
   int n = 0;
   for (int v = 0; v < cam.height; ++v)
@@ -96,7 +96,7 @@ TEST (SceneRenderer, NoiseFollowsTheAxialModel)
   EXPECT_NEAR (sum / n, 0.0, 0.05);
   EXPECT_NEAR (std::sqrt (sum_sq / n), 1.0, 0.05);
   // Same seed, same noise.
-  const io::RenderedView again = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 7);
+  const simulation::RenderedView again = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 7);
   EXPECT_EQ (cv::norm (again.depth, noisy.depth, cv::NORM_INF), 0.0);
 }
 
@@ -106,18 +106,18 @@ TEST (SceneRenderer, TheStereoSensorsNoiseGrowsWithDepthSquared)
   // are σ_z = z² · subpixel / (f · baseline) (mean 0, RMS 1 in units of it), about
   // `speckle` of the pixels have no depth, and at 3 m the noise is well above Kinect's.
   const PinholeCamera cam (300, 300, 79.5, 59.5, 160, 120);
-  io::DepthNoiseConfig noise;
+  simulation::DepthNoiseConfig noise;
   noise.enabled = true;
-  noise.sensor = io::DepthSensor::RealSense;
+  noise.sensor = simulation::DepthSensor::RealSense;
   std::mt19937 draw (5);
   for (int k = 0; k < 4; ++k)
   {
     const double wall = std::uniform_real_distribution<double> (0.6, 4.0) (draw);
-    const io::SyntheticScene scene =
+    const simulation::SyntheticScene scene =
         sceneFromText ("object wall color=200,200,200\n box center=0,0," + std::to_string (wall + 0.05) + " size=20,20,0.1\n");
-    const io::SceneRenderer renderer (scene);
-    const io::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
-    const io::RenderedView noisy = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 11 + k);
+    const simulation::SceneRenderer renderer (scene);
+    const simulation::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
+    const simulation::RenderedView noisy = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 11 + k);
     double sum = 0, sum_sq = 0;
     int n = 0, missing = 0;
     for (int v = 0; v < cam.height; ++v)
@@ -129,7 +129,7 @@ TEST (SceneRenderer, TheStereoSensorsNoiseGrowsWithDepthSquared)
           ++missing;
           continue;
         }
-        const double r = (measured - z) / io::stereoAxialNoise (z, cam.fx * 640.0 / cam.width, noise);
+        const double r = (measured - z) / simulation::stereoAxialNoise (z, cam.fx * 640.0 / cam.width, noise);
         sum += r;
         sum_sq += r * r;
         ++n;
@@ -138,7 +138,7 @@ TEST (SceneRenderer, TheStereoSensorsNoiseGrowsWithDepthSquared)
     EXPECT_NEAR (std::sqrt (sum_sq / n), 1.0, 0.05) << "wall at " << wall << " m";
     EXPECT_NEAR (static_cast<double> (missing) / (cam.width * cam.height), noise.speckle, 0.006) << "wall at " << wall << " m";
   }
-  EXPECT_GT (io::stereoAxialNoise (3.0, 525.0, noise), 1.5 * kinectAxialNoise (3.0, 0.0));
+  EXPECT_GT (simulation::stereoAxialNoise (3.0, 525.0, noise), 1.5 * kinectAxialNoise (3.0, 0.0));
 }
 
 TEST (SceneRenderer, TheStereoSensorFattensForegroundAndLosesDarkSurfaces)
@@ -146,19 +146,19 @@ TEST (SceneRenderer, TheStereoSensorFattensForegroundAndLosesDarkSurfaces)
   // Noise off but for one effect at a time: a cube 1 m away before a wall at 2 m takes
   // edge_fattening_px more pixels of the wall on each side along x; a dark object loses
   // about dark_dropout of its pixels, a bright one none.
-  const io::SyntheticScene scene = sceneFromText ("object wall color=200,200,200\n box center=0,0,2.05 size=10,10,0.1\n"
+  const simulation::SyntheticScene scene = sceneFromText ("object wall color=200,200,200\n box center=0,0,2.05 size=10,10,0.1\n"
                                                   "object cube color=200,200,200\n box center=0,0,1.0 size=0.2,0.2,0.2\n"
                                                   "object dark color=15,15,15\n box center=0.45,0,1.5 size=0.2,0.2,0.2\n");
   const PinholeCamera cam (100, 100, 79.5, 59.5, 160, 120);
-  const io::SceneRenderer renderer (scene);
-  io::DepthNoiseConfig noise;
+  const simulation::SceneRenderer renderer (scene);
+  simulation::DepthNoiseConfig noise;
   noise.enabled = true;
-  noise.sensor = io::DepthSensor::RealSense;
+  noise.sensor = simulation::DepthSensor::RealSense;
   noise.stereo_subpixel = 0.0;
   noise.speckle = 0.0;
   noise.dark_dropout = 0.0;
-  const io::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
-  const io::RenderedView fat = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 3);
+  const simulation::RenderedView exact = renderer.render (cam, Eigen::Isometry3d::Identity ());
+  const simulation::RenderedView fat = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 3);
   for (int v = 50; v < 70; ++v)
   {
     int exact_cube = 0, fat_cube = 0;
@@ -172,7 +172,7 @@ TEST (SceneRenderer, TheStereoSensorFattensForegroundAndLosesDarkSurfaces)
   }
   noise.edge_fattening_px = 0;
   noise.dark_dropout = 0.7;
-  const io::RenderedView holes = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 4);
+  const simulation::RenderedView holes = renderer.render (cam, Eigen::Isometry3d::Identity (), noise, 4);
   int dark = 0, dark_missing = 0, bright = 0, bright_missing = 0;
   for (int v = 0; v < cam.height; ++v)
     for (int u = 0; u < cam.width; ++u)
@@ -189,15 +189,15 @@ TEST (SceneRenderer, TheStereoSensorFattensForegroundAndLosesDarkSurfaces)
 
 TEST (SceneRenderer, GrazingSurfacesLoseDepth)
 {
-  const io::SyntheticScene scene = sceneFromText ("object floor\n box center=0,0,-0.01 size=40,40,0.02\n");
+  const simulation::SyntheticScene scene = sceneFromText ("object floor\n box center=0,0,-0.01 size=40,40,0.02\n");
   const PinholeCamera cam (200, 200, 79.5, 59.5, 160, 120);
-  io::OrbitTrajectory orbit;
+  simulation::OrbitTrajectory orbit;
   orbit.target = Eigen::Vector3d (0, 0, 0);
   orbit.radius = 3.0;
   orbit.height = 0.3;  // looking along the floor
-  io::DepthNoiseConfig noise;
+  simulation::DepthNoiseConfig noise;
   noise.enabled = true;
-  const io::RenderedView view = io::SceneRenderer (scene).render (cam, orbit.poseAt (0.0), noise, 1);
+  const simulation::RenderedView view = simulation::SceneRenderer (scene).render (cam, orbit.poseAt (0.0), noise, 1);
   int floor_pixels = 0, missing = 0;
   for (int v = 0; v < cam.height; ++v)
     for (int u = 0; u < cam.width; ++u)
@@ -212,12 +212,12 @@ TEST (SceneRenderer, GrazingSurfacesLoseDepth)
 
 TEST (SceneFile, ParsesTheBundledScene)
 {
-  const io::SyntheticScene scene = tabletop ();
+  const simulation::SyntheticScene scene = tabletop ();
   EXPECT_EQ (scene.name, "tabletop");
   EXPECT_EQ (scene.camera.width, 640);
   ASSERT_GE (scene.objects.size (), 10u);
   std::set<std::string> names;
-  for (const io::SceneObject& o : scene.objects)
+  for (const simulation::SceneObject& o : scene.objects)
     names.insert (o.class_name);
   EXPECT_TRUE (names.count ("teddy bear"));
   EXPECT_EQ (scene.objects[0].detectable, false);  // floor
@@ -242,7 +242,7 @@ TEST (SceneFile, ErrorsNameTheLine)
 
 TEST (SyntheticSequence, MasksPosesAndGroundTruthCloudAgree)
 {
-  const io::SyntheticSequence sequence = test::smallTabletop (5, 160, 120);
+  const simulation::SyntheticSequence sequence = test::smallTabletop (5, 160, 120);
   const auto cloud = sequence.groundTruthCloud ();
   ASSERT_GT (cloud->size (), 10000u);
   pcl::KdTreeFLANN<pcl::PointXYZRGBL> tree;
@@ -276,13 +276,13 @@ TEST (SyntheticSequence, MasksPosesAndGroundTruthCloudAgree)
 
 TEST (SyntheticSequence, ContactFacesAreNotInTheGroundTruthCloud)
 {
-  const io::SyntheticScene scene = tabletop ();
-  io::SyntheticSequenceConfig config;
+  const simulation::SyntheticScene scene = tabletop ();
+  simulation::SyntheticSequenceConfig config;
   config.frames = 1;
-  const auto cloud = io::SyntheticSequence (scene, config).groundTruthCloud ();
-  const io::SceneObject* mug = nullptr;
-  const io::SceneObject* table = nullptr;
-  for (const io::SceneObject& o : scene.objects)
+  const auto cloud = simulation::SyntheticSequence (scene, config).groundTruthCloud ();
+  const simulation::SceneObject* mug = nullptr;
+  const simulation::SceneObject* table = nullptr;
+  for (const simulation::SceneObject& o : scene.objects)
   {
     if (o.name == "mug")
       mug = &o;
@@ -310,19 +310,19 @@ TEST (SyntheticSequence, TheWrittenTruthHoldsWhatSomeFrameMeasured)
   // gt_cloud.pcd (SyntheticSequenceConfig::gt_observed_only): the table top's upper face
   // is seen from above, its underside and the floor under it never; every kept point lies
   // on the surface some frame saw at its pixel, and the file holds exactly those points.
-  const io::SyntheticScene scene = tabletop ();
-  io::SyntheticSequenceConfig config;
+  const simulation::SyntheticScene scene = tabletop ();
+  simulation::SyntheticSequenceConfig config;
   config.frames = 6;
   config.width = 160;
   config.height = 120;
   config.noise.enabled = true;
-  const io::SyntheticSequence sequence (scene, config);
+  const simulation::SyntheticSequence sequence (scene, config);
   const auto all = sequence.groundTruthCloud ();
   std::vector<char> observed (all->size (), 0);
   for (std::size_t i = 0; i < sequence.size (); ++i)
     sequence.markObserved (*all, i, sequence.render (i), observed);
-  const io::SceneObject* table = nullptr;
-  for (const io::SceneObject& o : scene.objects)
+  const simulation::SceneObject* table = nullptr;
+  for (const simulation::SceneObject& o : scene.objects)
     if (o.name == "table")
       table = &o;
   ASSERT_TRUE (table);
@@ -349,7 +349,7 @@ TEST (SyntheticSequence, TheWrittenTruthHoldsWhatSomeFrameMeasured)
   EXPECT_LT (kept, all->size () * 9 / 10);
 
   const test::TempDir dir;
-  io::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq", false);
+  simulation::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq", false);
   pcl::PointCloud<pcl::PointXYZRGBL> written;
   ASSERT_EQ (pcl::io::loadPCDFile (dir / "seq/gt_cloud.pcd", written), 0);
   EXPECT_EQ (written.size (), kept);
@@ -357,10 +357,10 @@ TEST (SyntheticSequence, TheWrittenTruthHoldsWhatSomeFrameMeasured)
 
 TEST (SyntheticSequence, CameraLooksAtTheTarget)
 {
-  const io::SyntheticScene scene = tabletop ();
-  io::SyntheticSequenceConfig config;
+  const simulation::SyntheticScene scene = tabletop ();
+  simulation::SyntheticSequenceConfig config;
   config.frames = 10;
-  const io::SyntheticSequence sequence (scene, config);
+  const simulation::SyntheticSequence sequence (scene, config);
   for (std::size_t i = 0; i < 10; ++i)
   {
     const Eigen::Isometry3d pose = sequence.poseAt (i);
@@ -375,19 +375,19 @@ namespace
 {
 struct DetectorFixture : ::testing::Test
 {
-  io::SyntheticScene scene = tabletop ();
+  simulation::SyntheticScene scene = tabletop ();
   std::vector<RGBDFrame::Ptr> frames;
   void
   SetUp () override
   {
-    const io::SyntheticSequence sequence = test::smallTabletop (6, 320, 240);
+    const simulation::SyntheticSequence sequence = test::smallTabletop (6, 320, 240);
     for (std::size_t i = 0; i < sequence.size (); ++i)
       frames.push_back (sequence.frame (i));
   }
   std::uint16_t
   idOf (const std::string& name) const
   {
-    for (const io::SceneObject& o : scene.objects)
+    for (const simulation::SceneObject& o : scene.objects)
       if (o.name == name)
         return o.id;
     return 0;
@@ -397,12 +397,12 @@ struct DetectorFixture : ::testing::Test
 
 TEST_F (DetectorFixture, PerfectDetectorReproducesTheMasksOfDetectableObjects)
 {
-  const io::SimulatedDetector detector (scene, io::DetectorErrorConfig (), 3);
+  const simulation::SimulatedDetector detector (scene, simulation::DetectorErrorConfig (), 3);
   for (const RGBDFrame::Ptr& f : frames)
   {
-    const io::DetectionResult r = detector.detect (f->instance_mask, f->index);
+    const simulation::DetectionResult r = detector.detect (f->instance_mask, f->index);
     ASSERT_GE (r.detections.size (), 6u);
-    for (const io::Detection& d : r.detections)
+    for (const simulation::Detection& d : r.detections)
     {
       ASSERT_EQ (d.gt_instances.size (), 1u);
       EXPECT_EQ (cv::countNonZero ((r.ids == d.id) != (f->instance_mask == d.gt_instances[0])), 0);
@@ -417,16 +417,16 @@ TEST_F (DetectorFixture, PerfectDetectorReproducesTheMasksOfDetectableObjects)
 
 TEST_F (DetectorFixture, BoundaryErrorsGrowOrShrinkMasks)
 {
-  io::DetectorErrorConfig grow, shrink;
+  simulation::DetectorErrorConfig grow, shrink;
   grow.boundary_px = 3;
   shrink.boundary_px = -2;
   const RGBDFrame& f = *frames[2];
-  const io::DetectionResult big = io::SimulatedDetector (scene, grow, 1).detect (f.instance_mask, 2);
-  const io::DetectionResult small = io::SimulatedDetector (scene, shrink, 1).detect (f.instance_mask, 2);
+  const simulation::DetectionResult big = simulation::SimulatedDetector (scene, grow, 1).detect (f.instance_mask, 2);
+  const simulation::DetectionResult small = simulation::SimulatedDetector (scene, shrink, 1).detect (f.instance_mask, 2);
   const std::uint16_t ball = idOf ("ball");
   const int truth = cv::countNonZero (f.instance_mask == ball);
-  auto area_of = [ball] (const io::DetectionResult& r) {
-    for (const io::Detection& d : r.detections)
+  auto area_of = [ball] (const simulation::DetectionResult& r) {
+    for (const simulation::Detection& d : r.detections)
       if (d.gt_instances == std::vector<std::uint16_t>{ball})
         return cv::countNonZero (r.ids == d.id);
     return -1;
@@ -440,28 +440,28 @@ TEST_F (DetectorFixture, BoundaryErrorsGrowOrShrinkMasks)
 
 TEST_F (DetectorFixture, MergeMissAndFalsePositives)
 {
-  io::DetectorErrorConfig merge;
+  simulation::DetectorErrorConfig merge;
   merge.merge_probability = 1.0;
-  const io::SimulatedDetector merging (scene, merge, 1);
+  const simulation::SimulatedDetector merging (scene, merge, 1);
   bool merged_boxes = false;
   for (const RGBDFrame::Ptr& f : frames)
-    for (const io::Detection& d : merging.detect (f->instance_mask, f->index).detections)
+    for (const simulation::Detection& d : merging.detect (f->instance_mask, f->index).detections)
     {
       const std::set<std::uint16_t> members (d.gt_instances.begin (), d.gt_instances.end ());
       merged_boxes |= members.count (idOf ("cereal_a")) && members.count (idOf ("cereal_b"));
     }
   EXPECT_TRUE (merged_boxes);
 
-  io::DetectorErrorConfig miss;
+  simulation::DetectorErrorConfig miss;
   miss.miss_probability = 1.0;
-  EXPECT_TRUE (io::SimulatedDetector (scene, miss, 1).detect (frames[0]->instance_mask, 0).detections.empty ());
+  EXPECT_TRUE (simulation::SimulatedDetector (scene, miss, 1).detect (frames[0]->instance_mask, 0).detections.empty ());
 
-  io::DetectorErrorConfig fp;
+  simulation::DetectorErrorConfig fp;
   fp.false_positives = 3.0;
-  const io::SimulatedDetector spurious (scene, fp, 5);
+  const simulation::SimulatedDetector spurious (scene, fp, 5);
   int false_positives = 0;
   for (const RGBDFrame::Ptr& f : frames)
-    for (const io::Detection& d : spurious.detect (f->instance_mask, f->index).detections)
+    for (const simulation::Detection& d : spurious.detect (f->instance_mask, f->index).detections)
       false_positives += d.gt_instances.empty ();
   EXPECT_GT (false_positives, 0);
 }
@@ -470,9 +470,9 @@ TEST_F (DetectorFixture, MergesAreDrawnPerFrameAndSplitsCutOneObjectInTwo)
 {
   // Merges per frame: at p = 0.5 the touching boxes come as one mask in some frames and
   // as two in others, and the draw for a frame is the same whatever was asked before.
-  io::DetectorErrorConfig merge;
+  simulation::DetectorErrorConfig merge;
   merge.merge_probability = 0.5;
-  const io::SimulatedDetector merging (scene, merge, 3);
+  const simulation::SimulatedDetector merging (scene, merge, 3);
   const std::uint16_t a = idOf ("cereal_a"), b = idOf ("cereal_b");
   int merged = 0, separate = 0;
   for (std::size_t frame = 0; frame < 200; ++frame)
@@ -482,13 +482,13 @@ TEST_F (DetectorFixture, MergesAreDrawnPerFrameAndSplitsCutOneObjectInTwo)
   EXPECT_EQ (merging.mergesPair (a, b, 17), merging.mergesPair (b, a, 17));
 
   // A split reports one object as two masks that together are its exact mask.
-  io::DetectorErrorConfig split;
+  simulation::DetectorErrorConfig split;
   split.split_probability = 1.0;
   const RGBDFrame& f = *frames[0];
-  const io::DetectionResult result = io::SimulatedDetector (scene, split, 1).detect (f.instance_mask, 0);
+  const simulation::DetectionResult result = simulation::SimulatedDetector (scene, split, 1).detect (f.instance_mask, 0);
   const std::uint16_t book = idOf ("book");
   std::vector<std::uint16_t> pieces;
-  for (const io::Detection& d : result.detections)
+  for (const simulation::Detection& d : result.detections)
     if (d.gt_instances.size () == 1 && d.gt_instances[0] == book)
       pieces.push_back (d.id);
   ASSERT_EQ (pieces.size (), 2u) << result.detections.size () << " detections, book " << book << " visible on "
@@ -501,22 +501,22 @@ TEST_F (DetectorFixture, MergesAreDrawnPerFrameAndSplitsCutOneObjectInTwo)
 
 TEST_F (DetectorFixture, SeededAndOrderIndependent)
 {
-  io::DetectorErrorConfig noisy;
+  simulation::DetectorErrorConfig noisy;
   noisy.boundary_jitter_px = 3;
   noisy.miss_probability = 0.3;
   noisy.false_positives = 1.0;
-  const io::SimulatedDetector a (scene, noisy, 11), b (scene, noisy, 11), c (scene, noisy, 12);
-  const io::DetectionResult later = b.detect (frames[3]->instance_mask, 3);
+  const simulation::SimulatedDetector a (scene, noisy, 11), b (scene, noisy, 11), c (scene, noisy, 12);
+  const simulation::DetectionResult later = b.detect (frames[3]->instance_mask, 3);
   EXPECT_FALSE (a.detect (frames[1]->instance_mask, 1).ids.empty ());  // another frame first
-  const io::DetectionResult r3 = a.detect (frames[3]->instance_mask, 3);
+  const simulation::DetectionResult r3 = a.detect (frames[3]->instance_mask, 3);
   EXPECT_EQ (cv::norm (r3.ids, later.ids, cv::NORM_INF), 0.0);
   bool differs = false;
   for (std::size_t i = 0; i < frames.size (); ++i)
     differs |= cv::norm (a.detect (frames[i]->instance_mask, i).ids, c.detect (frames[i]->instance_mask, i).ids,
                          cv::NORM_INF) > 0;
   EXPECT_TRUE (differs);
-  EXPECT_THROW (io::SimulatedDetector (scene, [] {
-                  io::DetectorErrorConfig bad;
+  EXPECT_THROW (simulation::SimulatedDetector (scene, [] {
+                  simulation::DetectorErrorConfig bad;
                   bad.merge_probability = 1.5;
                   return bad;
                 }(), 1),

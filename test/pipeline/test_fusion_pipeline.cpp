@@ -3,8 +3,8 @@
 // ground-truth cloud.
 #include "test_utils.h"
 
-#include <cuefusion/io/random_room.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/random_room.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/reconstruction/keyframe_database.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
@@ -34,19 +34,19 @@ withReferencePoses (pipeline::SegmentationMode mode)
 
 /** Gives \a fusion frames [begin, end) of \a sequence with its simulated detector's masks. */
 void
-fuseFrames (pipeline::FusionPipeline& fusion, const io::SyntheticSequence& sequence, std::size_t begin, std::size_t end)
+fuseFrames (pipeline::FusionPipeline& fusion, const simulation::SyntheticSequence& sequence, std::size_t begin, std::size_t end)
 {
   for (std::size_t i = begin; i < end; ++i)
   {
     const RGBDFrame::Ptr frame = sequence.frame (i);
-    const std::vector<Instance> instances = io::toInstances (sequence.detections (*frame));
+    const std::vector<Instance> instances = simulation::toInstances (sequence.detections (*frame));
     EXPECT_TRUE (fusion.process (*frame, &instances).segmented) << i;
   }
 }
 
 /** Runs the pipeline over \a sequence with its poses and its simulated detector's masks. */
 pipeline::FusionPipeline
-runSequence (pipeline::SegmentationMode mode, const io::SyntheticSequence& sequence)
+runSequence (pipeline::SegmentationMode mode, const simulation::SyntheticSequence& sequence)
 {
   pipeline::FusionPipeline fusion = withReferencePoses (mode);
   fuseFrames (fusion, sequence, 0, sequence.size ());
@@ -104,7 +104,7 @@ struct SplitRun
 
 /** Runs \a fusion (geometry only) over \a sequence from its start, frame by frame. */
 SplitRun
-runGeometrySplitAtFirst (const io::SyntheticSequence& sequence, std::uint16_t id, pipeline::FusionPipeline& fusion)
+runGeometrySplitAtFirst (const simulation::SyntheticSequence& sequence, std::uint16_t id, pipeline::FusionPipeline& fusion)
 {
   SplitRun run;
   for (std::size_t i = 0; i < sequence.size (); ++i)
@@ -127,9 +127,9 @@ runGeometrySplitAtFirst (const io::SyntheticSequence& sequence, std::uint16_t id
 
 TEST (FusionPipeline, LabelledMapMatchesTheGroundTruthAndFusionBeatsGeometry)
 {
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 30;
-  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), config);
   const auto truth = sequence.groundTruthCloud ();
 
   pipeline::FusionPipeline fused = runSequence (pipeline::SegmentationMode::Fused, sequence);
@@ -183,9 +183,9 @@ TEST (FusionPipeline, AnObjectSeenInTwoPartsIsMergedOnceRevealed)
                            "  box center=0,0,0.8 size=0.6,0.1,0.2\n"
                            "object pole class=pole color=60,60,60\n"
                            "  cylinder center=0,-0.5,0.8 radius=0.03 height=1.0\n";
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 30;
-  const io::SyntheticSequence sequence (io::SyntheticScene::parse (text, "occluder scene"), config);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::parse (text, "occluder scene"), config);
   pipeline::FusionPipeline fusion = withReferencePoses (pipeline::SegmentationMode::Geometry);
   const SplitRun run = runGeometrySplitAtFirst (sequence, 3, fusion);
   ASSERT_TRUE (run.split_at_first);  // the precondition: the box is seen in two parts with two labels
@@ -236,7 +236,7 @@ steppedBoxes (bool same_color)
 
 /** Fused run over \a sequence with reference poses; \a masks gives each frame's instances. */
 pipeline::FusionPipeline
-runFused (const io::SyntheticSequence& sequence, const std::function<std::vector<Instance> (const RGBDFrame&)>& masks,
+runFused (const simulation::SyntheticSequence& sequence, const std::function<std::vector<Instance> (const RGBDFrame&)>& masks,
           const std::function<void (std::size_t, const pipeline::FusionPipeline&)>& after = nullptr)
 {
   pipeline::FusionPipeline fusion = withReferencePoses (pipeline::SegmentationMode::Fused);
@@ -323,16 +323,16 @@ expectBoxesApart (const pcl::PointCloud<pcl::PointXYZRGBL>& map, const pcl::Poin
 
 TEST (FusionPipeline, TouchingPairMergedByTheMasksInAMinorityOfFramesStaysTwo)
 {
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 30;
   config.detector.merge_probability = 0.25;  // per frame
   config.seed = 2;
-  const io::SyntheticSequence sequence (io::SyntheticScene::parse (kGroupingScene, "grouping scene"), config);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::parse (kGroupingScene, "grouping scene"), config);
   // The precondition: the masks do merge the pair in some frames, and geometry alone
   // keeps them in one segment (flush faces, no seam).
   int merged_frames = 0;
   for (std::size_t i = 0; i < sequence.size (); ++i)
-    for (const io::Detection& d : sequence.detections (*sequence.frame (i)).detections)
+    for (const simulation::Detection& d : sequence.detections (*sequence.frame (i)).detections)
       merged_frames += d.gt_instances.size () == 2 ? 1 : 0;
   ASSERT_GE (merged_frames, 4);
   ASSERT_LE (merged_frames, 12);
@@ -341,7 +341,7 @@ TEST (FusionPipeline, TouchingPairMergedByTheMasksInAMinorityOfFramesStaysTwo)
   ASSERT_EQ (majorityLabel (*geometry.labelledCloud (), truth, kBoxA), majorityLabel (*geometry.labelledCloud (), truth, kBoxB));
 
   pipeline::FusionPipeline fused =
-    runFused (sequence, [&] (const RGBDFrame& f) { return io::toInstances (sequence.detections (f)); });
+    runFused (sequence, [&] (const RGBDFrame& f) { return simulation::toInstances (sequence.detections (f)); });
   const auto map = fused.labelledCloud ();
   expectBoxesApart (*map, truth);
   EXPECT_GE (objectIoU (*map, truth).at (kLBlock), 0.7);  // and the L is whole
@@ -349,30 +349,30 @@ TEST (FusionPipeline, TouchingPairMergedByTheMasksInAMinorityOfFramesStaysTwo)
 
 TEST (FusionPipeline, AnLSplitByGeometryInEveryFrameBecomesOne)
 {
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 20;
   config.width = 320;  // half the scene's camera: this test runs in the sanitized pass too
   config.height = 240;
-  const io::SyntheticSequence sequence (io::SyntheticScene::parse (kGroupingScene, "grouping scene"), config);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::parse (kGroupingScene, "grouping scene"), config);
   const auto truth = sequence.groundTruthCloud ();
   // Geometry alone leaves the L in two parts.
   pipeline::FusionPipeline geometry = runSequence (pipeline::SegmentationMode::Geometry, sequence);
   ASSERT_LT (objectIoU (*geometry.labelledCloud (), truth).at (kLBlock), 0.7);
   pipeline::FusionPipeline fused =
-    runFused (sequence, [&] (const RGBDFrame& f) { return io::toInstances (sequence.detections (f)); });
+    runFused (sequence, [&] (const RGBDFrame& f) { return simulation::toInstances (sequence.detections (f)); });
   EXPECT_GE (objectIoU (*fused.labelledCloud (), truth).at (kLBlock), 0.8);
 
 }
 
 TEST (FusionPipeline, AWrongEarlyMergeIsUndoneByLaterFrames)
 {
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 30;
-  const io::SyntheticScene scene = io::SyntheticScene::parse (steppedBoxes (true), "stepped boxes");
-  const io::SyntheticSequence sequence (scene, config);
-  io::DetectorErrorConfig always_merges;
+  const simulation::SyntheticScene scene = simulation::SyntheticScene::parse (steppedBoxes (true), "stepped boxes");
+  const simulation::SyntheticSequence sequence (scene, config);
+  simulation::DetectorErrorConfig always_merges;
   always_merges.merge_probability = 1.0;
-  const io::SimulatedDetector merging (scene, always_merges, 1);
+  const simulation::SimulatedDetector merging (scene, always_merges, 1);
   const auto truth = sequence.groundTruthCloud ();
   // The precondition: geometry alone keeps the boxes apart.
   pipeline::FusionPipeline geometry = runSequence (pipeline::SegmentationMode::Geometry, sequence);
@@ -382,7 +382,7 @@ TEST (FusionPipeline, AWrongEarlyMergeIsUndoneByLaterFrames)
   pipeline::FusionPipeline fused = runFused (
     sequence,
     [&] (const RGBDFrame& f) {
-      return io::toInstances (f.index < 8 ? merging.detect (f.instance_mask, f.index) : sequence.detections (f));
+      return simulation::toInstances (f.index < 8 ? merging.detect (f.instance_mask, f.index) : sequence.detections (f));
     },
     [&] (std::size_t i, const pipeline::FusionPipeline& p) {
       if (i == 7)
@@ -400,18 +400,18 @@ TEST (FusionPipeline, MasksMergingTwoBoxesOfDifferentColoursInEveryFrameLeaveThe
   // A depth network's typical mistake: the two touching boxes reported as one object in
   // every frame. Their colours (orange, teal) keep them apart; painted alike, the masks'
   // word unites them; the L (one colour) is whole either way.
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 20;
-  io::DetectorErrorConfig always_merges;
+  simulation::DetectorErrorConfig always_merges;
   always_merges.merge_probability = 1.0;
   for (const bool same_color : {false, true})
   {
-    const io::SyntheticScene scene = io::SyntheticScene::parse (steppedBoxes (same_color), "stepped boxes");
-    const io::SyntheticSequence sequence (scene, config);
-    const io::SimulatedDetector merging (scene, always_merges, 1);
+    const simulation::SyntheticScene scene = simulation::SyntheticScene::parse (steppedBoxes (same_color), "stepped boxes");
+    const simulation::SyntheticSequence sequence (scene, config);
+    const simulation::SimulatedDetector merging (scene, always_merges, 1);
     const auto truth = sequence.groundTruthCloud ();
     pipeline::FusionPipeline fused =
-      runFused (sequence, [&] (const RGBDFrame& f) { return io::toInstances (merging.detect (f.instance_mask, f.index)); });
+      runFused (sequence, [&] (const RGBDFrame& f) { return simulation::toInstances (merging.detect (f.instance_mask, f.index)); });
     const auto map = fused.labelledCloud ();
     if (same_color)
       EXPECT_EQ (majorityLabel (*map, truth, kBoxA), majorityLabel (*map, truth, kBoxB));
@@ -435,9 +435,9 @@ TEST (FusionPipeline, AWallSeenInTwoPiecesBecomesOneSegment)
                            "  box center=0,1.6,1.25 size=3,0.1,2.5\n"
                            "object pole class=pole color=60,60,60\n"
                            "  box center=0,0.2,1.25 size=0.08,0.08,2.5\n";
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 30;
-  const io::SyntheticSequence sequence (io::SyntheticScene::parse (text, "wall scene"), config);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::parse (text, "wall scene"), config);
   pipeline::FusionPipeline fusion = withReferencePoses (pipeline::SegmentationMode::Geometry);
   ASSERT_TRUE (runGeometrySplitAtFirst (sequence, 2, fusion).split_at_first);
   const auto iou = objectIoU (*fusion.labelledCloud (), sequence.groundTruthCloud ());
@@ -451,13 +451,13 @@ TEST (FusionPipeline, AStereoCamerasNoiseIsMeasuredAndItsMapHasNoSplinters)
   // beyond a metre, speckle): with the thresholds at Kinect's noise the floor and table
   // break into hundreds of splinters; measured, the map has about one segment per object
   // or stuff surface. Geometry alone, so only the noise thresholds speak.
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 12;
   config.width = 320;
   config.height = 240;
   config.noise.enabled = true;
-  config.noise.sensor = io::DepthSensor::RealSense;
-  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  config.noise.sensor = simulation::DepthSensor::RealSense;
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), config);
   const std::size_t surfaces = sequence.scene ().objects.size ();
   auto largeSegments = [] (pipeline::FusionPipeline& fusion) {
     std::size_t n = 0;
@@ -494,11 +494,11 @@ TEST (FusionPipeline, AContinuedMapKeepsItsObjects)
   // Frames 0–19 fused and saved (run --save-volume); a new pipeline continues the saved
   // volume with frames 20–39 (run --load-volume). It starts with the saved map's objects
   // under new labels, one for one, and ends as good as one run over all 40 frames.
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 40;
   config.width = 320;
   config.height = 240;
-  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), config);
   const auto truth = sequence.groundTruthCloud ();
   const test::TempDir dir;
   pipeline::FusionPipeline first = withReferencePoses (pipeline::SegmentationMode::Fused);
@@ -586,24 +586,24 @@ struct Contingency
 
 TEST (RoomMap, NoSegmentSpansTheFloorAndAWallOrTwoWalls)
 {
-  // Generated rooms (io::generateRoom: a kitchen and an office, 3–6 m) along their
+  // Generated rooms (simulation::generateRoom: a kitchen and an office, 3–6 m) along their
   // hand-held paths from 1–4 m, Kinect noise, the true poses, geometry alone (no mask
   // speaks for floors and walls): no segment holds a tenth of two of the floor and the
   // walls, and the floor's largest segment is floor. Before the wide crease test
   // (ConcavityEdgeEstimationConfig::wide_step) the floor and the walls seen from across
   // the room were one segment. (Each of them one segment is not asserted: a floor or wall
   // that furniture parts in every view the path gives stays in pieces; docs/benchmarks.md.)
-  for (const auto& [type, seed] : {std::make_pair (io::RoomType::Kitchen, 1u), std::make_pair (io::RoomType::Office, 2u)})
+  for (const auto& [type, seed] : {std::make_pair (simulation::RoomType::Kitchen, 1u), std::make_pair (simulation::RoomType::Office, 2u)})
   {
-    io::RoomConfig room;
+    simulation::RoomConfig room;
     room.type = type;
-    io::SyntheticSequenceConfig config;
+    simulation::SyntheticSequenceConfig config;
     config.frames = 60;
     config.width = 320;
     config.height = 240;
     config.noise.enabled = true;
     config.seed = seed;
-    const io::SyntheticSequence sequence (io::generateRoom (room, seed), config);
+    const simulation::SyntheticSequence sequence (simulation::generateRoom (room, seed), config);
     const auto truth = sequence.groundTruthCloud ();
     const auto run = [&] (int wide_step) {
       pipeline::FusionPipelineConfig settings;
@@ -617,10 +617,10 @@ TEST (RoomMap, NoSegmentSpansTheFloorAndAWallOrTwoWalls)
     };
     const Contingency c = run (segmentation::ConcavityEdgeEstimationConfig ().wide_step);
     std::vector<std::uint16_t> stuff;  // the floor first, then the walls the map holds
-    for (const io::SceneObject& o : sequence.scene ().objects)
+    for (const simulation::SceneObject& o : sequence.scene ().objects)
       if ((o.class_name == "floor" || o.class_name == "wall") && c.object_points.count (o.id) && c.object_points.at (o.id) >= 1000)
         stuff.push_back (o.id);
-    const std::string where = std::string (io::roomTypeName (type)) + " seed " + std::to_string (seed);
+    const std::string where = std::string (simulation::roomTypeName (type)) + " seed " + std::to_string (seed);
     ASSERT_GE (stuff.size (), 3u) << where;
     ASSERT_EQ (sequence.scene ().objectById (stuff[0])->class_name, "floor") << where;
     const auto [floor_label, floor_share] = c.majority (stuff[0]);
@@ -637,7 +637,7 @@ TEST (RoomMap, NoSegmentSpansTheFloorAndAWallOrTwoWalls)
       return n;
     };
     EXPECT_EQ (spanning (c), 0) << where;
-    if (type == io::RoomType::Kitchen)  // the precondition, once: without the wide test they are one
+    if (type == simulation::RoomType::Kitchen)  // the precondition, once: without the wide test they are one
     {
       EXPECT_GE (spanning (run (0)), 3) << where;
     }

@@ -4,10 +4,10 @@
 #include "test_utils.h"
 
 #include <cuefusion/io/file_io.h>
-#include <cuefusion/io/random_scene.h>
+#include <cuefusion/simulation/random_scene.h>
 #include <cuefusion/io/sequence.h>
 #include <cuefusion/io/sequence_writer.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/recognition/onnx_model_check.h>
@@ -536,19 +536,19 @@ TEST (MaskFolderSegmenter, ReadsIdPNGsWithTheirJSONByNameOrIndex)
 TEST (MaskFolderSegmenter, ReadsTheSyntheticDetectorsMasks)
 {
   test::TempDir dir;
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 3;
   config.width = 160;
   config.height = 120;
   config.detector.boundary_px = 2;
-  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
-  io::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq");
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), config);
+  simulation::writeSyntheticSequence (sequence, io::DatasetLayout::Redwood, dir / "seq");
   const auto grabber = io::openDataset (dir / "seq");
   MaskFolderSegmenter folder (dir / "seq/detections");
   for (std::size_t i = 0; i < 3; ++i)
   {
     const RGBDFrame::Ptr frame = grabber->readFrame (i);
-    const io::DetectionResult truth = sequence.detections (*sequence.frame (i));
+    const simulation::DetectionResult truth = sequence.detections (*sequence.frame (i));
     std::vector<Instance> instances;
     ASSERT_TRUE (folder.segment (*frame, instances)) << i;
     ASSERT_EQ (instances.size (), truth.detections.size ());
@@ -641,10 +641,10 @@ TEST (ShippedNetwork, MasksOfUnseenRenderedViewsMatchTheTruth)
   ASSERT_EQ (network.layout (), OnnxLayout::Xyz);
   double sum = 0;
   int views = 0, objects_seen = 0;
-  const io::RandomSceneGenerator generator (io::RandomSceneConfig (), 424242);
+  const simulation::RandomSceneGenerator generator (simulation::RandomSceneConfig (), 424242);
   for (std::size_t i = 0; i < 8; ++i)
   {
-    const io::RandomView view = generator.view (i, 640, 480);
+    const simulation::RandomView view = generator.view (i, 640, 480);
     RGBDFrame frame;
     frame.camera = view.camera;
     frame.depth = view.view.depth;
@@ -659,11 +659,11 @@ TEST (ShippedNetwork, MasksOfUnseenRenderedViewsMatchTheTruth)
     ++views;
     objects_seen += objects;
   }
-  io::SyntheticSequenceConfig sequence_config;
+  simulation::SyntheticSequenceConfig sequence_config;
   sequence_config.frames = 30;
   sequence_config.noise.enabled = true;
-  const io::SyntheticScene scene = io::SyntheticScene::load (test::tabletopScenePath ());
-  const io::SyntheticSequence sequence (scene, sequence_config);
+  const simulation::SyntheticScene scene = simulation::SyntheticScene::load (test::tabletopScenePath ());
+  const simulation::SyntheticSequence sequence (scene, sequence_config);
   for (std::size_t i = 0; i < 30; i += 10)
   {
     const RGBDFrame::Ptr frame = sequence.frame (i);
@@ -692,10 +692,10 @@ TEST (ShippedNetwork, MasksOfUnseenRenderedViewsMatchTheTruth)
 TEST (ShippedNetwork, RunAndSegmentFrameUseIt)
 {
   test::TempDir dir;
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 6;
   config.noise.enabled = true;
-  io::writeSyntheticSequence (io::SyntheticSequence (io::SyntheticScene::load (test::tabletopScenePath ()), config),
+  simulation::writeSyntheticSequence (simulation::SyntheticSequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), config),
                               io::DatasetLayout::Redwood, dir / "seq");
   // By name, from a folder outside the source tree (the data directory is looked up).
   const auto run = test::runCuefusion ("run seq --out run --model xyz_instances", dir, true);

@@ -3,8 +3,8 @@
 
 #include "test_utils.h"
 
-#include <cuefusion/io/scene_renderer.h>
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/scene_renderer.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <cmath>
@@ -17,7 +17,7 @@ namespace test
 /** A sphere (r = 0.15 m) and a cube (0.24 m) floating side by side; the camera orbits them
   * a full turn. Primitive 0 of object 1 is the sphere, of object 2 the box.
   */
-inline io::SyntheticScene
+inline simulation::SyntheticScene
 sphereAndBoxScene (int width = 320, int height = 240)
 {
   const std::string text = "scene sphere_and_box\n"
@@ -27,14 +27,14 @@ sphereAndBoxScene (int width = 320, int height = 240)
                            "  sphere center=-0.2,0,0.75 radius=0.15\n"
                            "object cube class=box color=60,60,200\n"
                            "  box center=0.22,0.02,0.75 size=0.24,0.24,0.24 yaw=25\n";
-  io::SyntheticScene scene = io::SyntheticScene::parse (text, "sphereAndBoxScene");
+  simulation::SyntheticScene scene = simulation::SyntheticScene::parse (text, "sphereAndBoxScene");
   scene.camera = scene.camera.scaled (width, height);
   return scene;
 }
 
 /** Signed distance from \a p to an (unrotated-in-local-frame) box primitive. */
 inline double
-boxDistance (const io::Primitive& box, const Eigen::Vector3d& p)
+boxDistance (const simulation::Primitive& box, const Eigen::Vector3d& p)
 {
   const Eigen::Vector3d q = box.toLocal (p).cwiseAbs () - box.half_size;
   return q.cwiseMax (0.0).norm () + std::min (q.maxCoeff (), 0.0);
@@ -42,13 +42,13 @@ boxDistance (const io::Primitive& box, const Eigen::Vector3d& p)
 
 /** Integrates \a views evenly spaced views of the scene's orbit (exact depth). */
 inline void
-integrateOrbit (const io::SyntheticScene& scene, int views, reconstruction::TSDFVolume& volume)
+integrateOrbit (const simulation::SyntheticScene& scene, int views, reconstruction::TSDFVolume& volume)
 {
-  const io::SceneRenderer renderer (scene);
+  const simulation::SceneRenderer renderer (scene);
   for (int i = 0; i < views; ++i)
   {
     const Eigen::Isometry3d pose = scene.trajectory.poseAt (static_cast<double> (i) / views);
-    const io::RenderedView view = renderer.render (scene.camera, pose);
+    const simulation::RenderedView view = renderer.render (scene.camera, pose);
     volume.integrate (view.depth, view.color, scene.camera, pose);
   }
 }

@@ -2,7 +2,7 @@
 #include "reconstruction_fixtures.h"
 
 #include <cuefusion/evaluation/trajectory_error.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/reconstruction/dense_reconstruction.h>
 #include <cuefusion/reconstruction/projective_icp.h>
 
@@ -19,21 +19,21 @@ using namespace cuefusion::reconstruction;
 namespace
 {
 /** \a frames of \a scene's trajectory at 320×240, with Kinect noise or exact. */
-io::SyntheticSequence
-sequenceOf (const io::SyntheticScene& scene, std::size_t frames, bool noise)
+simulation::SyntheticSequence
+sequenceOf (const simulation::SyntheticScene& scene, std::size_t frames, bool noise)
 {
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = frames;
   config.width = 320;
   config.height = 240;
   config.noise.enabled = noise;
-  return io::SyntheticSequence (scene, config);
+  return simulation::SyntheticSequence (scene, config);
 }
 
-io::SyntheticSequence
+simulation::SyntheticSequence
 tabletopSequence (std::size_t frames, bool noise)
 {
-  return sequenceOf (io::SyntheticScene::load (test::tabletopScenePath ()), frames, noise);
+  return sequenceOf (simulation::SyntheticScene::load (test::tabletopScenePath ()), frames, noise);
 }
 
 Eigen::Isometry3d
@@ -60,9 +60,9 @@ TEST_P (ICPRecoversMotion, ToSubMillimetre)
 {
   // Target: the tabletop from a pose on its orbit; source: the same scene after the camera
   // moved by the parameter. ICP from identity must find that motion.
-  const io::SyntheticScene scene = io::SyntheticScene::load (test::tabletopScenePath ());
+  const simulation::SyntheticScene scene = simulation::SyntheticScene::load (test::tabletopScenePath ());
   const PinholeCamera camera = scene.camera.scaled (320, 240);
-  const io::SceneRenderer renderer (scene);
+  const simulation::SceneRenderer renderer (scene);
   const Eigen::Isometry3d target_pose = scene.trajectory.poseAt (0.4);
   const Eigen::Isometry3d delta = GetParam ();
   const Eigen::Isometry3d source_pose = target_pose * delta;
@@ -90,7 +90,7 @@ INSTANTIATE_TEST_SUITE_P (HandHeldSteps, ICPRecoversMotion,
 
 TEST (DenseReconstruction, TracksASyntheticSequenceToMillimetres)
 {
-  const io::SyntheticSequence sequence = tabletopSequence (100, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (100, true);
   DenseReconstruction fusion;
   io::Trajectory estimate, reference;
   for (std::size_t i = 0; i < sequence.size (); ++i)
@@ -110,7 +110,7 @@ TEST (DenseReconstruction, TracksASyntheticSequenceToMillimetres)
 
 TEST (DenseReconstruction, DetectsAGarbageFrameAndRecovers)
 {
-  const io::SyntheticSequence sequence = tabletopSequence (30, false);
+  const simulation::SyntheticSequence sequence = tabletopSequence (30, false);
   DenseReconstruction fusion;
   std::mt19937 rng (7);
   std::uniform_real_distribution<float> depth (0.5f, 4.0f);
@@ -144,7 +144,7 @@ TEST (DenseReconstruction, DetectsAGarbageFrameAndRecovers)
 
 TEST (DenseReconstruction, ReferencePosesModeFusesWithTheFramesPoses)
 {
-  const io::SyntheticSequence sequence = tabletopSequence (5, false);
+  const simulation::SyntheticSequence sequence = tabletopSequence (5, false);
   DenseReconstructionConfig config;
   config.use_reference_poses = true;
   DenseReconstruction fusion (config);
@@ -188,7 +188,7 @@ TEST (DenseReconstruction, MemoryDoesNotGrowWithSequenceLength)
   // The same orbit rendered as 10 and as 40 frames covers the same surface: the volume
   // must hold about the same blocks. Played a second time, the 40 frames add none.
   const auto blocksAfter = [] (std::size_t frames, int passes) {
-    const io::SyntheticSequence sequence = tabletopSequence (frames, true);
+    const simulation::SyntheticSequence sequence = tabletopSequence (frames, true);
     DenseReconstructionConfig config;
     config.use_reference_poses = true;
     DenseReconstruction fusion (config);
@@ -220,7 +220,7 @@ struct Processed
 };
 
 std::vector<Processed>
-processInOrder (DenseReconstruction& fusion, const io::SyntheticSequence& sequence, const std::vector<std::size_t>& order,
+processInOrder (DenseReconstruction& fusion, const simulation::SyntheticSequence& sequence, const std::vector<std::size_t>& order,
                 const std::function<void (std::size_t, RGBDFrame&)>& change = nullptr)
 {
   std::vector<Processed> out;
@@ -265,7 +265,7 @@ TEST (Relocalisation, AfterAGapOfDroppedFrames)
 {
   // 19 frames missing: the camera jumps 31 cm and 14° between two processed frames, more
   // than one frame's plausible motion; ICP still finds the pose, which is verified.
-  const io::SyntheticSequence sequence = tabletopSequence (120, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (120, true);
   DenseReconstruction fusion;
   std::vector<std::size_t> order = frameRange (0, 50);
   const std::vector<std::size_t> after = frameRange (69, 120);
@@ -291,7 +291,7 @@ TEST (Relocalisation, FromAKeyframeWhenTheViewReturns)
   // Frames 0–79, then the camera is back at frame 10 (a jump of ~0.5 m and 40°): ICP from
   // the last pose cannot converge; the keyframe database knows the view (its pose, or its
   // features matched to the frame's).
-  const io::SyntheticSequence sequence = tabletopSequence (120, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (120, true);
   DenseReconstruction fusion;
   std::vector<std::size_t> order = frameRange (0, 80);
   const std::vector<std::size_t> back = frameRange (10, 40);
@@ -313,7 +313,7 @@ TEST (Relocalisation, FromAKeyframeWhenTheViewReturns)
 TEST (Relocalisation, AfterADepthBlackout)
 {
   // Frames 50–59 have no depth (a covered sensor) while the camera moves on.
-  const io::SyntheticSequence sequence = tabletopSequence (120, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (120, true);
   DenseReconstruction fusion;
   std::size_t blocks_before = 0;
   const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, 120), [&] (std::size_t i, RGBDFrame& frame) {
@@ -335,7 +335,7 @@ TEST (Relocalisation, AfterADepthBlackout)
 
 TEST (Relocalisation, KeyframeDatabaseFindsTheNearestView)
 {
-  const io::SyntheticSequence sequence = tabletopSequence (60, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (60, true);
   KeyframeDatabaseConfig config;
   config.min_novelty = 0.0;  // store every view offered, unless its code is identical
   KeyframeDatabase database (config);
@@ -399,8 +399,8 @@ TEST (Relocalisation, ANoisyFloorAloneIsLostNotFused)
   // A camera circling 1.2 m above a plain floor, with Kinect noise: the noisy normals
   // make ICP's system full rank, but the floor leaves two translations free (tracking
   // it drifted 52 cm in 30 frames, reported tracked, before the conditioning check).
-  const io::SyntheticSequence sequence = sequenceOf (
-    io::SyntheticScene::parse ("scene floor\ncamera 640 480 525 525 319.5 239.5\n"
+  const simulation::SyntheticSequence sequence = sequenceOf (
+    simulation::SyntheticScene::parse ("scene floor\ncamera 640 480 525 525 319.5 239.5\n"
                                "trajectory target=0,0,0 radius=0.6 height=1.2 start=0 sweep=20 bob=0.0\n"
                                "object floor class=floor color=170,165,150 detectable=no texture=checker\n"
                                "  box center=0,0,-0.01 size=12,12,0.02\n",
@@ -428,7 +428,7 @@ namespace
 /** Frames of \a sequence tracked by a DenseReconstruction with \a config, and the RMS
   * position error of those (exact poses). */
 std::pair<std::size_t, double>
-trackSequence (const io::SyntheticSequence& sequence, const DenseReconstructionConfig& config)
+trackSequence (const simulation::SyntheticSequence& sequence, const DenseReconstructionConfig& config)
 {
   DenseReconstruction fusion (config);
   const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, sequence.size ()));
@@ -444,7 +444,7 @@ TEST (MotionModel, AFastOrbitIsTrackedFromTheConstantVelocityPrediction)
   // The tabletop orbit in 11 frames: ~18 cm and 8° per frame, more than ICP converges
   // over from the last pose (12 frames, 7°, converge since the normal gate follows the
   // noise and the plausibility check the agreement).
-  const io::SyntheticSequence sequence = tabletopSequence (11, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (11, true);
   DenseReconstructionConfig config;
   config.tracking.icp.noise_weighting = false;  // the prediction alone
   config.motion_model = false;
@@ -463,9 +463,9 @@ TEST (NoiseWeighting, FarPointsPullLessThanNearOnes)
   // 1.5 % too long (a real sensor's range-dependent error, which its noise model says
   // to trust less there). ICP from the true motion (identity) is pulled by the far
   // points; weighted by the inverse noise variance, the near table keeps it in place.
-  const io::SyntheticScene scene = io::SyntheticScene::load (test::tabletopScenePath ());
+  const simulation::SyntheticScene scene = simulation::SyntheticScene::load (test::tabletopScenePath ());
   const PinholeCamera camera = scene.camera.scaled (320, 240);
-  const io::SceneRenderer renderer (scene);
+  const simulation::SceneRenderer renderer (scene);
   const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.4);
   DepthPreprocessorConfig pre;
   pre.bilateral.enabled = false;
@@ -503,7 +503,7 @@ TEST (NoiseWeighting, TracksAGeneratedNoisySequenceAsAccurately)
 {
   // On the generator's zero-mean noise both estimates are unbiased: weighting must not
   // make tracking worse than the millimetre it reaches without.
-  const io::SyntheticSequence sequence = tabletopSequence (40, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (40, true);
   DenseReconstructionConfig config;
   const auto weighted = trackSequence (sequence, config);
   EXPECT_EQ (weighted.first, 40u);
@@ -514,7 +514,7 @@ namespace
 {
 /** Frames [begin, end) of \a sequence without their poses: a continued run must find them. */
 std::vector<Processed>
-processWithoutPoses (DenseReconstruction& fusion, const io::SyntheticSequence& sequence, std::size_t begin, std::size_t end)
+processWithoutPoses (DenseReconstruction& fusion, const simulation::SyntheticSequence& sequence, std::size_t begin, std::size_t end)
 {
   std::vector<Processed> out;
   for (std::size_t i = begin; i < end; ++i)
@@ -531,7 +531,7 @@ processWithoutPoses (DenseReconstruction& fusion, const io::SyntheticSequence& s
 /** A reconstruction of frames [0, frames) of \a sequence, saved to \a dir as `run
   * --save-volume` does: volume.tsdf and volume.keyframes (with the last fused frame). */
 void
-saveFirstFrames (const io::SyntheticSequence& sequence, std::size_t frames, const test::TempDir& dir)
+saveFirstFrames (const simulation::SyntheticSequence& sequence, std::size_t frames, const test::TempDir& dir)
 {
   DenseReconstruction fusion;
   const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, frames));
@@ -545,7 +545,7 @@ TEST (ContinueVolume, TheFirstFrameIsRelocalisedWhereTheLastRunStopped)
 {
   // Frames 0–29 saved; a new run continues with frames 30–49 without their poses (a
   // camera switched off and on again where it stopped: 3 cm and 1.4° from the last frame).
-  const io::SyntheticSequence sequence = tabletopSequence (50, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (50, true);
   const test::TempDir dir;
   saveFirstFrames (sequence, 30, dir);
   TSDFVolume volume = TSDFVolume::load (dir / "volume.tsdf");
@@ -569,7 +569,7 @@ TEST (ContinueVolume, TheFirstFrameIsRelocalisedWhereTheLastRunStopped)
 
 TEST (ContinueVolume, TheSequencesOwnPoseIsTriedFirst)
 {
-  const io::SyntheticSequence sequence = tabletopSequence (40, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (40, true);
   const test::TempDir dir;
   saveFirstFrames (sequence, 20, dir);
   DenseReconstruction fusion;
@@ -584,7 +584,7 @@ TEST (ContinueVolume, AViewTheSavedRunNeverSawIsLostAndNothingIsFused)
 {
   // The saved run saw frames 0–9; the continued one starts 70 frames (≈ 95°) further on
   // the orbit, without a pose: no keyframe is near, so no candidate passes ICP's check.
-  const io::SyntheticSequence sequence = tabletopSequence (85, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (85, true);
   const test::TempDir dir;
   saveFirstFrames (sequence, 10, dir);
   DenseReconstruction fusion;
@@ -604,7 +604,7 @@ TEST (ContinueVolume, AViewTheSavedRunNeverSawIsLostAndNothingIsFused)
 
 TEST (ContinueVolume, KeyframeFilesReadBackExactlyAndBadOnesAreRefused)
 {
-  const io::SyntheticSequence sequence = tabletopSequence (40, true);
+  const simulation::SyntheticSequence sequence = tabletopSequence (40, true);
   KeyframeDatabaseConfig config;
   config.min_novelty = 0.0;
   config.ferns = 300;
@@ -693,30 +693,30 @@ namespace
 {
 /** \a scene's orbit in \a frames frames at \a width × 3/4 of it with Kinect noise drawn
   * from \a seed. */
-io::SyntheticSequence
-noisyOrbit (const io::SyntheticScene& scene, std::size_t frames, std::uint64_t seed, int width = 320)
+simulation::SyntheticSequence
+noisyOrbit (const simulation::SyntheticScene& scene, std::size_t frames, std::uint64_t seed, int width = 320)
 {
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = frames;
   config.width = width;
   config.height = width * 3 / 4;
   config.noise.enabled = true;
   config.seed = seed;
-  return io::SyntheticSequence (scene, config);
+  return simulation::SyntheticSequence (scene, config);
 }
 
-io::SyntheticSequence
+simulation::SyntheticSequence
 noisyOrbit (const std::string& scene, std::size_t frames, std::uint64_t seed)
 {
-  return noisyOrbit (io::SyntheticScene::load (std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/" + scene + ".scene"), frames,
+  return noisyOrbit (simulation::SyntheticScene::load (std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/" + scene + ".scene"), frames,
                      seed);
 }
 
 /** \a scene (a bundled scene's name) with every object printed (test::printedSceneText). */
-io::SyntheticScene
+simulation::SyntheticScene
 printedScene (const std::string& scene)
 {
-  return io::SyntheticScene::parse (
+  return simulation::SyntheticScene::parse (
     test::printedSceneText (std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/" + scene + ".scene"), scene + " printed");
 }
 
@@ -747,7 +747,7 @@ TEST (MotionModel, ABlackoutIsBridgedByThePrediction)
   for (const OrbitGap& c : {OrbitGap{"tabletop", 54, 10, 1}, OrbitGap{"clutter", 40, 25, 2}})
   {
     SCOPED_TRACE (std::string (c.scene) + ", " + std::to_string (c.gap) + " frames blank");
-    const io::SyntheticSequence sequence = noisyOrbit (c.scene, c.frames, c.seed);
+    const simulation::SyntheticSequence sequence = noisyOrbit (c.scene, c.frames, c.seed);
     const std::size_t begin = 8, end = begin + c.gap;
     const auto blank = [&] (std::size_t i, RGBDFrame& frame) {
       if (i >= begin && i < end)
@@ -777,7 +777,7 @@ TEST (MotionModel, AJumpOfCutFramesIsBridgedByThePrediction)
   for (const OrbitGap& c : {OrbitGap{"tabletop", 54, 19, 3}, OrbitGap{"clutter", 40, 14, 4}})
   {
     SCOPED_TRACE (std::string (c.scene) + ", " + std::to_string (c.gap) + " frames cut");
-    const io::SyntheticSequence sequence = noisyOrbit (c.scene, c.frames, c.seed);
+    const simulation::SyntheticSequence sequence = noisyOrbit (c.scene, c.frames, c.seed);
     DenseReconstruction fusion;
     std::vector<std::size_t> order = frameRange (0, 6);
     const std::vector<std::size_t> after = frameRange (6 + c.gap, c.frames);
@@ -798,8 +798,8 @@ TEST (CameraTracker, AFrameThatMissesTheModelIsNoOverlapNotDegenerate)
   // The frame sees the table with its objects (every direction constrained); the model at
   // the guess is a plain floor. The few matches lie on one plane: the reason is the
   // overlap, not the frame's surfaces (a plane or a corridor).
-  const io::SyntheticScene table = io::SyntheticScene::load (test::tabletopScenePath ());
-  const io::SyntheticScene floor = io::SyntheticScene::parse (
+  const simulation::SyntheticScene table = simulation::SyntheticScene::load (test::tabletopScenePath ());
+  const simulation::SyntheticScene floor = simulation::SyntheticScene::parse (
     "scene floor\ncamera 640 480 525 525 319.5 239.5\n"
     "trajectory target=0,0,0 radius=0.6 height=1.2 start=0 sweep=20 bob=0.0\n"
     "object floor class=floor color=170,165,150 detectable=no\n"
@@ -809,8 +809,8 @@ TEST (CameraTracker, AFrameThatMissesTheModelIsNoOverlapNotDegenerate)
   const Eigen::Isometry3d frame_pose = table.trajectory.poseAt (0.3), model_pose = floor.trajectory.poseAt (0.5);
   const DepthPreprocessor preprocessor;
   FramePyramid frame, model;
-  preprocessor.compute (io::SceneRenderer (table).render (camera, frame_pose).depth, camera, frame);
-  preprocessor.compute (io::SceneRenderer (floor).render (camera, model_pose).depth, camera, model);
+  preprocessor.compute (simulation::SceneRenderer (table).render (camera, frame_pose).depth, camera, frame);
+  preprocessor.compute (simulation::SceneRenderer (floor).render (camera, model_pose).depth, camera, model);
   const TrackingResult result = CameraTracker ().track (frame, model, model_pose, model_pose);
   EXPECT_FALSE (result.tracked);
   EXPECT_NE (result.failure.find ("no overlap with the model at the predicted pose"), std::string::npos) << result.failure;
@@ -818,7 +818,7 @@ TEST (CameraTracker, AFrameThatMissesTheModelIsNoOverlapNotDegenerate)
 
   // The floor itself as the frame: its own surfaces leave translations free.
   FramePyramid floor_frame;
-  preprocessor.compute (io::SceneRenderer (floor).render (camera, floor.trajectory.poseAt (0.6)).depth, camera, floor_frame);
+  preprocessor.compute (simulation::SceneRenderer (floor).render (camera, floor.trajectory.poseAt (0.6)).depth, camera, floor_frame);
   const TrackingResult plane = CameraTracker ().track (floor_frame, model, model_pose, model_pose);
   EXPECT_FALSE (plane.tracked);
   EXPECT_NE (plane.failure.find ("degenerate"), std::string::npos) << plane.failure;
@@ -838,11 +838,11 @@ TEST (RoomRange, ANoisyTableSeenFromAcrossTheRoomIsTracked)
     SCOPED_TRACE ("radius " + std::to_string (radius) + " m");
     const std::string scene_text = text.substr (0, line) + "\ntrajectory target=0,0,0.8 radius=" + std::to_string (radius) +
                                    " height=0.9 start=200 sweep=" + std::to_string (sweep) + " bob=0.03" + text.substr (line_end);
-    io::SyntheticSequenceConfig config;
+    simulation::SyntheticSequenceConfig config;
     config.frames = 30;  // at the Kinect's 640×480: at 320×240 a pixel spans 1.2 cm at 3 m
     config.noise.enabled = true;
     config.seed = seed;
-    const io::SyntheticSequence sequence (io::SyntheticScene::parse (scene_text, "far tabletop"), config);
+    const simulation::SyntheticSequence sequence (simulation::SyntheticScene::parse (scene_text, "far tabletop"), config);
     DenseReconstruction fusion;
     const std::vector<Processed> run = processInOrder (fusion, sequence, frameRange (0, config.frames));
     EXPECT_GE (trackedShareFrom (run, 0), 0.95);
@@ -862,9 +862,9 @@ TEST (FeatureRelocaliser, FindsTheMotionBetweenTwoViewsFromTheirFeatures)
   // Two views of the printed tabletop 15–25° apart on its orbit (drawn), with Kinect noise:
   // the features of one, matched to the other's, give the pose to 2 cm and 2° (ICP then
   // refines it).
-  const io::SyntheticScene table = printedScene ("tabletop");
-  const io::SceneRenderer renderer (table);
-  io::DepthNoiseConfig noise;
+  const simulation::SyntheticScene table = printedScene ("tabletop");
+  const simulation::SceneRenderer renderer (table);
+  simulation::DepthNoiseConfig noise;
   noise.enabled = true;
   std::mt19937 random (11);
   std::uniform_real_distribution<double> start (0.0, 0.5), apart (15.0 / 80.0, 25.0 / 80.0);
@@ -874,8 +874,8 @@ TEST (FeatureRelocaliser, FindsTheMotionBetweenTwoViewsFromTheirFeatures)
     const double s = start (random), t = s + apart (random);
     SCOPED_TRACE ("orbit at " + std::to_string (s) + " and " + std::to_string (t));
     const Eigen::Isometry3d stored_pose = table.trajectory.poseAt (s), frame_pose = table.trajectory.poseAt (t);
-    const io::RenderedView stored = renderer.render (table.camera, stored_pose, noise, 2u * draw);
-    const io::RenderedView frame = renderer.render (table.camera, frame_pose, noise, 2u * draw + 1);
+    const simulation::RenderedView stored = renderer.render (table.camera, stored_pose, noise, 2u * draw);
+    const simulation::RenderedView frame = renderer.render (table.camera, frame_pose, noise, 2u * draw + 1);
     const FeatureView view = relocaliser.describe (stored.color, stored.depth, table.camera, stored_pose);
     const FeatureView lost = relocaliser.describe (frame.color, frame.depth, table.camera, Eigen::Isometry3d::Identity ());
     const std::optional<FeatureRelocaliser::Estimate> found = relocaliser.estimate (lost, view);
@@ -887,7 +887,7 @@ TEST (FeatureRelocaliser, FindsTheMotionBetweenTwoViewsFromTheirFeatures)
   }
 
   // A view of something else (a noise image on a wall) finds no pose.
-  const io::RenderedView stored = renderer.render (table.camera, table.trajectory.poseAt (0.2));
+  const simulation::RenderedView stored = renderer.render (table.camera, table.trajectory.poseAt (0.2));
   cv::Mat color (stored.color.size (), CV_8UC3), wall (stored.depth.size (), CV_32F, cv::Scalar (1.5f));
   cv::randu (color, cv::Scalar::all (0), cv::Scalar::all (255));
   EXPECT_FALSE (relocaliser
@@ -905,7 +905,7 @@ TEST (FeatureRelocalisation, AThirtyDegreeJumpIsRelocalisedByFeatures)
   {
     SCOPED_TRACE (std::string (c.scene) + ", " + std::to_string (c.gap) + " frames cut");
     // At 640×480: at 320×240 ORB finds too few keypoints for a 30° baseline.
-    const io::SyntheticSequence sequence = noisyOrbit (printedScene (c.scene), c.frames, c.seed, 640);
+    const simulation::SyntheticSequence sequence = noisyOrbit (printedScene (c.scene), c.frames, c.seed, 640);
     std::vector<std::size_t> order = frameRange (0, 6);
     const std::vector<std::size_t> after = frameRange (6 + c.gap, c.frames);
     order.insert (order.end (), after.begin (), after.end ());

@@ -2,7 +2,7 @@
 #include "reconstruction_fixtures.h"
 
 #include <cuefusion/io/map_io.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <gtest/gtest.h>
@@ -28,10 +28,10 @@ quantile (std::vector<double> v, double q)
 
 /** Distance to the nearer of the two solids and its outward normal. */
 void
-analyticSurface (const io::SyntheticScene& scene, const Eigen::Vector3d& p, double& distance, Eigen::Vector3d& normal)
+analyticSurface (const simulation::SyntheticScene& scene, const Eigen::Vector3d& p, double& distance, Eigen::Vector3d& normal)
 {
-  const io::Primitive& sphere = scene.objects[0].parts[0];
-  const io::Primitive& box = scene.objects[1].parts[0];
+  const simulation::Primitive& sphere = scene.objects[0].parts[0];
+  const simulation::Primitive& box = scene.objects[1].parts[0];
   const double ds = (p - sphere.center).norm () - sphere.half_size.x ();
   const double db = test::boxDistance (box, p);
   if (std::abs (ds) < std::abs (db))
@@ -66,7 +66,7 @@ nearerVoxelDistance (const TSDFVolume& volume, VoxelNumber v, const Eigen::Vecto
 
 TEST (TSDFVolume, SurfacePointsLieOnTheAnalyticSurface)
 {
-  const io::SyntheticScene scene = test::sphereAndBoxScene ();
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene ();
   TSDFVolume volume;
   test::integrateOrbit (scene, 16, volume);
   pcl::PointCloud<pcl::PointXYZRGBL> cloud;
@@ -103,13 +103,13 @@ TEST (TSDFVolume, SurfacePointsLieOnTheAnalyticSurface)
 
 TEST (TSDFVolume, RaycastDepthMatchesRenderedDepth)
 {
-  const io::SyntheticScene scene = test::sphereAndBoxScene ();
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene ();
   TSDFVolume volume;
   test::integrateOrbit (scene, 16, volume);
-  const io::SceneRenderer renderer (scene);
+  const simulation::SceneRenderer renderer (scene);
   // A view between the integrated ones.
   const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.53);
-  const io::RenderedView truth = renderer.render (scene.camera, pose);
+  const simulation::RenderedView truth = renderer.render (scene.camera, pose);
   const RaycastResult model = volume.raycast (scene.camera, pose);
   const cv::Mat depth = model.depth ();
   std::vector<double> error;
@@ -156,10 +156,10 @@ TEST (TSDFVolume, RaycastDepthMatchesRenderedDepth)
 
 TEST (TSDFVolume, RaycastOfAnIntegratedViewReproducesIt)
 {
-  const io::SyntheticScene scene = io::SyntheticScene::load (test::tabletopScenePath ());
-  const io::SceneRenderer renderer (scene);
+  const simulation::SyntheticScene scene = simulation::SyntheticScene::load (test::tabletopScenePath ());
+  const simulation::SceneRenderer renderer (scene);
   const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.0);
-  const io::RenderedView truth = renderer.render (scene.camera, pose);
+  const simulation::RenderedView truth = renderer.render (scene.camera, pose);
   TSDFVolume volume;
   volume.integrate (truth.depth, truth.color, scene.camera, pose);
   const cv::Mat depth = volume.raycast (scene.camera, pose).depth ();
@@ -184,10 +184,10 @@ TEST (TSDFVolume, RaycastOfAnIntegratedViewReproducesIt)
 
 TEST (TSDFVolume, RaycastNormalsOfASingleViewMatchTheSurface)
 {
-  const io::SyntheticScene scene = test::sphereAndBoxScene ();
-  const io::SceneRenderer renderer (scene);
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene ();
+  const simulation::SceneRenderer renderer (scene);
   const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.3);
-  const io::RenderedView truth = renderer.render (scene.camera, pose);
+  const simulation::RenderedView truth = renderer.render (scene.camera, pose);
   TSDFVolume volume;
   volume.integrate (truth.depth, truth.color, scene.camera, pose);
   const RaycastResult model = volume.raycast (scene.camera, pose);
@@ -206,7 +206,7 @@ TEST (TSDFVolume, RaycastNormalsOfASingleViewMatchTheSurface)
 
 TEST (TSDFVolume, MeshVerticesLieOnTheSurfaceAndFacesPointOutwards)
 {
-  const io::SyntheticScene scene = test::sphereAndBoxScene ();
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene ();
   TSDFVolume volume;
   test::integrateOrbit (scene, 16, volume);
   const pcl::PolygonMesh mesh = volume.extractMesh ([] (VoxelNumber v) { return v + 1; });
@@ -221,7 +221,7 @@ TEST (TSDFVolume, MeshVerticesLieOnTheSurfaceAndFacesPointOutwards)
     fields.push_back (f.name);
   for (const char* name : {"x", "rgba", "label", "normal_x"})
     EXPECT_NE (std::find (fields.begin (), fields.end (), name), fields.end ()) << name;
-  const io::Primitive& sphere = scene.objects[0].parts[0];
+  const simulation::Primitive& sphere = scene.objects[0].parts[0];
   std::size_t sphere_faces = 0, outward = 0;
   std::vector<double> distance;
   for (const auto& face : mesh.polygons)
@@ -286,7 +286,7 @@ expectDistanceLayersMatchTheVoxels (const TSDFVolume& volume)
 
 TEST (TSDFVolume, SaveLoadRoundTripIsExact)
 {
-  const io::SyntheticScene scene = test::sphereAndBoxScene (160, 120);
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene (160, 120);
   TSDFVolumeConfig config;
   config.voxel_size = 0.02;
   config.bounds = Eigen::AlignedBox3d (Eigen::Vector3d (-1, -1, 0), Eigen::Vector3d (1, 1, 2));
@@ -340,11 +340,11 @@ TEST (TSDFVolume, MemoryFollowsTheSurfaceNotTheViewedVolume)
   // A wall 4 m in front of the camera filling the view.
   const std::string text = "scene wall\ncamera 320 240 262.5 262.5 159.5 119.5\n"
                            "object wall class=wall color=200,200,200\n  box center=0,4.05,1 size=8,0.1,8\n";
-  const io::SyntheticScene scene = io::SyntheticScene::parse (text, "wall");
+  const simulation::SyntheticScene scene = simulation::SyntheticScene::parse (text, "wall");
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
   pose.linear () << 1, 0, 0, 0, 0, 1, 0, -1, 0;  // camera z along world +y, looking at the wall
   pose.translation () = Eigen::Vector3d (0, 0, 1);
-  const io::RenderedView view = io::SceneRenderer (scene).render (scene.camera, pose);
+  const simulation::RenderedView view = simulation::SceneRenderer (scene).render (scene.camera, pose);
   TSDFVolume volume;
   volume.integrate (view.depth, view.color, scene.camera, pose);
   const double block = volume.getConfig ().blockSize ();
@@ -413,7 +413,7 @@ TEST (VoxelBlockStore, AllocatesOnceFindsVoxelsAndKeepsTheApronsOfWrittenBlocks)
 
 TEST (TSDFVolume, BoundsLimitAllocation)
 {
-  const io::SyntheticScene scene = test::sphereAndBoxScene (160, 120);
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene (160, 120);
   TSDFVolumeConfig config;
   config.bounds = Eigen::AlignedBox3d (Eigen::Vector3d (-1, -1, 0), Eigen::Vector3d (0, 1, 2));  // the sphere's half
   TSDFVolume volume (config);
@@ -480,12 +480,12 @@ TEST (TSDFVolume, DepthHintedRaycastMatchesTheFullRaycast)
 {
   // Noisy frames: the hint (the measured depth) scatters around the fused surface, so
   // some rays start behind it and must fall back to the full march.
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 20;
   config.width = 320;
   config.height = 240;
   config.noise.enabled = true;
-  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), config);
   TSDFVolume volume;
   for (std::size_t i = 0; i < 10; ++i)
   {
@@ -525,11 +525,11 @@ TEST (TSDFVolume, HintBehindTheSurfaceStillFindsIt)
   // wall where the full march does, with its normal.
   const std::string text = "scene wall\ncamera 320 240 262.5 262.5 159.5 119.5\n"
                            "object wall class=wall color=200,200,200\n  box center=0,1.25,1 size=8,0.1,8\n";
-  const io::SyntheticScene scene = io::SyntheticScene::parse (text, "wall");
+  const simulation::SyntheticScene scene = simulation::SyntheticScene::parse (text, "wall");
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
   pose.linear () << 1, 0, 0, 0, 0, 1, 0, -1, 0;  // camera z along world +y
   pose.translation () = Eigen::Vector3d (0, 0, 1);
-  const io::RenderedView view = io::SceneRenderer (scene).render (scene.camera, pose);
+  const simulation::RenderedView view = simulation::SceneRenderer (scene).render (scene.camera, pose);
   TSDFVolume volume;
   volume.integrate (view.depth, view.color, scene.camera, pose);
   RaycastResult full, hinted;
@@ -555,11 +555,11 @@ TEST (TSDFVolume, HoleSkipSearchesOnlyTheRefreshedHoles)
 {
   // A fused tabletop, then a hint with a band of hole pixels punched across it (where the
   // model has surface) and the sky of the view (where it has none).
-  io::SyntheticSequenceConfig config;
+  simulation::SyntheticSequenceConfig config;
   config.frames = 10;
   config.width = 320;
   config.height = 240;
-  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), config);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), config);
   TSDFVolume volume;
   for (std::size_t i = 0; i < config.frames; ++i)
   {

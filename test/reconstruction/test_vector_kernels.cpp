@@ -36,16 +36,16 @@ private:
 /** Views of the sphere-and-box orbit with holes punched in: NaN, zero and too-far pixels,
   * so the kernels' invalid-depth paths (nearest and bilinear) are exercised too.
   */
-std::vector<io::RenderedView>
-viewsWithHoles (const io::SyntheticScene& scene, int count, double sweep = 1.0)
+std::vector<simulation::RenderedView>
+viewsWithHoles (const simulation::SyntheticScene& scene, int count, double sweep = 1.0)
 {
-  const io::SceneRenderer renderer (scene);
+  const simulation::SceneRenderer renderer (scene);
   std::mt19937 rng (11);
   std::uniform_int_distribution<int> col (0, scene.camera.width - 1), row (0, scene.camera.height - 1), kind (0, 2);
-  std::vector<io::RenderedView> views;
+  std::vector<simulation::RenderedView> views;
   for (int i = 0; i < count; ++i)
   {
-    io::RenderedView view =
+    simulation::RenderedView view =
         renderer.render (scene.camera, scene.trajectory.poseAt (sweep * static_cast<double> (i) / count));
     for (int k = 0; k < scene.camera.width * scene.camera.height / 50; ++k)
     {
@@ -58,7 +58,7 @@ viewsWithHoles (const io::SyntheticScene& scene, int count, double sweep = 1.0)
 }
 
 TSDFVolume
-integrateWith (bool vector, const io::SyntheticScene& scene, const std::vector<io::RenderedView>& views)
+integrateWith (bool vector, const simulation::SyntheticScene& scene, const std::vector<simulation::RenderedView>& views)
 {
   const KernelChoice choice (vector);
   TSDFVolumeConfig config;
@@ -75,8 +75,8 @@ TEST (VectorKernels, IntegrationBuildsTheScalarVolume)
 {
   if (!cpuHasAvx2Fma ())
     GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
-  const io::SyntheticScene scene = test::sphereAndBoxScene (320, 240);
-  const std::vector<io::RenderedView> views = viewsWithHoles (scene, 6);
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene (320, 240);
+  const std::vector<simulation::RenderedView> views = viewsWithHoles (scene, 6);
   const TSDFVolume scalar = integrateWith (false, scene, views);
   const TSDFVolume vector = integrateWith (true, scene, views);
   ASSERT_EQ (scalar.blockCount (), vector.blockCount ());  // allocation does not depend on the kernel
@@ -161,8 +161,8 @@ TEST (VectorKernels, ICPFindsTheScalarMotion)
     GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
   // 316 px wide: levels of 316, 158 and 79 px leave 4, 6 and 7 pixels per row to the
   // scalar tail; the punched holes put NaN into both pyramids.
-  const io::SyntheticScene scene = test::sphereAndBoxScene (316, 240);
-  const std::vector<io::RenderedView> views = viewsWithHoles (scene, 3, 0.0075);  // steps of 1°
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene (316, 240);
+  const std::vector<simulation::RenderedView> views = viewsWithHoles (scene, 3, 0.0075);  // steps of 1°
   const DepthPreprocessor preprocessor;
   for (const int step : {1, 2})
   {
@@ -292,8 +292,8 @@ TEST (NormalMap, IsTheRenderersNormalOnFacesAndOneSidedAtOutlines)
   // side is background, the one-sided difference on the other side still gives one; holes
   // and the border have none. Both spans the project uses: tracking's ±1, the
   // segmentation's ±4.
-  const io::SyntheticScene scene = test::sphereAndBoxScene (320, 240);
-  const io::RenderedView view = io::SceneRenderer (scene).render (scene.camera, scene.trajectory.poseAt (0.1));
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene (320, 240);
+  const simulation::RenderedView view = simulation::SceneRenderer (scene).render (scene.camera, scene.trajectory.poseAt (0.1));
   cv::Mat vertices;
   computeVertexMap (view.depth, scene.camera, vertices);
   for (const int step : {1, 4})
@@ -364,8 +364,8 @@ TEST (VectorKernels, ModelPyramidIsTheScalarOne)
   // Vertex and normal maps of a view with holes (invalid vertices), invalid normals at the
   // outlines and depth jumps inside 2×2 blocks; 2 · 157 px wide, so rows end in a scalar
   // tail. The kernel sums and divides in the scalar order: results agree to the bit.
-  const io::SyntheticScene scene = test::sphereAndBoxScene (314, 240);
-  const io::RenderedView view = viewsWithHoles (scene, 1).front ();
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene (314, 240);
+  const simulation::RenderedView view = viewsWithHoles (scene, 1).front ();
   cv::Mat vertices, normals;
   computeVertexMap (view.depth, scene.camera, vertices);
   computeNormalMap (vertices, normals);
@@ -401,8 +401,8 @@ TEST (VectorKernels, HintedRaycastIsTheScalarOne)
   if (!cpuHasAvx2Fma ())
     GTEST_SKIP () << "this CPU has no AVX2/FMA: only the scalar kernels run";
   // 317 px wide: each row ends in pixels the eight-ray kernel leaves to the scalar path.
-  const io::SyntheticScene scene = test::sphereAndBoxScene (317, 240);
-  const std::vector<io::RenderedView> views = viewsWithHoles (scene, 6);
+  const simulation::SyntheticScene scene = test::sphereAndBoxScene (317, 240);
+  const std::vector<simulation::RenderedView> views = viewsWithHoles (scene, 6);
   const TSDFVolume volume = integrateWith (false, scene, views);
   const Eigen::Isometry3d pose = scene.trajectory.poseAt (1.0 / 6.0);
   RaycastResult result[2];

@@ -6,9 +6,9 @@
 
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/common/instance.h>
-#include <cuefusion/io/scene_renderer.h>
-#include <cuefusion/io/simulated_detector.h>
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/scene_renderer.h>
+#include <cuefusion/simulation/simulated_detector.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
 
@@ -24,7 +24,7 @@ namespace cuefusion
 {
 namespace test
 {
-using io::lookAt;
+using cuefusion::lookAt;
 
 // Scene bodies shared by the segmentation tests (object ids follow file order: the
 // table is 1), seen from kObliqueEye towards kTableTarget unless a test says otherwise.
@@ -42,7 +42,7 @@ const Eigen::Vector3d kObliqueEye (0.45, -0.85, 1.3);
 /** One rendered view and its geometric segmentation. */
 struct SegmentedView
 {
-  io::RenderedView view;
+  simulation::RenderedView view;
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
   pcl::PointCloud<pcl::PointXYZ>::Ptr smoothed;
   pcl::PointCloud<pcl::Normal>::Ptr normals;
@@ -76,12 +76,12 @@ inline SegmentedView
 segmentScene (const std::string& scene_body, const Eigen::Vector3d& eye, const Eigen::Vector3d& target, bool noise,
               const segmentation::GeometricSegmentationConfig& config = segmentation::GeometricSegmentationConfig ())
 {
-  const io::SyntheticScene scene =
-    io::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + scene_body, "test scene");
-  io::DepthNoiseConfig noise_config;
+  const simulation::SyntheticScene scene =
+    simulation::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + scene_body, "test scene");
+  simulation::DepthNoiseConfig noise_config;
   noise_config.enabled = noise;
   SegmentedView out;
-  out.view = io::SceneRenderer (scene).render (scene.camera, lookAt (eye, target), noise_config, 7);
+  out.view = simulation::SceneRenderer (scene).render (scene.camera, lookAt (eye, target), noise_config, 7);
   out.cloud = cloudFromDepth (out.view.depth, scene.camera);
   out.smoothed.reset (new pcl::PointCloud<pcl::PointXYZ>);
   out.normals.reset (new pcl::PointCloud<pcl::Normal>);
@@ -117,11 +117,11 @@ segmentScene (const std::string& scene_body, const Eigen::Vector3d& eye, const E
   * segmentScene rendered), with the detector errors of \a errors.
   */
 inline std::vector<Instance>
-simulatedInstances (const std::string& scene_body, const SegmentedView& s, const io::DetectorErrorConfig& errors)
+simulatedInstances (const std::string& scene_body, const SegmentedView& s, const simulation::DetectorErrorConfig& errors)
 {
-  const io::SyntheticScene scene =
-    io::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + scene_body, "test scene");
-  return io::toInstances (io::SimulatedDetector (scene, errors, 3).detect (s.view.instance, 0));
+  const simulation::SyntheticScene scene =
+    simulation::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + scene_body, "test scene");
+  return simulation::toInstances (simulation::SimulatedDetector (scene, errors, 3).detect (s.view.instance, 0));
 }
 
 /** How one ground-truth object of a view is segmented. */

@@ -304,12 +304,12 @@ TEST (SurfacePlanes, TrackingsNormalMapIsTheSegmentationsToTheBit)
   // tracking's level-0 normals (reconstruction::computeNormalMap on the vertex map) instead
   // of computing its own from the same depth; on a noisy view with outlines, holes and the
   // table both must be the same floats, at the segmentation's span and at tracking's.
-  const io::SyntheticScene scene =
-    io::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + test::kTwoBoxes, "test scene");
-  io::DepthNoiseConfig noise;
+  const simulation::SyntheticScene scene =
+    simulation::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + test::kTwoBoxes, "test scene");
+  simulation::DepthNoiseConfig noise;
   noise.enabled = true;
-  const io::RenderedView view =
-    io::SceneRenderer (scene).render (scene.camera, test::lookAt (test::kObliqueEye, test::kTableTarget), noise, 3);
+  const simulation::RenderedView view =
+    simulation::SceneRenderer (scene).render (scene.camera, test::lookAt (test::kObliqueEye, test::kTableTarget), noise, 3);
   const PinholeCamera& camera = scene.camera;
   for (const reconstruction::NormalMapConfig config :
        {SurfacePreprocessingConfig::segmentationNormals (), reconstruction::NormalMapConfig ()})
@@ -457,15 +457,15 @@ namespace
 /** A room's corner seen from a drawn distance: the floor meeting a wall at a right angle. */
 struct CornerView
 {
-  io::RenderedView view;
+  simulation::RenderedView view;
   PinholeCamera camera;
   double distance = 0;
 };
 
 CornerView
-cornerView (std::mt19937& draw, double min_distance, double max_distance, io::DepthSensor sensor = io::DepthSensor::Kinect)
+cornerView (std::mt19937& draw, double min_distance, double max_distance, simulation::DepthSensor sensor = simulation::DepthSensor::Kinect)
 {
-  static const io::SyntheticScene scene = io::SyntheticScene::parse (
+  static const simulation::SyntheticScene scene = simulation::SyntheticScene::parse (
     "scene corner\ncamera 640 480 525 525 319.5 239.5\n"
     "object floor class=floor detectable=no\n  box center=0,0,-0.01 size=14,14,0.02\n"
     "object wall class=wall detectable=no\n  box center=0,3.05,1.5 size=14,0.1,3\n",
@@ -478,10 +478,10 @@ cornerView (std::mt19937& draw, double min_distance, double max_distance, io::De
   const double height = 1.2 + 0.5 * u (draw), azimuth = (u (draw) - 0.5) * 100.0 * M_PI / 180.0;
   const double along = std::sqrt (std::max (0.01, c.distance * c.distance - height * height));
   const Eigen::Vector3d target (0, 3.0, 0.0), eye = target + Eigen::Vector3d (along * std::sin (azimuth), -along * std::cos (azimuth), height);
-  io::DepthNoiseConfig noise;
+  simulation::DepthNoiseConfig noise;
   noise.enabled = true;
   noise.sensor = sensor;
-  c.view = io::SceneRenderer (scene).render (c.camera, io::lookAt (eye, target), noise, draw ());
+  c.view = simulation::SceneRenderer (scene).render (c.camera, lookAt (eye, target), noise, draw ());
   return c;
 }
 

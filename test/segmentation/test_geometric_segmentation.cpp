@@ -196,18 +196,18 @@ TEST (GeometricSegmentation, AStereoCamerasFrameIsSegmentedAtItsMeasuredNoise)
   // from 1.6–2.4 m: the class on the raw cloud with its defaults measures the frame's
   // noise (about twice Kinect's) and keeps the table whole (and, at 1.6 m, the objects
   // apart); the thresholds left at Kinect's noise (noise_scale 1) break the table up.
-  const io::SyntheticScene scene =
-    io::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + kConvex, "test scene");
-  io::DepthNoiseConfig stereo;
+  const simulation::SyntheticScene scene =
+    simulation::SyntheticScene::parse ("scene test\ncamera 640 480 525 525 319.5 239.5\n" + kConvex, "test scene");
+  simulation::DepthNoiseConfig stereo;
   stereo.enabled = true;
-  stereo.sensor = io::DepthSensor::RealSense;
+  stereo.sensor = simulation::DepthSensor::RealSense;
   for (const double distance : {1.6, 2.4})
   {
     const double a = -80.0 * M_PI / 180.0, e = 25.0 * M_PI / 180.0;
     const Eigen::Vector3d eye =
       kTableTarget + distance * Eigen::Vector3d (std::cos (e) * std::cos (a), std::cos (e) * std::sin (a), std::sin (e));
     test::SegmentedView s;
-    s.view = io::SceneRenderer (scene).render (scene.camera, test::lookAt (eye, kTableTarget), stereo, 5);
+    s.view = simulation::SceneRenderer (scene).render (scene.camera, test::lookAt (eye, kTableTarget), stereo, 5);
     s.cloud = test::cloudFromDepth (s.view.depth, scene.camera);
     auto coverage = [&] (float noise_scale, float* measured) {
       segmentation::GeometricSegmentationConfig config;

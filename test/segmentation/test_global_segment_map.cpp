@@ -3,7 +3,7 @@
 // propagation and voxel label updates over a synthetic sequence with exact truth.
 #include "test_utils.h"
 
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 #include <cuefusion/reconstruction/vertex_maps.h>
 #include <cuefusion/segmentation/edge_operators.h>
@@ -149,11 +149,11 @@ protected:
   void
   SetUp () override
   {
-    io::SyntheticSequenceConfig config;
+    simulation::SyntheticSequenceConfig config;
     config.frames = 30;
     config.width = 320;
     config.height = 240;
-    sequence.reset (new io::SyntheticSequence (io::SyntheticScene::load (test::tabletopScenePath ()), config));
+    sequence.reset (new simulation::SyntheticSequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), config));
     reconstruction::TSDFVolumeConfig volume_config;
     volume_config.voxel_size = 0.01;
     volume.reset (new reconstruction::TSDFVolume (volume_config));
@@ -233,7 +233,7 @@ protected:
     return map.resolve (best);
   }
 
-  std::unique_ptr<io::SyntheticSequence> sequence;
+  std::unique_ptr<simulation::SyntheticSequence> sequence;
   std::unique_ptr<reconstruction::TSDFVolume> volume;
   VoxelLabelLayer layer;
   GlobalSegmentMap map;

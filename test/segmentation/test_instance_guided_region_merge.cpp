@@ -63,7 +63,7 @@ TEST (InstanceGuidedRegionMerge, ReunitesAnObjectGeometrySplit)
   const auto view = segmentScene (kSteppedL, kEye, kTarget, false);
   ASSERT_EQ (scoreObject (view, 2).segments, 2);  // the precondition: geometry splits the L
   std::vector<SegmentInstance> info;
-  const auto fused = fuse (view, test::simulatedInstances (kSteppedL, view, io::DetectorErrorConfig ()), &info);
+  const auto fused = fuse (view, test::simulatedInstances (kSteppedL, view, simulation::DetectorErrorConfig ()), &info);
   const auto block = scoreObject (fused, 2);
   EXPECT_EQ (block.segments, 1);
   EXPECT_GE (block.best_iou, 0.85);
@@ -79,7 +79,7 @@ TEST (InstanceGuidedRegionMerge, ReunitesAnObjectGeometrySplit)
 
 TEST (InstanceGuidedRegionMerge, LeakingMasksDoNotDragTheTableOrANeighbourIn)
 {
-  io::DetectorErrorConfig leaky;
+  simulation::DetectorErrorConfig leaky;
   leaky.boundary_px = 6;  // masks 6 px too large all round, onto the table and each other
   const auto view = segmentScene (kTwoBoxes, kEye, kTarget, true);
   const auto fused = fuse (view, test::simulatedInstances (kTwoBoxes, view, leaky));
@@ -98,7 +98,7 @@ TEST (InstanceGuidedRegionMerge, AMaskOverTwoObjectsMergesThem)
   // boxes as one instance, each box's segment lies > 70 % inside it and L_t unites them.
   // The geometric boundary is not used to veto the merge; the map (GlobalSegmentMap) is where a
   // wrong merge can be outvoted by later frames.
-  io::DetectorErrorConfig merging;
+  simulation::DetectorErrorConfig merging;
   merging.merge_probability = 1.0;
   const auto view = segmentScene (kTwoBoxes, kEye, kTarget, false);
   ASSERT_NE (scoreObject (view, 2).best_label, scoreObject (view, 3).best_label);
@@ -115,7 +115,7 @@ TEST (InstanceGuidedRegionMerge, NoMasksLeaveGeometryAndLabelsAreDeterministic)
   const auto same = fuse (view, {});
   EXPECT_EQ (cv::countNonZero (same.labels != view.labels), 0);  // L_t = L^G
 
-  auto instances = test::simulatedInstances (kSteppedL, view, io::DetectorErrorConfig ());
+  auto instances = test::simulatedInstances (kSteppedL, view, simulation::DetectorErrorConfig ());
   ASSERT_GE (instances.size (), 2u);
   const auto first = fuse (view, instances);
   std::reverse (instances.begin (), instances.end ());
@@ -144,7 +144,7 @@ TEST (InstanceGuidedRegionMerge, ASegmentTwoMasksShareIsCutAlongThem)
   const auto view = segmentScene (flush, kEye, kTarget, true);  // with noise no seam shows
   ASSERT_EQ (scoreObject (view, 2).best_label, scoreObject (view, 3).best_label);  // the precondition
   std::vector<SegmentInstance> info;
-  const auto fused = fuse (view, test::simulatedInstances (flush, view, io::DetectorErrorConfig ()), &info);
+  const auto fused = fuse (view, test::simulatedInstances (flush, view, simulation::DetectorErrorConfig ()), &info);
   const auto a = scoreObject (fused, 2), b = scoreObject (fused, 3);
   EXPECT_NE (a.best_label, b.best_label);
   EXPECT_GE (a.best_iou, 0.8);
@@ -186,7 +186,7 @@ TEST (InstanceGuidedRegionMerge, AMaskOverABoxBeforeAnotherKeepsThemApartWithThe
                             "  box center=0,-0.05,0.79 size=0.16,0.10,0.10\n"
                             "object back class=box color=30,170,190\n"
                             "  box center=0,0.05,0.84 size=0.16,0.10,0.20\n";
-  io::DetectorErrorConfig merging;
+  simulation::DetectorErrorConfig merging;
   merging.merge_probability = 1.0;
   const auto view = segmentScene (scene, Eigen::Vector3d (0.15, -1.0, 0.80), kTarget, false);
   ASSERT_NE (scoreObject (view, 2).best_label, scoreObject (view, 3).best_label);
@@ -211,7 +211,7 @@ TEST (InstanceGuidedRegionMerge, WithThePointsTheSteppedLStaysWholeAndItsRimIsCo
   l_planes.assignPoints (*l_view.smoothed);
   test::SegmentedView l_fused = l_view;
   l_fused.labels = cv::Mat ();
-  const auto l_instances = test::simulatedInstances (kSteppedL, l_view, io::DetectorErrorConfig ());
+  const auto l_instances = test::simulatedInstances (kSteppedL, l_view, simulation::DetectorErrorConfig ());
   InstanceGuidedRegionMerge ().merge (l_view.labels, l_instances, l_fused.labels, nullptr, &l_planes);
   EXPECT_EQ (scoreObject (l_fused, 2).segments, 1);
   EXPECT_GE (scoreObject (l_fused, 2).best_iou, scoreObject (fuse (l_view, l_instances), 2).best_iou);
@@ -279,7 +279,7 @@ namespace
 void
 expectMergedBoxesCutByColour (const std::string& scene, const test::SegmentedView& view)
 {
-  io::DetectorErrorConfig merging;
+  simulation::DetectorErrorConfig merging;
   merging.merge_probability = 1.0;
   const auto instances = test::simulatedInstances (scene, view, merging);
   ASSERT_EQ (instances.size (), 1u);
@@ -378,7 +378,7 @@ TEST (InstanceGuidedRegionMerge, ARenderedMaskOverTwoBoxesOfDifferentColoursIsCu
 
   cv::Mat fused;
   const auto l_view = segmentScene (kSteppedL, kEye, kTarget, false);
-  InstanceGuidedRegionMerge ().merge (l_view.labels, test::simulatedInstances (kSteppedL, l_view, io::DetectorErrorConfig ()), fused,
+  InstanceGuidedRegionMerge ().merge (l_view.labels, test::simulatedInstances (kSteppedL, l_view, simulation::DetectorErrorConfig ()), fused,
                                       nullptr, nullptr, l_view.view.color);
   test::SegmentedView result = l_view;
   result.labels = fused;
@@ -432,7 +432,7 @@ TEST (InstanceGuidedRegionMerge, AKeyboardUnderOneMaskAPixelOrTwoOffIsOneSegment
                ",0.763 size=0.016,0.016,0.012\n";
   scene += "object mug class=cup color=200,200,210\n  cylinder center=0.32,0.05,0.8 radius=0.04 height=0.12\n";
   const auto view = segmentScene (scene, Eigen::Vector3d (0.1, -0.6, 1.25), Eigen::Vector3d (0, 0, 0.76), true);
-  io::DetectorErrorConfig short_masks;
+  simulation::DetectorErrorConfig short_masks;
   short_masks.boundary_px = -3;
   const auto instances = test::simulatedInstances (scene, view, short_masks);
   ASSERT_EQ (instances.size (), 2u);

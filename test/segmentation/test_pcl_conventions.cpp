@@ -368,7 +368,7 @@ TEST (EdgeComparators, WithoutNormalsTheyRefuseClearly)
 TEST (InstanceGuidedRegionMerge, MergesPclLabelCloudsLikeLabelImages)
 {
   const auto s = segmentScene (kTwoBoxes, kObliqueEye, kTableTarget, true);
-  io::DetectorErrorConfig errors;
+  simulation::DetectorErrorConfig errors;
   const std::vector<Instance> instances = simulatedInstances (kTwoBoxes, s, errors);
   ASSERT_FALSE (instances.empty ());
   segmentation::InstanceGuidedRegionMerge merge;

@@ -6,9 +6,9 @@
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/io/map_io.h>
 #include <cuefusion/io/mesh_io.h>
-#include <cuefusion/io/simulated_detector.h>
-#include <cuefusion/io/synthetic_scene.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/simulated_detector.h>
+#include <cuefusion/simulation/synthetic_scene.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/visualization/frame_view.h>
 #include <cuefusion/visualization/mesh_rasterizer.h>
@@ -129,11 +129,11 @@ TEST (MeshRasterizer, RenderedMapMatchesARaycastOfTheSameMap)
   // A short orbit of the tabletop in masks mode; the labelled mesh goes through the PLY
   // writer and reader, is rendered from the last pose and compared with the volume's
   // own raycast (labels resolved) from that pose.
-  io::SyntheticSequenceConfig sc;
+  simulation::SyntheticSequenceConfig sc;
   sc.frames = 8;
   sc.width = 320;
   sc.height = 240;
-  const io::SyntheticSequence sequence (io::SyntheticScene::load (test::tabletopScenePath ()), sc);
+  const simulation::SyntheticSequence sequence (simulation::SyntheticScene::load (test::tabletopScenePath ()), sc);
   pipeline::FusionPipelineConfig config;
   config.mode = pipeline::SegmentationMode::Masks;
   config.reconstruction.use_reference_poses = true;
@@ -142,7 +142,7 @@ TEST (MeshRasterizer, RenderedMapMatchesARaycastOfTheSameMap)
   for (std::size_t i = 0; i < sequence.size (); ++i)
   {
     frame = sequence.frame (i);
-    const std::vector<Instance> instances = io::toInstances (sequence.detections (*frame));
+    const std::vector<Instance> instances = simulation::toInstances (sequence.detections (*frame));
     ASSERT_TRUE (fusion.process (*frame, &instances).segmented);
   }
   test::TempDir dir;
@@ -209,7 +209,7 @@ TEST (MeshRasterizer, UpComesFromTheCameras)
   for (int k = 0; k < 4; ++k)
   {
     const double a = 0.5 * k;
-    cameras.push_back (io::lookAt (Eigen::Vector3d (std::cos (a), 0.1 * k, std::sin (a)), Eigen::Vector3d::Zero (),
+    cameras.push_back (lookAt (Eigen::Vector3d (std::cos (a), 0.1 * k, std::sin (a)), Eigen::Vector3d::Zero (),
                                    Eigen::Vector3d::UnitY ()));
   }
   EXPECT_GT (visualization::upFromCameras (cameras).dot (Eigen::Vector3d::UnitY ()), 0.99);

@@ -7,7 +7,7 @@ namespace cuefusion
 {
 /** \brief SplitMix64's finaliser (Steele, Lea, Flood 2014): a bijective 64-bit mix whose
   * every output bit depends on every input bit. The generator's random streams
-  * (io::mixSeed), the volume's fingerprint (TSDFVolume::fingerprint) and the renderer's
+  * (simulation::mixSeed), the volume's fingerprint (TSDFVolume::fingerprint) and the renderer's
   * printed texture (SceneObject::print) mix with it.
   */
 inline std::uint64_t

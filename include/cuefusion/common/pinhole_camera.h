@@ -4,6 +4,7 @@
 #include <cuefusion/common/fast_math.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <string>
 
@@ -132,4 +133,10 @@ struct KinectNoiseModel
   */
 double
 kinectAxialNoise (double z, double theta);
+/** \brief Camera-to-world pose (x right, y down, z forward) at \a eye looking at
+  * \a target, with \a up (default world z) pointing up in the image; the view must not
+  * be along \a up. (The generator's cameras and the off-screen renders use it.)
+  */
+Eigen::Isometry3d
+lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ ());
 }  // namespace cuefusion

@@ -63,4 +63,18 @@ kinectAxialNoise (double z, double theta)
   const double dz = z - KinectNoiseModel::offset;
   return KinectNoiseModel::base + KinectNoiseModel::quadratic * dz * dz + 0.0001 / std::sqrt (std::max (z, 1e-6)) * t * t / ((half_pi - t) * (half_pi - t));
 }
+
+Eigen::Isometry3d
+lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up)
+{
+  const Eigen::Vector3d forward = (target - eye).normalized ();
+  const Eigen::Vector3d right = forward.cross (up).normalized ();
+  const Eigen::Vector3d down = forward.cross (right);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
+  pose.linear ().col (0) = right;
+  pose.linear ().col (1) = down;
+  pose.linear ().col (2) = forward;
+  pose.translation () = eye;
+  return pose;
+}
 }  // namespace cuefusion

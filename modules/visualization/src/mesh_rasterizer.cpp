@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/label_colors.h>
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/common/pinhole_camera.h>
 #include <cuefusion/visualization/mesh_rasterizer.h>
 
 #include <algorithm>
@@ -159,7 +159,7 @@ orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views
     const double azimuth = 2.0 * M_PI * k / views - M_PI / 2.0;
     const Eigen::Vector3d eye =
       centre + distance * (std::cos (elevation) * (std::cos (azimuth) * a + std::sin (azimuth) * b) + std::sin (elevation) * up);
-    poses.push_back (io::lookAt (eye, centre, up));
+    poses.push_back (lookAt (eye, centre, up));
   }
   return poses;
 }

@@ -2,10 +2,10 @@
 #pragma once
 
 #include <cuefusion/common/rgbd_frame.h>
-#include <cuefusion/io/scene_renderer.h>
+#include <cuefusion/simulation/scene_renderer.h>
 #include <cuefusion/io/sequence_writer.h>
-#include <cuefusion/io/simulated_detector.h>
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/simulated_detector.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -16,7 +16,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 /** \brief How to turn a scene into a sequence. */
 struct SyntheticSequenceConfig
@@ -88,7 +88,7 @@ private:
   * \a progress is called with the number of frames written.
   */
 void
-writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout, const std::string& dir,
+writeSyntheticSequence (const SyntheticSequence& sequence, io::DatasetLayout layout, const std::string& dir,
                         bool overwrite = false, const std::function<void (std::size_t)>& progress = {});
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -3,7 +3,7 @@
 // Internal to the io module: the solids and small objects random scenes and rooms are drawn
 // from (RandomSceneGenerator, generateRoom). Not installed.
 
-#include <cuefusion/io/random_scene.h>
+#include <cuefusion/simulation/random_scene.h>
 
 #include <random>
 #include <string>
@@ -11,7 +11,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 namespace shapes
 {
@@ -50,5 +50,5 @@ SceneObject instantiate (const Shape& shape, const Eigen::Vector2d& xy, double b
 /** An empty object a detector does not report (floor, walls). */
 SceneObject stuff (const std::string& name, const std::array<std::uint8_t, 3>& rgb);
 }  // namespace shapes
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -12,7 +12,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 /** \brief An analytic solid of a synthetic scene: box, upright cylinder or sphere.
   * All have a centre; boxes and cylinders may be turned by a yaw about world z.
@@ -62,13 +62,6 @@ struct SceneObject
   /** \brief Axis-aligned box around every part (world). */
   Eigen::AlignedBox3d bounds () const;
 };
-
-/** \brief Camera-to-world pose (x right, y down, z forward) at \a eye looking at
-  * \a target, with \a up (default world z) pointing up in the image; the view must not
-  * be along \a up.
-  */
-Eigen::Isometry3d
-lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ ());
 
 /** \brief Smooth orbit of the camera around a target, looking at it. */
 struct OrbitTrajectory
@@ -154,5 +147,5 @@ resolveScenePath (const std::string& name_or_file, const std::string& scenes_dir
 /** \brief <dataDirectory()>/scenes: the installed or the source tree's data/scenes, or $CUEFUSION_DATA_DIR/scenes. */
 std::string
 defaultScenesDir ();
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -2,7 +2,7 @@
 #include <cuefusion/common/hash.h>
 #include <cuefusion/common/parallel.h>
 #include <cuefusion/common/pinhole_camera.h>
-#include <cuefusion/io/scene_renderer.h>
+#include <cuefusion/simulation/scene_renderer.h>
 
 #include <cmath>
 #include <limits>
@@ -10,7 +10,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 std::uint64_t
 mixSeed (std::uint64_t seed, std::uint64_t counter)
@@ -179,5 +179,5 @@ stereoAxialNoise (double z, double fx, const DepthNoiseConfig& noise)
 {
   return z * z * noise.stereo_subpixel / (fx * noise.stereo_baseline);
 }
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
-#include <cuefusion/io/random_room.h>
-#include <cuefusion/io/scene_renderer.h>
+#include <cuefusion/simulation/random_room.h>
+#include <cuefusion/simulation/scene_renderer.h>
 
 #include "scene_shapes.h"
 
@@ -10,7 +10,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 RoomType
 parseRoomType (const std::string& name, const std::string& option)
@@ -769,5 +769,5 @@ generateRoom (const RoomConfig& config, std::uint64_t seed)
   config.validate ();
   return RoomBuilder (config, seed).build ();
 }
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
-#include <cuefusion/io/scene_renderer.h>
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/scene_renderer.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 
 #include <cstdint>
 #include <functional>
@@ -10,7 +10,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 /** \brief How random training scenes and views are drawn (RandomSceneGenerator). */
 struct RandomSceneConfig
@@ -83,10 +83,10 @@ private:
 /** \brief Writes views [0, count) into \a dir: depth/NNNNNN.png (16-bit, millimetres),
   * instance/NNNNNN.png (16-bit object ids, stuff = 0), color/NNNNNN.png and views.json
   * (per view: intrinsics, pose, scene index, object count; plus the generator settings).
-  * The folder appears complete or not at all (writeFolderAtomic).
+  * The folder appears complete or not at all (io::writeFolderAtomic).
   */
 void
 writeRandomViews (const RandomSceneGenerator& generator, std::size_t count, int width, int height,
                   const std::string& dir, bool overwrite, const std::function<void (std::size_t)>& progress = {});
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

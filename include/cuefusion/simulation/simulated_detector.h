@@ -2,7 +2,7 @@
 #pragma once
 
 #include <cuefusion/common/instance.h>
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 
 #include <opencv2/core.hpp>
 
@@ -12,7 +12,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 /** \brief Errors a simulated instance-segmentation network makes, all seeded.
   * With the defaults it is a perfect detector of every detectable object.
@@ -83,5 +83,5 @@ toInstances (const DetectionResult& result);
   */
 std::string
 detectionsToJson (const DetectionResult& result);
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
-#include <cuefusion/io/synthetic_sequence.h>
+#include <cuefusion/simulation/synthetic_sequence.h>
 
 #include <boost/filesystem.hpp>
 #include <nlohmann/json.hpp>
@@ -14,7 +14,7 @@ namespace fs = boost::filesystem;
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 void
 SyntheticSequenceConfig::validate () const
@@ -195,17 +195,17 @@ sceneJson (const SyntheticSequence& sequence, const pcl::PointCloud<pcl::PointXY
                       {"camera", {{"width", c.width}, {"height", c.height}, {"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}}},
                       {"classes", scene.classNames ()},
                       {"instances", instances}};
-  return jsonText (j, 1) + "\n";
+  return io::jsonText (j, 1) + "\n";
 }
 }  // namespace
 
 void
-writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout, const std::string& dir,
+writeSyntheticSequence (const SyntheticSequence& sequence, io::DatasetLayout layout, const std::string& dir,
                         bool overwrite, const std::function<void (std::size_t)>& progress)
 {
-  writeFolderAtomic (dir, overwrite, [&] (const std::string& staging_dir) {
+  io::writeFolderAtomic (dir, overwrite, [&] (const std::string& staging_dir) {
     const fs::path staging (staging_dir);
-    std::unique_ptr<SequenceWriter> writer = SequenceWriter::create (layout, staging.string (), sequence.camera ());
+    std::unique_ptr<io::SequenceWriter> writer = io::SequenceWriter::create (layout, staging.string (), sequence.camera ());
     fs::create_directories (staging / "detections");
     auto cloud = sequence.groundTruthCloud ();
     std::vector<char> observed (cloud->size (), sequence.config ().gt_observed_only ? 0 : 1);
@@ -218,8 +218,8 @@ writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout,
         sequence.markObserved (*cloud, i, view, observed);
       const DetectionResult detections = sequence.detections (*frame);
       const std::string stem = (staging / "detections" / writer->frameName (*frame)).string ();
-      writeImageAtomic (stem + ".png", detections.ids);
-      writeTextAtomic (stem + ".json", detectionsToJson (detections));
+      io::writeImageAtomic (stem + ".png", detections.ids);
+      io::writeTextAtomic (stem + ".json", detectionsToJson (detections));
       if (progress)
         progress (i + 1);
     }
@@ -231,10 +231,10 @@ writeSyntheticSequence (const SyntheticSequence& sequence, DatasetLayout layout,
     cloud->resize (kept);
     cloud->width = static_cast<std::uint32_t> (kept);
     cloud->height = 1;
-    writeFileAtomic ((staging / "gt_cloud.pcd").string (),
+    io::writeFileAtomic ((staging / "gt_cloud.pcd").string (),
                      [&cloud] (const std::string& tmp) { return pcl::io::savePCDFileBinaryCompressed (tmp, *cloud) == 0; });
-    writeTextAtomic ((staging / "scene.json").string (), sceneJson (sequence, *cloud));
+    io::writeTextAtomic ((staging / "scene.json").string (), sceneJson (sequence, *cloud));
   });
 }
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

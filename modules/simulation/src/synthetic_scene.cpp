@@ -2,7 +2,7 @@
 #include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 
 #include <boost/algorithm/string.hpp>
 #include <boost/filesystem.hpp>
@@ -18,7 +18,7 @@ namespace fs = boost::filesystem;
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 namespace
 {
@@ -240,20 +240,6 @@ OrbitTrajectory::poseAt (double s) const
     target + Eigen::Vector3d (radius * std::cos (azimuth), radius * std::sin (azimuth),
                               height + bob * std::sin (2.0 * kPi * s));
   return lookAt (position, target);
-}
-
-Eigen::Isometry3d
-lookAt (const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up)
-{
-  const Eigen::Vector3d forward = (target - eye).normalized ();
-  const Eigen::Vector3d right = forward.cross (up).normalized ();
-  const Eigen::Vector3d down = forward.cross (right);
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
-  pose.linear ().col (0) = right;
-  pose.linear ().col (1) = down;
-  pose.linear ().col (2) = forward;
-  pose.translation () = eye;
-  return pose;
 }
 
 Eigen::Isometry3d
@@ -616,7 +602,7 @@ SyntheticScene
 SyntheticScene::load (const std::string& path)
 {
   const FileContext context (path);
-  return parse (readTextFile (path), path);
+  return parse (io::readTextFile (path), path);
 }
 
 std::string
@@ -635,5 +621,5 @@ defaultScenesDir ()
 {
   return (fs::path (dataDirectory ()) / "scenes").string ();
 }
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/label_colors.h>
-#include <cuefusion/visualization/live_viewer.h>
+#include <cuefusion/viewer/live_viewer.h>
 
 #include <pcl/visualization/pcl_visualizer.h>
 #include <vtkCamera.h>
@@ -13,7 +13,7 @@
 
 namespace cuefusion
 {
-namespace visualization
+namespace viewer
 {
 bool
 LiveViewer::displayAvailable ()
@@ -186,5 +186,5 @@ LiveViewer::saveScreenshot (const std::string& path)
   viewer_->spinOnce (1, true);
   viewer_->saveScreenshot (path);
 }
-}  // namespace visualization
+}  // namespace viewer
 }  // namespace cuefusion

@@ -1,14 +1,14 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 
 #include <cstdint>
 #include <string>
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 /** \brief The kinds of room generateRoom draws. */
 enum class RoomType
@@ -49,5 +49,5 @@ struct RoomConfig
   */
 SyntheticScene
 generateRoom (const RoomConfig& config, std::uint64_t seed);
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

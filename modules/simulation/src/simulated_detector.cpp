@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/common/exceptions.h>
-#include <cuefusion/io/scene_renderer.h>
-#include <cuefusion/io/simulated_detector.h>
+#include <cuefusion/simulation/scene_renderer.h>
+#include <cuefusion/simulation/simulated_detector.h>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
@@ -16,7 +16,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 void
 DetectorErrorConfig::validate () const
@@ -263,7 +263,7 @@ detectionsToJson (const DetectionResult& result)
   nlohmann::json instances = nlohmann::json::array ();
   for (const Detection& d : result.detections)
     instances.push_back ({{"id", d.id}, {"class_id", d.class_id}, {"class_name", d.class_name}, {"score", d.score}});
-  return jsonText (nlohmann::json ({{"instances", instances}}), 1) + "\n";
+  return io::jsonText (nlohmann::json ({{"instances", instances}}), 1) + "\n";
 }
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -23,7 +23,7 @@ class PCLVisualizer;
 
 namespace cuefusion
 {
-namespace visualization
+namespace viewer
 {
 /** \brief A PCLVisualizer window showing the labelled map growing, the camera frustum and
   * the current frame's points. VTK wants its window on the thread that made it, so the
@@ -78,5 +78,5 @@ private:
   int frame_viewport_ = 0;
   vtkRenderer* frame_renderer_ = nullptr;  ///< owned by the visualizer
 };
-}  // namespace visualization
+}  // namespace viewer
 }  // namespace cuefusion

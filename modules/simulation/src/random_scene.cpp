@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
-#include <cuefusion/io/random_scene.h>
+#include <cuefusion/simulation/random_scene.h>
 
 #include "scene_shapes.h"
 
@@ -18,7 +18,7 @@ namespace fs = boost::filesystem;
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 namespace
 {
@@ -299,7 +299,7 @@ void
 writeRandomViews (const RandomSceneGenerator& generator, std::size_t count, int width, int height, const std::string& dir,
                   bool overwrite, const std::function<void (std::size_t)>& progress)
 {
-  writeFolderAtomic (dir, overwrite, [&] (const std::string& staging) {
+  io::writeFolderAtomic (dir, overwrite, [&] (const std::string& staging) {
     for (const char* sub : {"depth", "instance", "color"})
       fs::create_directories (fs::path (staging) / sub);
     nlohmann::json views = nlohmann::json::array ();
@@ -308,9 +308,9 @@ writeRandomViews (const RandomSceneGenerator& generator, std::size_t count, int 
       const RandomView v = generator.view (i, width, height);
       char stem[32];
       std::snprintf (stem, sizeof stem, "%06zu.png", i);
-      writeImageAtomic ((fs::path (staging) / "depth" / stem).string (), depthToRaw (v.view.depth, 1000.0));
-      writeImageAtomic ((fs::path (staging) / "instance" / stem).string (), v.objects);
-      writeImageAtomic ((fs::path (staging) / "color" / stem).string (), v.view.color);
+      io::writeImageAtomic ((fs::path (staging) / "depth" / stem).string (), io::depthToRaw (v.view.depth, 1000.0));
+      io::writeImageAtomic ((fs::path (staging) / "instance" / stem).string (), v.objects);
+      io::writeImageAtomic ((fs::path (staging) / "color" / stem).string (), v.view.color);
       const PinholeCamera& k = v.camera;
       const Eigen::Matrix4d pose = v.pose.matrix ();
       std::vector<double> pose_rows (pose.data (), pose.data () + 16);
@@ -322,9 +322,9 @@ writeRandomViews (const RandomSceneGenerator& generator, std::size_t count, int 
       if (progress)
         progress (i + 1);
     }
-    writeTextAtomic ((fs::path (staging) / "views.json").string (),
-                     jsonText (nlohmann::json ({{"generator", generatorJson (generator)}, {"depth_units_per_metre", 1000}, {"views", views}}), 1) + "\n");
+    io::writeTextAtomic ((fs::path (staging) / "views.json").string (),
+                     io::jsonText (nlohmann::json ({{"generator", generatorJson (generator)}, {"depth_units_per_metre", 1000}, {"views", views}}), 1) + "\n");
   });
 }
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -6,7 +6,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 namespace shapes
 {
@@ -207,5 +207,5 @@ stuff (const std::string& name, const std::array<std::uint8_t, 3>& rgb)
   return o;
 }
 }  // namespace shapes
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
-#include <cuefusion/io/synthetic_scene.h>
+#include <cuefusion/simulation/synthetic_scene.h>
 
 #include <opencv2/core.hpp>
 
@@ -9,7 +9,7 @@
 
 namespace cuefusion
 {
-namespace io
+namespace simulation
 {
 /** \brief The depth sensor a rendered view imitates. */
 enum class DepthSensor
@@ -87,5 +87,5 @@ private:
   */
 std::uint64_t
 mixSeed (std::uint64_t seed, std::uint64_t counter);
-}  // namespace io
+}  // namespace simulation
 }  // namespace cuefusion
