@@ -24,7 +24,7 @@ import tempfile
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_reconstruction import machine, run_open3d  # noqa: E402
 
-STAGES = ["read", "masks", "preprocess", "track", "integrate", "raycast", "geometric segmentation", "instance merge",
+STAGES = ["read", "masks", "masks: input", "masks: forward", "masks: decode", "preprocess", "track", "integrate", "raycast", "geometric segmentation", "instance merge",
           "propagation", "segment merging", "label update", "segmentation", "whole loop", "wall per frame"]
 MODES = [("geometry", ["--mode", "geometry"]),
          ("fused, network, read ahead", ["--model", "xyz_instances"]),

@@ -99,6 +99,7 @@ struct RunOutputs
   std::vector<double> loop_ms;            ///< per segmented frame: every stage, the mask source excluded
   std::vector<double> read_ms;            ///< per frame: reading and decoding its files (recorded sequences)
   std::vector<double> masks_ms;           ///< per frame: the mask source (the network) on it; 0 without one
+  std::vector<recognition::SegmenterTimings> masks_stages;  ///< per frame: the network's input, forward pass, decoding
   std::vector<double> wall_ms;            ///< per frame: from the previous frame's end to this one's
   std::size_t frames_without_masks = 0;
   std::size_t merges = 0;
@@ -126,6 +127,18 @@ labelsAs16Bit (const cv::Mat& labels, const std::string& path)
   return out;
 }
 
+/** One stage of the network over the frames that ran it (a source that does not time its
+  * stages gives none). */
+std::vector<double>
+maskStage (const RunOutputs& run, double recognition::SegmenterTimings::*stage)
+{
+  std::vector<double> out;
+  for (const recognition::SegmenterTimings& t : run.masks_stages)
+    if (t.input_ms + t.forward_ms + t.decode_ms > 0.0)
+      out.push_back (t.*stage);
+  return out;
+}
+
 /** timings.json: per frame every stage (reading, the mask source, the loop's stages, the
   * wall time), their medians and 90th percentiles, the run's frames per second. */
 nlohmann::json
@@ -139,7 +152,9 @@ timingsJson (const RunOutputs& run, double seconds)
   {
     const auto& r = reports[k];
     const auto& t = r.timings;
+    const recognition::SegmenterTimings stages = k < run.masks_stages.size () ? run.masks_stages[k] : recognition::SegmenterTimings ();
     frames.push_back ({{"index", r.index}, {"read_ms", at (run.read_ms, k)}, {"masks_ms", at (run.masks_ms, k)},
+                       {"masks_input_ms", stages.input_ms}, {"masks_forward_ms", stages.forward_ms}, {"masks_decode_ms", stages.decode_ms},
                        {"preprocess_ms", t.preprocess_ms}, {"track_ms", t.track_ms},
                        {"integrate_ms", t.integrate_ms}, {"raycast_ms", t.raycast_ms}, {"relocalise_ms", t.relocalise_ms},
                        {"wall_ms", at (run.wall_ms, k)},
@@ -175,7 +190,10 @@ timingsJson (const RunOutputs& run, double seconds)
                       {"propagation", timingSummary (propagation)}, {"segment merging", timingSummary (merging)},
                       {"label update", timingSummary (update)}, {"segmentation", timingSummary (segmentation_total)},
                       {"whole loop", timingSummary (run.loop_ms)}, {"read", timingSummary (run.read_ms)},
-                      {"masks", timingSummary (run.masks_ms)}, {"wall per frame", timingSummary (run.wall_ms)}}},
+                      {"masks", timingSummary (run.masks_ms)}, {"masks: input", timingSummary (maskStage (run, &recognition::SegmenterTimings::input_ms))},
+                      {"masks: forward", timingSummary (maskStage (run, &recognition::SegmenterTimings::forward_ms))},
+                      {"masks: decode", timingSummary (maskStage (run, &recognition::SegmenterTimings::decode_ms))},
+                      {"wall per frame", timingSummary (run.wall_ms)}}},
           {"frames_per_second", seconds > 0.0 ? static_cast<double> (reports.size ()) / seconds : 0.0},
           {"peak_memory_mib", peakMemoryMiB ()},
           {"frames", frames}};
@@ -485,6 +503,7 @@ RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, 
   if (masks_ahead)
   {
     result_.masks_ms.push_back (masks_ahead->masks_ms);
+    result_.masks_stages.push_back (masks_ahead->masks_stages);
     if (masks_ahead->mask_error)
       std::rethrow_exception (masks_ahead->mask_error);
     have_masks = masks_ahead->have_masks;
@@ -495,6 +514,7 @@ RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, 
     const auto t0 = std::chrono::steady_clock::now ();
     have_masks = mask_source_->segment (frame, instances);
     result_.masks_ms.push_back (std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count ());
+    result_.masks_stages.push_back (mask_source_->lastTimings ());
   }
   if (!have_masks && result_.frames_without_masks++ == 0 && !asynchronous_masks_)
     std::cerr << "cuefusion run: no masks for frame " << frame.index << " (nor, maybe, for later frames): "

@@ -281,6 +281,16 @@ private:
   std::size_t frames_ = 0;
 };
 
+/** A mask (CV_8U, non-zero = the instance) as a numpy bool array, in one pass. */
+py::array
+boolArrayFromMask (const cv::Mat& mask)
+{
+  py::array out (py::dtype ("?"), std::vector<py::ssize_t> {mask.rows, mask.cols});
+  cv::Mat ones (mask.size (), CV_8U, out.mutable_data ());  // numpy's bool: one byte, 0 or 1
+  cv::min (mask, 1, ones);
+  return out;
+}
+
 /** A mask source: the shipped network or an ONNX file, or a folder of id PNGs. */
 class Segmenter
 {
@@ -313,7 +323,7 @@ public:
     py::list out;
     if (have)
       for (const Instance& instance : instances)
-        out.append (py::make_tuple (arrayFromMat (instance.mask).attr ("astype") ("bool"), instance.score,
+        out.append (py::make_tuple (boolArrayFromMask (instance.mask), instance.score,
                                     instance.class_name.empty () ? py::object (py::none ()) : py::str (instance.class_name)));
     return out;
   }

@@ -266,9 +266,13 @@ TEST_F (Cli, APipelinedRunWritesWhatTheSequentialRunWrites)
     {
       EXPECT_GT (f.at ("read_ms").get<double> (), 0.0) << name;
       EXPECT_GT (f.at ("masks_ms").get<double> (), 0.0) << name;
+      EXPECT_GT (f.at ("masks_forward_ms").get<double> (), 0.0) << name;  // the network's stages
+      EXPECT_LE (f.at ("masks_input_ms").get<double> () + f.at ("masks_forward_ms").get<double> () +
+                     f.at ("masks_decode_ms").get<double> (), f.at ("masks_ms").get<double> () + 1e-6) << name;
       EXPECT_GT (f.at ("wall_ms").get<double> (), 0.0) << name;
     }
     EXPECT_EQ (timings.at ("stages").at ("masks").at ("frames"), 10);
+    EXPECT_EQ (timings.at ("stages").at ("masks: forward").at ("frames"), 10);
     EXPECT_GT (timings.at ("frames_per_second").get<double> (), 0.0);
   }
 }

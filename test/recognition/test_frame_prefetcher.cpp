@@ -33,6 +33,7 @@ public:
   bool
   segment (const RGBDFrame& frame, std::vector<Instance>& instances) override
   {
+    last_ = frame.index;
     if (frame.index == fail_at_)
       throw Error ("index source", "frame " + std::to_string (frame.index) + " cannot be segmented");
     if (frame.index % 3 == 0)
@@ -44,9 +45,16 @@ public:
     return true;
   }
   std::string name () const override { return "index"; }
+  /** Stages named by the frame's index, so the prefetcher must carry each frame's own. */
+  recognition::SegmenterTimings
+  lastTimings () const override
+  {
+    return {static_cast<double> (last_), 2.0 * static_cast<double> (last_), 0.5};
+  }
 
 private:
   std::size_t fail_at_;
+  std::size_t last_ = 0;
 };
 }  // namespace
 
@@ -68,6 +76,8 @@ TEST (FramePrefetcher, EveryFrameOnceInOrderWithItsOwnMasks)
     }
     EXPECT_GE (p->read_ms, 0.0);
     EXPECT_GE (p->masks_ms, 0.0);
+    EXPECT_EQ (p->masks_stages.input_ms, static_cast<double> (k));
+    EXPECT_EQ (p->masks_stages.forward_ms, 2.0 * static_cast<double> (k));
   }
   EXPECT_FALSE (ahead.next ().has_value ());
   EXPECT_FALSE (ahead.next ().has_value ());

@@ -25,6 +25,7 @@ struct PreparedFrame
   std::exception_ptr mask_error;    ///< what the mask source threw on this frame, if it did
   double read_ms = 0.0;             ///< reading and decoding the frame's files
   double masks_ms = 0.0;            ///< the mask source (the network) on it
+  SegmenterTimings masks_stages;    ///< its stages (InstanceSegmenter::lastTimings)
 };
 
 struct FramePrefetcherConfig

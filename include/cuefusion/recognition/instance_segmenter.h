@@ -12,6 +12,16 @@ namespace cuefusion
 {
 namespace recognition
 {
+/** \brief Milliseconds of a mask source's last segment() by stage (a network's: building
+  * its input, the forward pass, decoding its output into masks); zeros for a source that
+  * does not time its stages. */
+struct SegmenterTimings
+{
+  double input_ms = 0.0;
+  double forward_ms = 0.0;
+  double decode_ms = 0.0;
+};
+
 /** \brief A source of instance masks for a frame (thesis §4.2.1.2): a network run on the
   * colour image, or masks some other tool wrote. Sources are swappable; the pipeline and
   * `cuefusion segment-frame` only see this interface.
@@ -30,6 +40,9 @@ public:
 
   /** \brief Short description for logs, e.g. "onnx:yolov5s-seg.onnx". */
   virtual std::string name () const = 0;
+
+  /** \brief The stages of the last segment() call, on the thread that made it. */
+  virtual SegmenterTimings lastTimings () const { return {}; }
 };
 
 /** \brief Class names, one per line (blank lines and surrounding spaces dropped), e.g.

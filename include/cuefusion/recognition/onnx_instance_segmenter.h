@@ -85,6 +85,7 @@ public:
 
   bool segment (const RGBDFrame& frame, std::vector<Instance>& instances) override;
   std::string name () const override;
+  SegmenterTimings lastTimings () const override { return timings_; }
 
   OnnxLayout layout () const { return layout_; }
   const std::vector<std::string>& classNames () const { return class_names_; }
@@ -130,6 +131,7 @@ private:
   cv::dnn::Net net_;
   std::vector<std::string> output_names_;
   OnnxLayout layout_ = OnnxLayout::V5;
+  SegmenterTimings timings_;
 };
 }  // namespace recognition
 }  // namespace cuefusion

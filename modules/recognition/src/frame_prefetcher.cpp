@@ -106,6 +106,7 @@ FramePrefetcher::work ()
       try
       {
         prepared.have_masks = masks_->segment (*prepared.frame, prepared.instances);
+        prepared.masks_stages = masks_->lastTimings ();
       }
       catch (...)
       {

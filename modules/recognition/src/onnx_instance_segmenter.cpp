@@ -10,6 +10,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <chrono>
+#include <climits>
 #include <cmath>
 #include <sstream>
 
@@ -515,12 +517,21 @@ OnnxInstanceSegmenter::name () const
 bool
 OnnxInstanceSegmenter::segment (const RGBDFrame& frame, std::vector<Instance>& instances)
 {
+  using clock = std::chrono::steady_clock;
+  const auto since = [] (clock::time_point t0) { return std::chrono::duration<double, std::milli> (clock::now () - t0).count (); };
+  timings_ = SegmenterTimings ();
+  auto t0 = clock::now ();
   if (layout_ == OnnxLayout::Xyz || layout_ == OnnxLayout::XyzRgb)
   {
     cv::Size content;
     net_.setInput (denseInput (frame, config_.dense_width, layout_, content));
+    timings_.input_ms = since (t0);
+    t0 = clock::now ();
     const cv::Mat output = net_.forward (output_names_.front ());
+    timings_.forward_ms = since (t0);
+    t0 = clock::now ();
     instances = decodeDense (output, cv::Size ((content.width + 1) / 2, (content.height + 1) / 2), frame.depth.size (), config_);
+    timings_.decode_ms = since (t0);
     return true;
   }
   if (frame.color.empty () || frame.color.type () != CV_8UC3)
@@ -528,9 +539,14 @@ OnnxInstanceSegmenter::segment (const RGBDFrame& frame, std::vector<Instance>& i
   Letterbox box;
   const cv::Mat input = letterbox (frame.color, config_.input_size, box);
   net_.setInput (cv::dnn::blobFromImage (input, 1.0 / 255.0, cv::Size (), cv::Scalar (), true, false));
+  timings_.input_ms = since (t0);
+  t0 = clock::now ();
   std::vector<cv::Mat> outputs;
   net_.forward (outputs, output_names_);
+  timings_.forward_ms = since (t0);
+  t0 = clock::now ();
   instances = decode (outputs, box, config_, class_names_);
+  timings_.decode_ms = since (t0);
   return true;
 }
 }  // namespace recognition
