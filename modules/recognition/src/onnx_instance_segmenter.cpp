@@ -399,14 +399,35 @@ OnnxInstanceSegmenter::decodeDense (const cv::Mat& output, cv::Size content, cv:
     order.resize (static_cast<std::size_t> (config.max_detections));
   cv::Mat frame_labels;
   cv::resize (labels, frame_labels, frame, 0, 0, cv::INTER_NEAREST);
+  // Each label's box in one pass over the frame; a mask is then compared within its box
+  // only (a pass over the whole frame per instance was most of the decoding).
+  std::vector<cv::Rect> boxes (static_cast<std::size_t> (kept) + 1);
+  {
+    std::vector<int> x0 (boxes.size (), INT_MAX), y0 (boxes.size (), INT_MAX), x1 (boxes.size (), -1), y1 (boxes.size (), -1);
+    for (int y = 0; y < frame_labels.rows; ++y)
+    {
+      const std::int32_t* row = frame_labels.ptr<std::int32_t> (y);
+      for (int x = 0; x < frame_labels.cols; ++x)
+        if (row[x] > 0)
+        {
+          const auto k = static_cast<std::size_t> (row[x]);
+          x0[k] = std::min (x0[k], x), x1[k] = std::max (x1[k], x);
+          y0[k] = std::min (y0[k], y), y1[k] = std::max (y1[k], y);
+        }
+    }
+    for (std::size_t k = 1; k < boxes.size (); ++k)
+      if (x1[k] >= 0)
+        boxes[k] = cv::Rect (x0[k], y0[k], x1[k] - x0[k] + 1, y1[k] - y0[k] + 1);
+  }
   std::vector<Instance> instances;
   for (const int k : order)
   {
     Instance instance;
-    instance.mask = cv::Mat (frame_labels == k) & 1;
-    instance.box = cv::boundingRect (instance.mask);
+    instance.box = boxes[static_cast<std::size_t> (k)];
     if (instance.box.area () == 0)
       continue;
+    instance.mask = cv::Mat::zeros (frame, CV_8U);
+    instance.mask (instance.box).setTo (1, frame_labels (instance.box) == k);
     instance.class_id = 0;
     instance.class_name = "object";
     instance.score = static_cast<float> (score[static_cast<std::size_t> (k)]);
