@@ -159,13 +159,25 @@ instanceFromTuple (const py::handle& item, cv::Size size, std::size_t k)
   instance.box = cv::boundingRect (instance.mask);
   if (t.size () >= 2)
   {
-    const double score = t[1].cast<double> ();
+    double score = 0.0;
+    try
+    {
+      score = t[1].cast<double> ();
+    }
+    catch (const py::cast_error&)
+    {
+      throw py::value_error (name + "'s score must be a number in [0, 1]");
+    }
     if (!(score >= 0.0 && score <= 1.0))
       throw py::value_error (name + "'s score must lie in [0, 1], got " + std::to_string (score));
     instance.score = static_cast<float> (score);
   }
   if (t.size () == 3 && !t[2].is_none ())
+  {
+    if (!py::isinstance<py::str> (t[2]))
+      throw py::value_error (name + "'s class name must be a string or None");
     instance.class_name = t[2].cast<std::string> ();
+  }
   return instance;
 }
 }  // namespace

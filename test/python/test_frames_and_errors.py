@@ -85,6 +85,8 @@ def test_bad_arrays_raise_clear_errors(frame):
         (dict(masks=np.full(depth.shape, -1, np.int32)), "[0, 65535]"),
         (dict(masks=np.zeros(depth.shape, np.float32)), "integer"),
         (dict(masks=[(np.zeros(depth.shape, bool), 2.0, "cup")]), "score"),
+        (dict(masks=[(np.zeros(depth.shape, bool), "high", "cup")]), "score must be a number"),
+        (dict(masks=[(np.zeros(depth.shape, bool), 0.5, 41)]), "class name"),
         (dict(masks="cup"), "masks must be"),
         (dict(depth=depth.astype(np.uint16), depth_scale=0.0), "depth_scale"),
     ]
