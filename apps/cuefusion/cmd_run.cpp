@@ -2,6 +2,7 @@
 #include "cli.h"
 #include "process.h"
 #include "run_display.h"
+#include "run_report.h"
 
 #include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
@@ -89,31 +90,6 @@ const std::vector<std::string> kRunOutputs = {"map.pcd",        "mesh.ply",     
                                               "volume.tsdf",    "volume.labels",    "volume.keyframes", "tracking.json",
                                               "timings.json",   "labels",           "objects",          "outputs.json"};
 
-struct RunOutputs
-{
-  io::Trajectory trajectory;            ///< accepted poses
-  io::Trajectory reference;             ///< the sequence's own poses, where it has them
-  std::vector<reconstruction::FrameReport> reports;
-  std::vector<pipeline::SegmentationTimings> segmentation;  ///< per segmented frame
-  std::vector<std::size_t> volume_bytes;  ///< after each frame: memory growth over the run
-  std::vector<double> loop_ms;            ///< per segmented frame: every stage, the mask source excluded
-  std::vector<double> read_ms;            ///< per frame: reading and decoding its files (recorded sequences)
-  std::vector<double> masks_ms;           ///< per frame: the mask source (the network) on it; 0 without one
-  std::vector<recognition::SegmenterTimings> masks_stages;  ///< per frame: the network's input, forward pass, decoding
-  std::vector<double> wall_ms;            ///< per frame: from the previous frame's end to this one's
-  std::size_t frames_without_masks = 0;
-  std::size_t merges = 0;
-};
-
-/** Peak resident memory of this process so far, MiB (Linux reports ru_maxrss in KiB). */
-double
-peakMemoryMiB ()
-{
-  rusage usage{};
-  getrusage (RUSAGE_SELF, &usage);
-  return static_cast<double> (usage.ru_maxrss) / 1024.0;
-}
-
 /** The map's labels seen from the camera as a 16-bit id PNG (for `cuefusion eval`). */
 cv::Mat
 labelsAs16Bit (const cv::Mat& labels, const std::string& path)
@@ -127,77 +103,6 @@ labelsAs16Bit (const cv::Mat& labels, const std::string& path)
   return out;
 }
 
-/** One stage of the network over the frames that ran it (a source that does not time its
-  * stages gives none). */
-std::vector<double>
-maskStage (const RunOutputs& run, double recognition::SegmenterTimings::*stage)
-{
-  std::vector<double> out;
-  for (const recognition::SegmenterTimings& t : run.masks_stages)
-    if (t.input_ms + t.forward_ms + t.decode_ms > 0.0)
-      out.push_back (t.*stage);
-  return out;
-}
-
-/** timings.json: per frame every stage (reading, the mask source, the loop's stages, the
-  * wall time), their medians and 90th percentiles, the run's frames per second. */
-nlohmann::json
-timingsJson (const RunOutputs& run, double seconds)
-{
-  const std::vector<reconstruction::FrameReport>& reports = run.reports;
-  const auto at = [] (const std::vector<double>& v, std::size_t k) { return k < v.size () ? v[k] : 0.0; };
-  std::vector<double> pre, track, integrate, raycast, core, relocalise, lost;
-  nlohmann::json frames = nlohmann::json::array ();
-  for (std::size_t k = 0; k < reports.size (); ++k)
-  {
-    const auto& r = reports[k];
-    const auto& t = r.timings;
-    const recognition::SegmenterTimings stages = k < run.masks_stages.size () ? run.masks_stages[k] : recognition::SegmenterTimings ();
-    frames.push_back ({{"index", r.index}, {"read_ms", at (run.read_ms, k)}, {"masks_ms", at (run.masks_ms, k)},
-                       {"masks_input_ms", stages.input_ms}, {"masks_forward_ms", stages.forward_ms}, {"masks_decode_ms", stages.decode_ms},
-                       {"preprocess_ms", t.preprocess_ms}, {"track_ms", t.track_ms},
-                       {"integrate_ms", t.integrate_ms}, {"raycast_ms", t.raycast_ms}, {"relocalise_ms", t.relocalise_ms},
-                       {"wall_ms", at (run.wall_ms, k)},
-                       {"volume_mib", k < run.volume_bytes.size () ? static_cast<double> (run.volume_bytes[k]) / (1024.0 * 1024.0) : 0.0}});
-    if (t.relocalise_ms > 0.0)  // frames whose tracking failed, relocalised or not
-      relocalise.push_back (t.relocalise_ms);
-    if (!r.tracked)
-    {
-      lost.push_back (t.preprocess_ms + t.track_ms + t.relocalise_ms);  // all a lost frame costs
-      continue;
-    }
-    pre.push_back (t.preprocess_ms);
-    track.push_back (t.track_ms);
-    integrate.push_back (t.integrate_ms);
-    raycast.push_back (t.raycast_ms);
-    core.push_back (t.track_ms + t.integrate_ms + t.raycast_ms);
-  }
-  std::vector<double> geometry, instances, propagation, merging, update, segmentation_total;
-  for (const auto& t : run.segmentation)
-  {
-    geometry.push_back (t.geometry_ms);
-    instances.push_back (t.instances_ms);
-    propagation.push_back (t.propagation_ms);
-    merging.push_back (t.merging_ms);
-    update.push_back (t.update_ms);
-    segmentation_total.push_back (t.total ());
-  }
-  return {{"stages", {{"preprocess", timingSummary (pre)}, {"track", timingSummary (track)}, {"integrate", timingSummary (integrate)},
-                      {"raycast", timingSummary (raycast)}, {"track+integrate+raycast", timingSummary (core)},
-                      {"relocalise (lost frames only)", timingSummary (relocalise)},
-                      {"lost frame (preprocess+track+relocalise)", timingSummary (lost)},
-                      {"geometric segmentation", timingSummary (geometry)}, {"instance merge", timingSummary (instances)},
-                      {"propagation", timingSummary (propagation)}, {"segment merging", timingSummary (merging)},
-                      {"label update", timingSummary (update)}, {"segmentation", timingSummary (segmentation_total)},
-                      {"whole loop", timingSummary (run.loop_ms)}, {"read", timingSummary (run.read_ms)},
-                      {"masks", timingSummary (run.masks_ms)}, {"masks: input", timingSummary (maskStage (run, &recognition::SegmenterTimings::input_ms))},
-                      {"masks: forward", timingSummary (maskStage (run, &recognition::SegmenterTimings::forward_ms))},
-                      {"masks: decode", timingSummary (maskStage (run, &recognition::SegmenterTimings::decode_ms))},
-                      {"wall per frame", timingSummary (run.wall_ms)}}},
-          {"frames_per_second", seconds > 0.0 ? static_cast<double> (reports.size ()) / seconds : 0.0},
-          {"peak_memory_mib", peakMemoryMiB ()},
-          {"frames", frames}};
-}
 }  // namespace
 
 /** --load-volume: \a path and the .labels and .keyframes beside it continued by \a fusion. --voxel,
@@ -235,123 +140,6 @@ continueSavedVolume (const std::string& path, const po::variables_map& vm, const
   }
 }
 
-void
-loadRunConfig (const std::vector<std::string>& args, RunSettings& s)
-{
-  readConfigParts ("run", args,
-                   {{"pipeline",
-                     [&s] (const nlohmann::json& part) {
-                       pipeline::readConfig (part, s.pipeline);
-                       if (part.contains ("mode"))
-                         s.mode = pipeline::segmentationModeName (s.pipeline.mode);
-                     }},
-                    {"network", [&s] (const nlohmann::json& part) { recognition::readConfig (part, s.onnx); }}});
-}
-
-namespace
-{
-/** \a text with the default \a value, for options that set a field only when given. */
-std::string
-withDefault (const std::string& text, double value)
-{
-  std::ostringstream out;
-  out << text << " (default " << value << ")";
-  return out.str ();
-}
-}  // namespace
-
-void
-addRunOptions (po::options_description& options, RunSettings& s)
-{
-  reconstruction::DenseReconstructionConfig& r = s.pipeline.reconstruction;
-  options.add_options ()
-    ("config", po::value<std::string> (), "settings file (JSON; the library's Config fields by name, see --print-config) or a "
-     "run's outputs.json to repeat its settings; options given on the command line override it")
-    ("print-config", po::bool_switch (&s.print_config), "print the settings this run would use (defaults, --config, options) as a settings file, and stop")
-    ("frames", po::value (&s.frames)->default_value (s.frames), "process at most N frames (0 = all)")
-    ("format", po::value (&s.format)->default_value (s.format), "auto, tum, redwood, 7scenes, scannet, openni2")
-    ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
-    ("voxel", po::value (&r.volume.voxel_size)->default_value (r.volume.voxel_size), "TSDF voxel size in metres")
-    ("truncation", po::value (&r.volume.truncation_voxels)->default_value (r.volume.truncation_voxels), "TSDF truncation distance in voxels")
-    ("max-depth", po::value<double> ()->notifier ([&r] (double d) { r.volume.max_depth = r.preprocessing.max_depth = d; }),
-     withDefault ("ignore depth beyond this (metres)", r.volume.max_depth).c_str ())
-    ("use-gt-poses", setsWhenGiven (r.use_reference_poses, true), "integrate with the sequence's own poses instead of tracking")
-    ("no-motion-model", setsWhenGiven (r.motion_model, false), "tracking: start ICP at the last pose instead of the constant-velocity prediction")
-    ("no-features", setsWhenGiven (r.feature_relocalisation, false), "relocalisation: no colour features (keyframes and the motion model only)")
-    ("no-noise-weighting", setsWhenGiven (r.tracking.icp.noise_weighting, false), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
-    ("hole-refresh", po::value (&r.hole_refresh_period)->default_value (r.hole_refresh_period), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
-    ("colors", po::value (&s.colors), "colour map.pcd and mesh.ply alike: segments (each segment its label's colour, none grey) or "
-     "surface (the fused colour); without it map.pcd has the surface colour and mesh.ply the segments'")
-    ("export-objects", po::bool_switch (&s.export_objects), "also write each object's part of the mesh as objects/ID.ply (ID as in segments.json, which gives every segment's centroid and oriented box)")
-    ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf), its voxels' labels as map.pcd's (volume.labels) and the relocalisation keyframes (volume.keyframes)")
-    ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (with the volume.labels and volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
-    ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
-    ("noise-scale", po::value (&s.pipeline.geometry.noise_scale)->default_value (s.pipeline.geometry.noise_scale),
-     "the depth's noise as a multiple of the Kinect model's, which scales every noise threshold (0 = measured on the first frames)")
-    ("color-split", po::value (&s.pipeline.instance_merge.color_split_distance)->default_value (s.pipeline.instance_merge.color_split_distance),
-     "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
-    ("masks", po::value (&s.masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
-    ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network by name, "
-     "xyz_instances (found in the data directory from any folder), or the path of an .onnx file such as a YOLO-seg export run on the colour image")
-    ("classes", po::value (&s.onnx.classes_path), "class names of --model (default data/classes/coco.names)")
-    ("input-size", po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
-    ("score-threshold", po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
-    ("boundary-threshold", po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
-     "--model of the xyz layout: instances are cut where the boundary probability reaches this")
-    ("async-masks", po::bool_switch (&s.async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
-    ("sequential", po::bool_switch (&s.sequential), "a recorded sequence: read, mask and process each frame in turn instead of reading and masking the next frames while the loop runs (the same outputs; slower, for profiling)")
-    ("save-every", po::value (&s.save_every)->default_value (s.save_every), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
-    ("render", po::value (&s.render_dir), "write per-frame PNGs to DIR: input colour, depth and the map's segments seen from the camera")
-    ("video", po::value (&s.video_path), "the same panels as a video (.avi Motion-JPEG or .mp4)")
-    ("view", po::bool_switch (&s.view), "show the map growing in a PCLVisualizer window (needs a display)")
-    ("view-screenshot", po::value (&s.screenshot), "with --view: save the window as PNG when the run ends and close it");
-}
-
-nlohmann::json
-runConfigJson (const RunSettings& s)
-{
-  return {{"pipeline", pipeline::configJson (runPipelineConfig (s))}, {"network", recognition::configJson (s.onnx)}};
-}
-
-void
-checkRunSettings (const RunSettings& s)
-{
-  if (s.frames < 0)
-    throw ParameterError ("--frames", "must not be negative (0 = all frames), got " + std::to_string (s.frames));
-  if (s.save_every < 0)
-    throw ParameterError ("--save-every", "must not be negative (0 = never), got " + std::to_string (s.save_every));
-  if (!s.screenshot.empty () && !s.view)
-    throw UsageError ("--view-screenshot needs --view");
-  if (!s.load_volume.empty () && !s.save_volume)  // the new set, without a volume, would remove the loaded one
-    refuseOutputsOverInputs ({{"--out", s.out}}, {{"--load-volume (add --save-volume to replace it)", boost::filesystem::absolute (s.load_volume).parent_path ().string ()}});
-  io::parseSequenceFormat (s.format);
-  if (!s.colors.empty () && s.colors != "segments" && s.colors != "surface")
-    throw ParameterError ("--colors", "must be segments or surface, not '" + s.colors + "'");
-  // The library's own checks, named by field (main() translates them into the options).
-  runPipelineConfig (s).validate ();
-  if (!s.onnx.model_path.empty ())
-    s.onnx.validate ();  // the segmenter checks it again when it is built
-}
-
-pipeline::SegmentationMode
-chooseSegmentationMode (const std::string& mode, const std::string& masks, const std::string& model)
-{
-  if (!masks.empty () && !model.empty ())
-    throw UsageError ("--masks and --model exclude each other");
-  const bool have_source = !masks.empty () || !model.empty ();
-  const pipeline::SegmentationMode chosen = pipeline::parseSegmentationMode (mode.empty () ? (have_source ? "fused" : "geometry") : mode);
-  if (chosen != pipeline::SegmentationMode::Geometry && !have_source)
-    throw UsageError ("--mode " + mode + " needs --masks or --model");
-  return chosen;
-}
-
-pipeline::FusionPipelineConfig
-runPipelineConfig (const RunSettings& s)
-{
-  pipeline::FusionPipelineConfig pipeline_config = s.pipeline;
-  pipeline_config.mode = chooseSegmentationMode (s.mode, s.masks, s.onnx.model_path);
-  return pipeline_config;
-}
 
 namespace
 {

@@ -277,6 +277,22 @@ TEST_F (Cli, APipelinedRunWritesWhatTheSequentialRunWrites)
   }
 }
 
+TEST_F (Cli, MasksReadAheadFromAFolderAreTheSequentialRunsMasks)
+{
+  // The same with a folder of masks (what `scripts/test --tsan` runs: OpenCV's network
+  // works on TBB's threads, which ThreadSanitizer cannot follow).
+  Result r = run ("synth --scene clutter --frames 10 --size 160x120 --layout redwood --out " + (dir / "seq"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  for (const std::string name : {"ahead", "sequential"})
+  {
+    r = run ("run " + (dir / "seq") + " --out " + (dir / name) + " --voxel 0.02 --masks " + (dir / "seq/detections") +
+             (name == "sequential" ? " --sequential" : ""));
+    ASSERT_EQ (r.code, 0) << r.err;
+  }
+  for (const char* file : {"map.pcd", "segments.json", "trajectory.txt", "tracking.json"})
+    EXPECT_EQ (test::readFile (dir / ("ahead/" + std::string (file))), test::readFile (dir / ("sequential/" + std::string (file)))) << file;
+}
+
 TEST_F (Cli, ScalarAndVectorRunsWriteTheSameMapWithinTolerance)
 {
   // CUEFUSION_NO_AVX2=1 runs the scalar kernels: the map may differ by rounding only
