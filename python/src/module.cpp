@@ -30,6 +30,7 @@
 #include <pybind11/stl.h>
 
 #include <memory>
+#include <mutex>
 
 namespace cuefusion
 {
@@ -131,6 +132,7 @@ public:
     pipeline::PipelineFrameReport report;
     {
       const py::gil_scoped_release release;
+      const std::lock_guard<std::mutex> lock (mutex_);
       report = fusion_.process (frame, have_masks ? &instances : nullptr);
       if (report.reconstruction.tracked)
         trajectory_.push_back ({frame.timestamp, report.reconstruction.pose});
@@ -158,6 +160,7 @@ public:
     pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud;
     {
       const py::gil_scoped_release release;
+      const std::lock_guard<std::mutex> lock (mutex_);
       cloud = fusion_.labelledCloud (color_by_segment);
     }
     const auto n = static_cast<py::ssize_t> (cloud->size ());
@@ -182,6 +185,7 @@ public:
     io::TriangleMesh m;
     {
       const py::gil_scoped_release release;
+      const std::lock_guard<std::mutex> lock (mutex_);
       m = fusion_.labelledTriangleMesh (color_by_segment);
     }
     const auto n = static_cast<py::ssize_t> (m.vertices.size ()), t = static_cast<py::ssize_t> (m.triangles.size ());
@@ -208,6 +212,7 @@ public:
   segmentsText ()
   {
     const py::gil_scoped_release release;
+    const std::lock_guard<std::mutex> lock (mutex_);
     const auto cloud = fusion_.labelledCloud ();
     return segmentation::segmentsJsonText (fusion_.segments (), segmentation::objectGeometry (*cloud));
   }
@@ -217,6 +222,7 @@ public:
   save (const std::string& folder)
   {
     withFiles ([&] {
+      const std::lock_guard<std::mutex> lock (mutex_);
       boost::system::error_code ec;
       boost::filesystem::create_directories (folder, ec);
       if (ec || !boost::filesystem::is_directory (folder))
@@ -238,13 +244,25 @@ public:
   py::list
   trajectory () const
   {
+    io::Trajectory copy;
+    {
+      const py::gil_scoped_release release;
+      const std::lock_guard<std::mutex> lock (mutex_);
+      copy = trajectory_;
+    }
     py::list out;
-    for (const io::StampedPose& p : trajectory_)
+    for (const io::StampedPose& p : copy)
       out.append (py::make_tuple (p.timestamp, arrayFromPose (p.pose)));
     return out;
   }
   std::size_t frames () const { return frames_; }
-  float noiseScale () const { return fusion_.noiseScale (); }
+  float
+  noiseScale () const
+  {
+    const py::gil_scoped_release release;
+    const std::lock_guard<std::mutex> lock (mutex_);
+    return fusion_.noiseScale ();
+  }
   py::dict config () const { return py::module_::import ("json").attr ("loads") (io::jsonText (pipeline::configJson (fusion_.getConfig ()), -1)); }
 
 private:
@@ -276,6 +294,10 @@ private:
                      "noise_scale"_a = report.noise_scale, "timings_ms"_a = timings);
   }
 
+  /// The GIL is released while the library works, so two Python threads may call one
+  /// Pipeline at once: every use of fusion_ and trajectory_ holds this (taken after the
+  /// GIL is let go, released before it is taken back).
+  mutable std::mutex mutex_;
   pipeline::FusionPipeline fusion_;
   io::Trajectory trajectory_;
   std::size_t frames_ = 0;
@@ -319,7 +341,10 @@ public:
     frame.index = index;
     frame.name = name.empty () ? std::to_string (index) : name;
     std::vector<Instance> instances;
-    const bool have = withFiles ([&] { return inner_->segment (frame, instances); });
+    const bool have = withFiles ([&] {
+      const std::lock_guard<std::mutex> lock (mutex_);  // a network is one object: one frame at a time
+      return inner_->segment (frame, instances);
+    });
     py::list out;
     if (have)
       for (const Instance& instance : instances)
@@ -330,6 +355,7 @@ public:
   std::string name () const { return inner_->name (); }
 
 private:
+  std::mutex mutex_;  ///< as Pipeline's
   recognition::InstanceSegmenter::Ptr inner_;
 };
 

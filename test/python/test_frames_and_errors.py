@@ -4,6 +4,7 @@ exact truth; bad arrays and files raise ValueError / OSError with the library's 
 import os
 import subprocess
 import sys
+import threading
 
 import numpy as np
 import pytest
@@ -149,3 +150,32 @@ def test_the_installed_package_imports_outside_the_source_tree(tmp_path):
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=str(tmp_path), env=env)
     assert proc.returncode == 0, proc.stderr
     assert "(60, 80)" in proc.stdout
+
+
+def test_threads_may_share_a_pipeline_and_a_network(sequence):
+    # The GIL is let go while the library works: two Python threads calling one Pipeline
+    # and one InstanceSegmenter take turns inside (each object has its lock), never crash.
+    seq = cuefusion.open_sequence(sequence)
+    frames = [seq[i] for i in range(12)]
+    pipeline = cuefusion.Pipeline(mode="geometry")
+    network = cuefusion.InstanceSegmenter("xyz_instances")
+    errors = []
+
+    def work(part):
+        try:
+            for f in part:
+                assert len(network(f)) >= 1
+                pipeline.process(f)
+                pipeline.labelled_cloud()
+                pipeline.trajectory()
+                pipeline.noise_scale
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(frames[k::2],)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    assert pipeline.frames == 12
