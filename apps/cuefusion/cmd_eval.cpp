@@ -7,32 +7,20 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/progress.h>
-#include <cuefusion/evaluation/instance_ap.h>
-#include <cuefusion/evaluation/object_iou.h>
-#include <cuefusion/evaluation/trajectory_error.h>
+#include <cuefusion/evaluation/run_evaluation.h>
 #include <cuefusion/io/file_io.h>
-#include <cuefusion/io/ground_truth.h>
-#include <cuefusion/io/map_io.h>
-#include <cuefusion/io/mesh_io.h>
-#include <cuefusion/io/pose_io.h>
 #include <cuefusion/io/sequence.h>
-#include <cuefusion/segmentation/segments_file.h>
-#include <cuefusion/visualization/mesh_rasterizer.h>
 
 #include <Eigen/Eigenvalues>
 #include <boost/filesystem.hpp>
 #include <nlohmann/json.hpp>
-#include <pcl/conversions.h>
-#include <pcl/kdtree/kdtree_flann.h>
 
-#include <cmath>
 #include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <set>
 #include <sstream>
-#include <tuple>
 
 namespace fs = boost::filesystem;
 
@@ -42,27 +30,12 @@ namespace cli
 {
 namespace
 {
-/** What one `cuefusion run` output folder holds, as eval needs it. */
+/** A run eval has scored: its outputs and what was found. */
 struct RunData
 {
-  std::string name, dir;
-  io::Trajectory trajectory;
-  std::map<long long, Eigen::Isometry3d, std::less<long long>,
-           Eigen::aligned_allocator<std::pair<const long long, Eigen::Isometry3d>>> pose_at;  ///< µs timestamp → pose
-  io::TriangleMesh mesh;
-  std::map<std::uint32_t, evaluation::PredictedInstance> segments;  ///< segments.json: id → class, score
-  double voxel_size = 0.01;
-  // results
-  std::vector<std::vector<evaluation::ObjectIoU>> frame_iou;
-  std::vector<std::size_t> frame_index;  ///< sequence index of each frame_iou entry
-  std::size_t frames_skipped = 0;
+  const evaluation::RunOutputs& outputs;
+  const evaluation::RunEvaluation& found;
 };
-
-long long
-microseconds (double t)
-{
-  return std::llround (t * 1e6);
-}
 
 /** --run NAME=DIR or DIR (named after the folder). */
 std::pair<std::string, std::string>
@@ -70,88 +43,7 @@ splitRunSpec (const std::string& spec)
 {
   const auto eq = spec.find ('=');
   const std::string dir = eq == std::string::npos ? spec : spec.substr (eq + 1);
-  std::string name = eq == std::string::npos ? fs::path (dir).filename ().string () : spec.substr (0, eq);
-  if (name.empty () || name == ".")
-    name = fs::absolute (dir).parent_path ().filename ().string ();
-  return {name, dir};
-}
-
-RunData
-loadRun (const std::string& spec, bool need_mesh)
-{
-  RunData run;
-  std::tie (run.name, run.dir) = splitRunSpec (spec);
-  if (!fs::is_directory (run.dir))
-    throw Error (run.dir, "is not a `cuefusion run` output folder");
-  const fs::path dir (run.dir);
-  run.trajectory = io::readTumTrajectory ((dir / "trajectory.txt").string ());
-  for (const io::StampedPose& p : run.trajectory)
-    run.pose_at[microseconds (p.timestamp)] = p.pose;
-  if (need_mesh)
-  {
-    run.mesh = io::readMeshPLY ((dir / "mesh.ply").string ());
-    if (run.mesh.labels.empty ())
-      throw Error ((dir / "mesh.ply").string (), "mesh has no per-vertex label (not written by `cuefusion run`?)");
-  }
-  else if (!fs::is_directory (dir / "labels") || fs::is_empty (dir / "labels"))
-    throw Error ((dir / "labels").string (), "no per-frame labels to score (write them with `cuefusion run --save-every K`)");
-  const fs::path segments = dir / "segments.json";
-  for (const segmentation::SegmentEntry& entry : segmentation::readSegmentsJson (segments.string ()))
-  {
-    // Segments with a detector score are ranked by it; the rest (geometry only) tie at 1.
-    evaluation::PredictedInstance p;
-    p.class_name = entry.class_name;
-    if (entry.score >= 0.0)
-      p.confidence = entry.score;
-    run.segments[entry.id] = p;
-  }
-  const fs::path tracking = dir / "tracking.json";
-  if (fs::exists (tracking))
-  {
-    try
-    {
-      run.voxel_size = io::readJsonFile (tracking.string ()).at ("volume").at ("voxel_size").get<double> ();
-    }
-    catch (const nlohmann::json::exception&)
-    {
-      // older or hand-made folders: keep the default voxel size
-    }
-  }
-  return run;
-}
-
-/** The sequence's reference trajectory from its index (poses in the listing or per-frame files). */
-io::Trajectory
-referenceTrajectory (const io::DatasetGrabber& dataset)
-{
-  io::Trajectory reference;
-  for (const io::FrameRecord& r : dataset.records ())
-  {
-    if (r.pose)
-      reference.push_back ({r.timestamp, *r.pose});
-    else if (!r.pose_path.empty ())
-      if (const auto pose = io::readPoseMatrixFile (r.pose_path))
-        reference.push_back ({r.timestamp, *pose});
-  }
-  return reference;
-}
-
-/** Ground-truth points take the segment of the nearest map point within \a radius. */
-std::vector<std::uint32_t>
-transferLabels (const pcl::PointCloud<pcl::PointXYZL>& truth, const pcl::PointCloud<pcl::PointXYZL>::Ptr& map, double radius)
-{
-  std::vector<std::uint32_t> labels (truth.size (), 0);
-  if (map->empty ())
-    return labels;
-  pcl::KdTreeFLANN<pcl::PointXYZL> tree;
-  tree.setInputCloud (map);
-  std::vector<int> index (1);
-  std::vector<float> distance (1);
-  const float r2 = static_cast<float> (radius * radius);
-  for (std::size_t i = 0; i < truth.size (); ++i)
-    if (tree.nearestKSearch (truth[i], 1, index, distance) == 1 && distance[0] <= r2)
-      labels[i] = (*map)[static_cast<std::size_t> (index[0])].label;
-  return labels;
+  return {eq == std::string::npos ? std::string () : spec.substr (0, eq), dir};
 }
 
 /** An IoU-over-frames chart, one series per run: point (frame, y) wherever \a value
@@ -172,12 +64,12 @@ iouChart (const std::string& gnuplot, const fs::path& plot_dir, const std::strin
     std::ostringstream data;
     data << "# frame " << ylabel << "\n";
     double y = 0.0;
-    for (std::size_t f = 0; f < runs[k].frame_iou.size (); ++f)
+    for (std::size_t f = 0; f < runs[k].found.frame_iou.size (); ++f)
       if (value (runs[k], f, y))
-        data << runs[k].frame_index[f] << " " << y << "\n";
+        data << runs[k].found.frame_index[f] << " " << y << "\n";
     const std::string file = (plot_dir / (stem + "_run" + std::to_string (k) + ".dat")).string ();
     io::writeTextAtomic (file, data.str ());
-    spec.series.push_back ({file, 1, 2, runs[k].name, style});
+    spec.series.push_back ({file, 1, 2, runs[k].outputs.name, style});
   }
   renderPlot (gnuplot, spec);
   return spec.output_png;
@@ -221,46 +113,23 @@ struct EvalSettings
 {
   std::vector<std::string> run_specs, aggregate;
   std::string gt, out, format = "auto", intrinsics, labels_from = "final";
-  std::size_t every = 1, min_pixels = 100, min_region = 100;
-  double match_radius = 0.0;
+  evaluation::RunEvaluationConfig config;
   bool no_plots = false;
-
-  /** Per-frame IoU from the final map seen from each pose (else the run's labels/). */
-  bool finalMap () const { return labels_from == "final"; }
 };
 
-/** The sequence's truth: its frames and poses, the labelled cloud when it has one, and
-  * the instances that are not objects (floor, walls). */
-struct EvalTruth
-{
-  io::DatasetGrabber::Ptr dataset;
-  io::Trajectory reference;
-  std::optional<io::GroundTruthCloud> cloud;
-  std::set<std::uint32_t> stuff;
-
-  std::string
-  classOf (std::uint32_t instance) const
-  {
-    if (!cloud)
-      return std::string ();
-    const auto it = cloud->class_names.find (instance);
-    return it == cloud->class_names.end () ? std::string () : it->second;
-  }
-};
-
-/** What eval has found so far: report.json's entry of each run and the CSV files. */
+/** What eval has found, as report.json's entry of each run and the CSV files. */
 struct EvalReport
 {
   std::vector<nlohmann::json> runs;
   std::ostringstream tracking_csv, iou_csv, iou_frames_csv, ap_csv;
   std::set<std::uint32_t> all_objects;  ///< scored in some frame of some run
-  std::size_t frames_with_masks = 0;
 };
 
 /** Parses eval's command line into \a s; false when --help was given. */
 bool
 parseEvalSettings (const std::vector<std::string>& args, EvalSettings& s, po::variables_map& vm)
 {
+  evaluation::RunEvaluationConfig& c = s.config;
   po::options_description options ("options");
   options.add_options ()
     ("run", po::value (&s.run_specs)->composing (), "[NAME=]DIR of a `cuefusion run`; repeat to compare runs (e.g. geometry=out/geo --run fused=out/fused)")
@@ -272,18 +141,20 @@ parseEvalSettings (const std::vector<std::string>& args, EvalSettings& s, po::va
     ("format", po::value (&s.format)->default_value (s.format), "layout of --gt: auto, tum, redwood, 7scenes, scannet")
     ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
     ("labels", po::value (&s.labels_from)->default_value (s.labels_from), "per-frame IoU from the 'final' map seen from each estimated pose, or the run's 'per-frame' labels/ (run --save-every)")
-    ("every", po::value (&s.every)->default_value (s.every), "score every K-th frame")
-    ("min-pixels", po::value (&s.min_pixels)->default_value (s.min_pixels), "objects with fewer visible pixels in a frame are not scored there")
-    ("min-region", po::value (&s.min_region)->default_value (s.min_region), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
-    ("match-radius", po::value (&s.match_radius)->default_value (s.match_radius), "3D AP: ground-truth points take the label of the nearest map point within this (metres; 0 = two voxels)")
+    ("every", po::value (&c.every)->default_value (c.every), "score every K-th frame")
+    ("min-pixels", po::value (&c.min_truth_pixels)->default_value (c.min_truth_pixels), "objects with fewer visible pixels in a frame are not scored there")
+    ("min-region", po::value (&c.min_region_size)->default_value (c.min_region_size), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
+    ("match-radius", po::value (&c.match_radius)->default_value (c.match_radius), "3D AP: ground-truth points take the label of the nearest map point within this (metres; 0 = two voxels)")
     ("no-plots", po::bool_switch (&s.no_plots), "write report.json and CSV only");
   po::positional_options_description positional;
   return parseCommandLine ("eval", "--run [NAME=]DIR [--run ...] --gt SEQUENCE --out REPORT_DIR [options]\n"
                            "       cuefusion eval --aggregate DIR... [--out SUMMARY_DIR] [--no-plots]", args, options, positional, vm);
 }
 
+/** The options the library does not check; the config's fields are checked by
+  * RunEvaluationConfig::validate (its field names translated to options by main.cpp). */
 void
-checkEvalSettings (const EvalSettings& s)
+checkEvalSettings (EvalSettings& s)
 {
   if (s.gt.empty () || s.out.empty ())
     throw UsageError (s.gt.empty () ? "--gt is required" : "--out is required");
@@ -291,32 +162,33 @@ checkEvalSettings (const EvalSettings& s)
     throw UsageError ("at least one --run is needed");
   if (s.labels_from != "final" && s.labels_from != "per-frame")
     throw ParameterError ("--labels", "must be 'final' or 'per-frame', not '" + s.labels_from + "'");
-  if (s.every == 0)
-    throw ParameterError ("--every", "must be at least 1");
-  if (s.min_pixels == 0 || s.min_region == 0)
-    throw ParameterError (s.min_pixels == 0 ? "--min-pixels" : "--min-region", "must be at least 1");
-  if (!(s.match_radius >= 0.0 && s.match_radius <= 1.0))
-    throw ParameterError ("--match-radius", "must lie in [0, 1] metres");
+  s.config.labels = s.labels_from == "final" ? evaluation::RunEvaluationConfig::Labels::FinalMap
+                                             : evaluation::RunEvaluationConfig::Labels::PerFrame;
+  s.config.validate ();
 }
 
 /** Every --run, each name once. */
-std::vector<RunData>
+std::vector<evaluation::RunOutputs>
 loadRuns (const EvalSettings& s)
 {
   std::set<std::string> names;
   for (const std::string& spec : s.run_specs)
   {
-    const std::string name = splitRunSpec (spec).first;
+    const auto [given, dir] = splitRunSpec (spec);
+    const std::string name = given.empty () ? evaluation::defaultRunName (dir) : given;
     if (!names.insert (name).second)
       throw UsageError ("two runs are called '" + name + "'; name them with --run NAME=DIR");
   }
-  std::vector<RunData> runs;
+  std::vector<evaluation::RunOutputs> runs;
   for (const std::string& spec : s.run_specs)
-    runs.push_back (loadRun (spec, s.finalMap ()));
+  {
+    const auto [name, dir] = splitRunSpec (spec);
+    runs.push_back (evaluation::readRunOutputs (dir, s.config.labels == evaluation::RunEvaluationConfig::Labels::FinalMap, name));
+  }
   return runs;
 }
 
-EvalTruth
+evaluation::SequenceTruth
 loadTruth (const EvalSettings& s)
 {
   io::SequenceOptions opts;
@@ -324,146 +196,72 @@ loadTruth (const EvalSettings& s)
   opts.intrinsics_path = s.intrinsics;
   if (opts.format == io::SequenceFormat::OpenNI2)
     throw ParameterError ("--format", "eval needs a recorded sequence folder");
-  EvalTruth truth;
-  truth.dataset = io::openDataset (s.gt, opts);
-  truth.cloud = io::findGroundTruthCloud (s.gt);
-  truth.stuff = truth.cloud ? truth.cloud->ignored : io::syntheticStuffInstances (s.gt);
-  truth.reference = referenceTrajectory (*truth.dataset);
-  return truth;
+  return evaluation::readSequenceTruth (s.gt, opts);
 }
 
-/** ATE and RPE (one frame, one second) of each run against the reference. */
+nlohmann::json
+rpeJson (const std::optional<evaluation::RelativePoseError>& rpe)
+{
+  if (!rpe)
+    return nullptr;  // the sequence is shorter than the interval
+  return {{"pairs", rpe->pairs},
+          {"translation_rmse", rpe->translation_rmse},
+          {"translation_median", rpe->translation_median},
+          {"rotation_rmse_deg", rpe->rotation_rmse_deg},
+          {"rotation_median_deg", rpe->rotation_median_deg}};
+}
+
+/** Each run's ATE and RPE (one frame, one second), into the report and tracking.csv. */
 void
-evaluateTracking (const std::vector<RunData>& runs, const io::Trajectory& reference, EvalReport& report)
+reportTracking (const std::vector<RunData>& runs, EvalReport& report)
 {
   report.tracking_csv << "run,pairs,ate_rmse_m,ate_mean_m,ate_median_m,ate_max_m,rpe_frame_trans_rmse_m,rpe_frame_rot_rmse_deg,"
                          "rpe_1s_trans_rmse_m,rpe_1s_rot_rmse_deg\n";
   report.runs.resize (runs.size ());
   for (std::size_t k = 0; k < runs.size (); ++k)
   {
-    const RunData& run = runs[k];
+    const evaluation::RunOutputs& run = runs[k].outputs;
     nlohmann::json tracking = nullptr;
-    const evaluation::PosePairs pairs = evaluation::associatePoses (run.trajectory, reference, 1e-3);
-    if (pairs.size () >= 3)
+    if (const auto& t = runs[k].found.tracking)
     {
-      const evaluation::TrajectoryError ate = evaluation::absoluteTrajectoryError (run.trajectory, reference, 1e-3);
+      const evaluation::TrajectoryError& ate = t->ate;
       tracking = {{"pairs", ate.pairs},
-                  {"ate", {{"rmse", ate.rmse}, {"mean", ate.mean}, {"median", ate.median}, {"max", ate.max}}}};
-      std::string rpe_cells[2][2];
-      int column = 0;
-      for (const auto& [key, interval] : {std::make_pair (std::string ("rpe_1_frame"), evaluation::RelativePoseInterval{evaluation::RelativePoseInterval::Unit::Frames, 1.0}),
-                                          std::make_pair (std::string ("rpe_1_s"), evaluation::RelativePoseInterval{evaluation::RelativePoseInterval::Unit::Seconds, 1.0})})
-      {
-        try
-        {
-          const evaluation::RelativePoseError rpe = evaluation::relativePoseError (run.trajectory, reference, interval, 1e-3);
-          tracking[key] = {{"pairs", rpe.pairs},
-                           {"translation_rmse", rpe.translation_rmse},
-                           {"translation_median", rpe.translation_median},
-                           {"rotation_rmse_deg", rpe.rotation_rmse_deg},
-                           {"rotation_median_deg", rpe.rotation_median_deg}};
-          rpe_cells[column][0] = csvNumber (rpe.translation_rmse);
-          rpe_cells[column][1] = csvNumber (rpe.rotation_rmse_deg);
-        }
-        catch (const Error&)
-        {
-          tracking[key] = nullptr;  // the sequence is shorter than the interval
-        }
-        ++column;
-      }
+                  {"ate", {{"rmse", ate.rmse}, {"mean", ate.mean}, {"median", ate.median}, {"max", ate.max}}},
+                  {"rpe_1_frame", rpeJson (t->rpe_frame)},
+                  {"rpe_1_s", rpeJson (t->rpe_second)}};
+      const auto cells = [] (const std::optional<evaluation::RelativePoseError>& rpe) {
+        return rpe ? csvNumber (rpe->translation_rmse) + "," + csvNumber (rpe->rotation_rmse_deg) : std::string (",");
+      };
       report.tracking_csv << csvText (run.name) << "," << ate.pairs << "," << csvNumber (ate.rmse) << "," << csvNumber (ate.mean) << ","
-                          << csvNumber (ate.median) << "," << csvNumber (ate.max) << "," << rpe_cells[0][0] << "," << rpe_cells[0][1] << ","
-                          << rpe_cells[1][0] << "," << rpe_cells[1][1] << "\n";
+                          << csvNumber (ate.median) << "," << csvNumber (ate.max) << "," << cells (t->rpe_frame) << ","
+                          << cells (t->rpe_second) << "\n";
     }
     report.runs[k] = {{"name", run.name}, {"dir", run.dir}, {"tracking", tracking}};
   }
 }
 
-/** The labels \a run shows in frame \a i (the final map rendered at the run's pose, or
-  * its labels/ image); empty when the run has none for that frame. */
-cv::Mat
-predictedLabels (const EvalSettings& s, const visualization::MeshRasterizer& rasterizer, const RunData& run, const RGBDFrame& frame,
-                 std::size_t i, const cv::Size& size)
-{
-  if (s.finalMap ())
-  {
-    const auto pose = run.pose_at.find (microseconds (frame.timestamp));
-    if (pose == run.pose_at.end ())
-      return cv::Mat ();  // not fused (tracking lost) or beyond the run's frames
-    return rasterizer.render (run.mesh, frame.camera, pose->second).labels;
-  }
-  std::ostringstream name;
-  name << std::setw (6) << std::setfill ('0') << i << ".png";
-  const fs::path path = fs::path (run.dir) / "labels" / name.str ();
-  if (!fs::exists (path))
-    return cv::Mat ();
-  cv::Mat predicted = io::readLabelImage (path.string ());
-  if (predicted.size () != size)
-    throw Error (path.string (), "label image size differs from the sequence's frames");
-  return predicted;
-}
-
-/** Per-frame object IoU of every run on every --every-th frame with instance masks. */
-void
-scoreFrames (const EvalSettings& s, const EvalTruth& truth, std::vector<RunData>& runs, EvalReport& report)
-{
-  const visualization::MeshRasterizer rasterizer;
-  evaluation::FrameIoUConfig iou_config;
-  iou_config.min_truth_pixels = s.min_pixels;
-  const io::DatasetGrabber& dataset = *truth.dataset;
-  ProgressReporter progress ("eval", dataset.size ());
-  for (std::size_t i = 0; i < dataset.size (); i += s.every)
-  {
-    progress.update (i + 1);
-    if (dataset.records ()[i].instance_path.empty ())
-      continue;
-    const RGBDFrame::Ptr frame = dataset.readFrame (i);
-    ++report.frames_with_masks;
-    cv::Mat objects = frame->instance_mask.clone ();
-    for (int r = 0; r < objects.rows; ++r)
-      for (int c = 0; c < objects.cols; ++c)
-        if (truth.stuff.count (objects.at<std::uint16_t> (r, c)))
-          objects.at<std::uint16_t> (r, c) = 0;
-    cv::Mat valid (frame->depth.size (), CV_8U);
-    for (int r = 0; r < valid.rows; ++r)
-      for (int c = 0; c < valid.cols; ++c)
-        valid.at<std::uint8_t> (r, c) = isValidDepth (frame->depth.at<float> (r, c)) ? 255 : 0;
-    for (RunData& run : runs)
-    {
-      const cv::Mat predicted = predictedLabels (s, rasterizer, run, *frame, i, objects.size ());
-      if (predicted.empty ())
-      {
-        ++run.frames_skipped;
-        continue;
-      }
-      run.frame_iou.push_back (evaluation::frameObjectIoU (predicted, objects, valid, iou_config));
-      run.frame_index.push_back (i);
-    }
-  }
-  progress.finish ();
-}
-
 /** Each run's object IoU per object and frame, into the report and the CSV files. */
 void
-summarizeObjectIoU (const EvalTruth& truth, const std::vector<RunData>& runs, EvalReport& report)
+reportObjectIoU (const evaluation::SequenceTruth& truth, const std::vector<RunData>& runs, EvalReport& report)
 {
   report.iou_csv << "run,instance,class,frames,mean_iou\n";
   report.iou_frames_csv << "run,frame,instance,class,segment,truth_pixels,segment_pixels,iou\n";
   for (std::size_t k = 0; k < runs.size (); ++k)
   {
-    const RunData& run = runs[k];
-    const evaluation::SequenceIoU summary = evaluation::summarizeObjectIoU (run.frame_iou);
+    const std::string& name = runs[k].outputs.name;
+    const evaluation::RunEvaluation& run = runs[k].found;
+    const evaluation::SequenceIoU& summary = run.object_iou;
     nlohmann::json objects = nlohmann::json::array ();
     for (const auto& [id, mean] : summary.object_mean)
     {
       report.all_objects.insert (id);
       objects.push_back ({{"instance", id}, {"class", truth.classOf (id)}, {"frames", summary.object_frames.at (id)}, {"mean_iou", mean}});
-      report.iou_csv << csvText (run.name) << "," << id << "," << csvText (truth.classOf (id)) << "," << summary.object_frames.at (id) << ","
+      report.iou_csv << csvText (name) << "," << id << "," << csvText (truth.classOf (id)) << "," << summary.object_frames.at (id) << ","
                      << csvNumber (mean) << "\n";
     }
     for (std::size_t f = 0; f < run.frame_iou.size (); ++f)
       for (const evaluation::ObjectIoU& o : run.frame_iou[f])
-        report.iou_frames_csv << csvText (run.name) << "," << run.frame_index[f] << "," << o.instance << ","
+        report.iou_frames_csv << csvText (name) << "," << run.frame_index[f] << "," << o.instance << ","
                               << csvText (truth.classOf (o.instance)) << "," << o.segment << "," << o.truth_pixels << ","
                               << o.segment_pixels << "," << csvNumber (o.iou) << "\n";
     report.runs[k]["object_iou"] = {{"mean", run.frame_iou.empty () ? nlohmann::json (nullptr) : nlohmann::json (summary.mean)},
@@ -473,35 +271,24 @@ summarizeObjectIoU (const EvalTruth& truth, const std::vector<RunData>& runs, Ev
   }
 }
 
-/** 3D instance AP of each run's map.pcd against the labelled ground-truth cloud. */
+/** Each run's 3D instance AP, into the report and instance_ap.csv. */
 void
-scoreInstanceAP (const EvalSettings& s, const io::GroundTruthCloud& gt_cloud, const std::vector<RunData>& runs, EvalReport& report)
+reportInstanceAP (const io::GroundTruthCloud& gt_cloud, const std::vector<RunData>& runs, EvalReport& report)
 {
   for (std::size_t k = 0; k < runs.size (); ++k)
   {
-    const RunData& run = runs[k];
-    const std::string map_path = (fs::path (run.dir) / "map.pcd").string ();
-    pcl::PointCloud<pcl::PointXYZL>::Ptr map = pcl::make_shared<pcl::PointCloud<pcl::PointXYZL>> ();
-    pcl::fromPCLPointCloud2 (io::readPCD (map_path, {"x", "y", "z", "label"}), *map);
-    evaluation::InstanceEvaluationInput input;
-    input.truth.reserve (gt_cloud.cloud->size ());
-    for (const auto& p : *gt_cloud.cloud)
-      input.truth.push_back (p.label);
-    input.predicted = transferLabels (*gt_cloud.cloud, map, s.match_radius > 0.0 ? s.match_radius : 2.0 * run.voxel_size);
-    for (const auto& [id, name] : gt_cloud.class_names)
-      input.truth_instances[id] = {name, gt_cloud.ignored.count (id) > 0};
-    input.predicted_instances.insert (run.segments.begin (), run.segments.end ());
-    evaluation::InstanceAPConfig ap_config;
-    ap_config.min_region_size = s.min_region;
-    const evaluation::InstanceAPResult ap = evaluation::evaluateInstanceAP (input, ap_config);
+    const std::string& name = runs[k].outputs.name;
+    if (!runs[k].found.instance_ap)
+      continue;
+    const evaluation::InstanceAPResult& ap = *runs[k].found.instance_ap;
     nlohmann::json per_class = nlohmann::json::object ();
-    for (const auto& [name, scores] : ap.per_class)
+    for (const auto& [cls, scores] : ap.per_class)
     {
-      per_class[name] = apJson (scores);
-      report.ap_csv << csvText (run.name) << "," << csvText (name) << "," << csvNumber (scores.ap) << "," << csvNumber (scores.ap50) << ","
+      per_class[cls] = apJson (scores);
+      report.ap_csv << csvText (name) << "," << csvText (cls) << "," << csvNumber (scores.ap) << "," << csvNumber (scores.ap50) << ","
                     << csvNumber (scores.ap25) << "\n";
     }
-    report.ap_csv << csvText (run.name) << ",(class-agnostic)," << csvNumber (ap.class_agnostic.ap) << ","
+    report.ap_csv << csvText (name) << ",(class-agnostic)," << csvNumber (ap.class_agnostic.ap) << ","
                   << csvNumber (ap.class_agnostic.ap50) << "," << csvNumber (ap.class_agnostic.ap25) << "\n";
     report.runs[k]["instance_ap"] = {{"ground_truth", gt_cloud.source},
                                      {"class_agnostic", apJson (ap.class_agnostic)},
@@ -551,8 +338,8 @@ trajectoryPlot (const std::string& gnuplot, const fs::path& plot_dir, const io::
   for (std::size_t k = 0; k < runs.size (); ++k)
   {
     const std::string file = (plot_dir / ("trajectory_run" + std::to_string (k) + ".dat")).string ();
-    writeTrack (runs[k].trajectory, file);
-    spec.series.push_back ({file, 1, 2, runs[k].name, "lines"});
+    writeTrack (runs[k].outputs.trajectory, file);
+    spec.series.push_back ({file, 1, 2, runs[k].outputs.name, "lines"});
   }
   renderPlot (gnuplot, spec);
   return spec.output_png;
@@ -561,7 +348,7 @@ trajectoryPlot (const std::string& gnuplot, const fs::path& plot_dir, const io::
 /** IoU per frame of each object (one line per run), the mean over the objects, and the
   * trajectories, into \a plot_dir; returns the PNGs written. */
 std::vector<std::string>
-writePlots (const std::string& gnuplot, const fs::path& plot_dir, const EvalTruth& truth, const std::vector<RunData>& runs,
+writePlots (const std::string& gnuplot, const fs::path& plot_dir, const evaluation::SequenceTruth& truth, const std::vector<RunData>& runs,
             const std::set<std::uint32_t>& objects)
 {
   std::vector<std::string> plots;
@@ -571,7 +358,7 @@ writePlots (const std::string& gnuplot, const fs::path& plot_dir, const EvalTrut
     plots.push_back (iouChart (gnuplot, plot_dir, "iou_object_" + std::to_string (object),
                                "object " + std::to_string (object) + (cls.empty () ? "" : " (" + cls + ")") + ": IoU per frame", "IoU",
                                "linespoints", runs, [object] (const RunData& run, std::size_t f, double& y) {
-                                 for (const evaluation::ObjectIoU& o : run.frame_iou[f])
+                                 for (const evaluation::ObjectIoU& o : run.found.frame_iou[f])
                                    if (o.instance == object)
                                    {
                                      y = o.iou;
@@ -583,12 +370,12 @@ writePlots (const std::string& gnuplot, const fs::path& plot_dir, const EvalTrut
   if (!objects.empty ())
     plots.push_back (iouChart (gnuplot, plot_dir, "iou_mean", "mean object IoU per frame", "mean IoU", "lines", runs,
                                [] (const RunData& run, std::size_t f, double& y) {
-                                 if (run.frame_iou[f].empty ())
+                                 if (run.found.frame_iou[f].empty ())
                                    return false;
                                  double sum = 0.0;
-                                 for (const evaluation::ObjectIoU& o : run.frame_iou[f])
+                                 for (const evaluation::ObjectIoU& o : run.found.frame_iou[f])
                                    sum += o.iou;
-                                 y = sum / static_cast<double> (run.frame_iou[f].size ());
+                                 y = sum / static_cast<double> (run.found.frame_iou[f].size ());
                                  return true;
                                }));
   if (truth.reference.size () >= 3)
@@ -598,7 +385,7 @@ writePlots (const std::string& gnuplot, const fs::path& plot_dir, const EvalTrut
 
 /** One block per run on stdout; where the report went. */
 void
-printEvalSummary (const nlohmann::json& report, const EvalSettings& s, const EvalTruth& truth, std::size_t frames_with_masks,
+printEvalSummary (const nlohmann::json& report, const EvalSettings& s, const evaluation::SequenceTruth& truth, std::size_t frames_with_masks,
                   const std::vector<std::string>& plots, const std::string& plot_note)
 {
   const fs::path report_dir (s.out);
@@ -642,20 +429,26 @@ runEval (const std::vector<std::string>& args)
   if (given (vm, "aggregate"))
     return runAggregate (s.aggregate, s.out, s.no_plots);
   checkEvalSettings (s);
-  std::vector<RunData> runs = loadRuns (s);
-  const EvalTruth truth = loadTruth (s);
+  const std::vector<evaluation::RunOutputs> run_outputs = loadRuns (s);
+  const evaluation::SequenceTruth truth = loadTruth (s);
 
   // The report is written to a staging folder and replaces the previous report as a
   // whole (io::OutputSet); report.json, moved in last, marks it complete.
   io::OutputSet outputs (s.out, {"tracking.csv", "object_iou.csv", "object_iou_frames.csv", "instance_ap.csv", "plots", "report.json"},
                          "report.json");
+  ProgressReporter progress ("eval", truth.dataset->size ());
+  const std::vector<evaluation::RunEvaluation> evaluations = evaluation::evaluateRuns (
+      run_outputs, truth, s.config, [&progress] (std::size_t done, std::size_t) { progress.update (done); });
+  progress.finish ();
+  std::vector<RunData> runs;
+  for (std::size_t k = 0; k < run_outputs.size (); ++k)
+    runs.push_back ({run_outputs[k], evaluations[k]});
   EvalReport found;
-  evaluateTracking (runs, truth.reference, found);
-  scoreFrames (s, truth, runs, found);
-  summarizeObjectIoU (truth, runs, found);
+  reportTracking (runs, found);
+  reportObjectIoU (truth, runs, found);
   found.ap_csv << "run,class,ap,ap50,ap25\n";
   if (truth.cloud)
-    scoreInstanceAP (s, *truth.cloud, runs, found);
+    reportInstanceAP (*truth.cloud, runs, found);
   nlohmann::json report = {{"sequence", s.gt}, {"labels", s.labels_from}, {"runs", nlohmann::json::array ()}};
   for (nlohmann::json& r : found.runs)
   {
@@ -663,7 +456,8 @@ runEval (const std::vector<std::string>& args)
       r["instance_ap"] = nullptr;
     report["runs"].push_back (r);
   }
-  report["frames_with_masks"] = found.frames_with_masks;
+  const std::size_t frames_with_masks = runs.empty () ? 0 : runs.front ().found.frames_with_masks;
+  report["frames_with_masks"] = frames_with_masks;
   report["ground_truth_cloud"] = truth.cloud ? nlohmann::json (truth.cloud->source) : nlohmann::json (nullptr);
 
   std::vector<std::string> plots;
@@ -688,7 +482,7 @@ runEval (const std::vector<std::string>& args)
   io::writeTextAtomic (outputs.stagingPath ("instance_ap.csv"), found.ap_csv.str ());
   io::writeTextAtomic (outputs.stagingPath ("report.json"), io::jsonText (report, 2) + "\n");
   outputs.commit ();
-  printEvalSummary (report, s, truth, found.frames_with_masks, plots, plot_note);
+  printEvalSummary (report, s, truth, frames_with_masks, plots, plot_note);
   return 0;
 }
 }  // namespace cli

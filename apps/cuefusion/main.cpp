@@ -145,6 +145,10 @@ main (int argc, char** argv)
       {"TSDFVolumeConfig::max_depth", "--max-depth"},
       {"DepthPreprocessorConfig::max_depth", "--max-depth"},
       {"DenseReconstructionConfig::hole_refresh_period", "--hole-refresh"},
+      {"RunEvaluationConfig::every", "--every"},
+      {"RunEvaluationConfig::min_truth_pixels", "--min-pixels"},
+      {"RunEvaluationConfig::min_region_size", "--min-region"},
+      {"RunEvaluationConfig::match_radius", "--match-radius"},
     };
     const auto option = options.find (e.parameter ());
     std::cerr << "cuefusion " << command << ": "

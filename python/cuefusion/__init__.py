@@ -22,7 +22,7 @@ from ._cuefusion import Frame, Sequence
 
 __version__ = _cuefusion.__version__
 __all__ = ["Pipeline", "InstanceSegmenter", "Frame", "Sequence", "open_sequence", "segment_frame",
-           "evaluate_trajectory", "evaluate_labels", "evaluate_instances"]
+           "evaluate_trajectory", "evaluate_labels", "evaluate_instances", "evaluate_run"]
 
 
 def _settings_text(config):
@@ -156,3 +156,15 @@ def evaluate_instances(predicted, truth, predicted_scores=None, truth_classes=No
     ap, ap50, ap25 class-agnostic, per_class when truth_classes names them."""
     return _cuefusion._evaluate_instances(predicted, truth, predicted_scores or {}, truth_classes or {},
                                           predicted_classes or {}, int(min_region_size))
+
+
+def evaluate_run(run, sequence, labels="final", every=1, min_pixels=100, min_region=100, match_radius=0.0,
+                 format="auto", intrinsics=None):
+    """The chapter 5 evaluation of a `cuefusion run` output folder (or Pipeline.save's)
+    against the sequence it processed, as `cuefusion eval` does it: tracking (ATE, RPE),
+    per-frame object IoU from the final map seen at each pose (labels="final") or the
+    run's labels/ (labels="per-frame"), and 3D instance AP when the sequence has a
+    labelled ground-truth cloud. Returns a dict: tracking, object_iou, instance_ap."""
+    return _cuefusion._evaluate_run(_os.fsdecode(run), _os.fsdecode(sequence), labels, int(every), int(min_pixels),
+                                    int(min_region), float(match_radius), format,
+                                    _os.fsdecode(intrinsics) if intrinsics else "")

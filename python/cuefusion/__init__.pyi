@@ -74,3 +74,6 @@ def evaluate_labels(predicted: npt.NDArray[np.integer], truth: npt.NDArray[np.in
 def evaluate_instances(predicted: npt.ArrayLike, truth: npt.ArrayLike, predicted_scores: Optional[Dict[int, float]] = ...,
                        truth_classes: Optional[Dict[int, str]] = ..., predicted_classes: Optional[Dict[int, str]] = ...,
                        min_region_size: int = ...) -> Dict[str, Any]: ...
+def evaluate_run(run: Union[str, os.PathLike], sequence: Union[str, os.PathLike], labels: str = ..., every: int = ...,
+                 min_pixels: int = ..., min_region: int = ..., match_radius: float = ..., format: str = ...,
+                 intrinsics: Optional[Union[str, os.PathLike]] = ...) -> Dict[str, Any]: ...

@@ -9,6 +9,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/evaluation/instance_ap.h>
 #include <cuefusion/evaluation/object_iou.h>
+#include <cuefusion/evaluation/run_evaluation.h>
 #include <cuefusion/evaluation/trajectory_error.h>
 #include <cuefusion/io/dataset_grabber.h>
 #include <cuefusion/io/file_io.h>
@@ -505,6 +506,66 @@ evaluateInstances (const py::object& predicted, const py::object& truth, const p
   return out;
 }
 
+py::object
+rpeDict (const std::optional<evaluation::RelativePoseError>& rpe)
+{
+  if (!rpe)
+    return py::none ();
+  return py::dict ("pairs"_a = rpe->pairs, "translation_rmse"_a = rpe->translation_rmse, "translation_median"_a = rpe->translation_median,
+                   "rotation_rmse_deg"_a = rpe->rotation_rmse_deg, "rotation_median_deg"_a = rpe->rotation_median_deg);
+}
+
+/** The chapter 5 evaluation of one run folder against its sequence (`cuefusion eval`). */
+py::dict
+evaluateRun (const std::string& run, const std::string& sequence, const std::string& labels, std::size_t every, std::size_t min_pixels,
+             std::size_t min_region, double match_radius, const std::string& format, const std::string& intrinsics)
+{
+  evaluation::RunEvaluationConfig config;
+  if (labels != "final" && labels != "per-frame")
+    throw py::value_error ("labels must be 'final' or 'per-frame', not '" + labels + "'");
+  config.labels = labels == "final" ? evaluation::RunEvaluationConfig::Labels::FinalMap : evaluation::RunEvaluationConfig::Labels::PerFrame;
+  config.every = every;
+  config.min_truth_pixels = min_pixels;
+  config.min_region_size = min_region;
+  config.match_radius = match_radius;
+  config.validate ();
+  io::SequenceOptions options;
+  options.format = io::parseSequenceFormat (format);
+  options.intrinsics_path = intrinsics;
+  const evaluation::RunEvaluation found = withFiles ([&] {
+    const evaluation::RunOutputs outputs = evaluation::readRunOutputs (run, config.labels == evaluation::RunEvaluationConfig::Labels::FinalMap);
+    return evaluation::evaluateRun (outputs, evaluation::readSequenceTruth (sequence, options), config);
+  });
+  py::object tracking = py::none ();
+  if (found.tracking)
+  {
+    const evaluation::TrajectoryError& ate = found.tracking->ate;
+    tracking = py::dict ("pairs"_a = ate.pairs,
+                         "ate"_a = py::dict ("rmse"_a = ate.rmse, "mean"_a = ate.mean, "median"_a = ate.median, "max"_a = ate.max),
+                         "rpe_frame"_a = rpeDict (found.tracking->rpe_frame), "rpe_second"_a = rpeDict (found.tracking->rpe_second));
+  }
+  py::dict objects;
+  for (const auto& [id, mean] : found.object_iou.object_mean)
+    objects[py::int_ (id)] = py::dict ("mean_iou"_a = mean, "frames"_a = found.object_iou.object_frames.at (id));
+  const py::dict object_iou ("mean"_a = found.frame_iou.empty () ? py::object (py::none ()) : py::object (py::float_ (found.object_iou.mean)),
+                             "frames_scored"_a = found.frame_iou.size (), "frames_skipped"_a = found.frames_skipped,
+                             "frames_with_masks"_a = found.frames_with_masks, "objects"_a = objects);
+  py::object instance_ap = py::none ();
+  if (found.instance_ap)
+  {
+    const auto scores = [] (const evaluation::APScores& a) { return py::dict ("ap"_a = a.ap, "ap50"_a = a.ap50, "ap25"_a = a.ap25); };
+    py::dict per_class;
+    for (const auto& [name, a] : found.instance_ap->per_class)
+      per_class[py::str (name)] = scores (a);
+    py::dict ap = scores (found.instance_ap->class_agnostic);
+    ap["per_class"] = per_class;
+    ap["truth_instances"] = found.instance_ap->truth_instances;
+    ap["predicted_instances"] = found.instance_ap->predicted_instances;
+    instance_ap = ap;
+  }
+  return py::dict ("tracking"_a = tracking, "object_iou"_a = object_iou, "instance_ap"_a = instance_ap);
+}
+
 void
 bindClasses (py::module_& m)
 {
@@ -554,6 +615,7 @@ bindFunctions (py::module_& m)
   m.def ("_evaluate_trajectory", &evaluateTrajectory);
   m.def ("_evaluate_labels", &evaluateLabels);
   m.def ("_evaluate_instances", &evaluateInstances);
+  m.def ("_evaluate_run", &evaluateRun);
 }
 }  // namespace
 }  // namespace python

@@ -99,3 +99,34 @@ def test_settings_from_a_dict_or_a_file(sequence, tmp_path):
     assert read(tmp_path / "py" / "map.pcd") == read(tmp_path / "cli" / "map.pcd")
     fields = cuefusion.Pipeline(config={"pipeline": {"reconstruction": {"volume": {"voxel_size": 0.03}}}}).config
     assert fields["reconstruction"]["volume"]["voxel_size"] == 0.03
+
+
+def test_evaluate_run_is_cuefusion_eval(sequence, tmp_path):
+    # The library's chapter 5 procedure from Python gives eval's report, number for number.
+    import json
+    run = str(tmp_path / "run")
+    cuefusion_command("run", sequence, "--out", run, "--masks", os.path.join(sequence, "detections"))
+    cuefusion_command("eval", "--run", run, "--gt", sequence, "--out", str(tmp_path / "rep"), "--no-plots")
+    with open(tmp_path / "rep" / "report.json") as f:
+        report = json.load(f)["runs"][0]
+    found = cuefusion.evaluate_run(run, sequence)
+    assert found["tracking"]["ate"]["rmse"] == report["tracking"]["ate"]["rmse"] < 0.005
+    assert found["object_iou"]["mean"] == report["object_iou"]["mean"]
+    assert found["object_iou"]["frames_scored"] == report["object_iou"]["frames_scored"] == 30
+    assert {o["instance"]: o["mean_iou"] for o in report["object_iou"]["objects"]} == \
+        {k: v["mean_iou"] for k, v in found["object_iou"]["objects"].items()}
+    assert found["instance_ap"]["ap50"] == report["instance_ap"]["class_agnostic"]["ap50"]
+    # The objects scored are the truth's: every non-stuff instance seen with at least
+    # min_pixels (100) pixels in some frame, and no other.
+    with open(os.path.join(sequence, "scene.json")) as f:
+        stuff = {i["id"] for i in json.load(f)["instances"] if not i.get("detectable", True)}
+    seen = set()
+    for frame in cuefusion.open_sequence(sequence):
+        ids, counts = np.unique(frame.instance_mask, return_counts=True)
+        seen |= {int(i) for i, n in zip(ids, counts) if i != 0 and int(i) not in stuff and n >= 100}
+    assert set(found["object_iou"]["objects"]) == seen
+    try:
+        cuefusion.evaluate_run(run, sequence, every=0)
+        assert False, "every=0 accepted"
+    except ValueError as e:
+        assert "every" in str(e)
