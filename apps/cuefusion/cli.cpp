@@ -144,18 +144,6 @@ apJson (const evaluation::APScores& s)
   return {{"ap", numberOrNull (s.ap)}, {"ap50", numberOrNull (s.ap50)}, {"ap25", numberOrNull (s.ap25)}};
 }
 
-nlohmann::json
-timingSummary (std::vector<double> values)
-{
-  if (values.empty ())
-    return {{"median", nullptr}, {"p90", nullptr}, {"frames", 0}};
-  std::sort (values.begin (), values.end ());
-  const auto at = [&values] (double q) {
-    return values[static_cast<std::size_t> (q * static_cast<double> (values.size () - 1) + 0.5)];
-  };
-  return {{"median", at (0.5)}, {"p90", at (0.9)}, {"frames", values.size ()}};
-}
-
 std::vector<std::string>
 listInputs (const std::string& path, const std::vector<std::string>& extensions)
 {

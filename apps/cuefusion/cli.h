@@ -69,10 +69,6 @@ csvText (const std::string& s);
 nlohmann::json
 apJson (const evaluation::APScores& s);
 
-/** Median and 90th percentile of a list of milliseconds, as JSON. */
-nlohmann::json
-timingSummary (std::vector<double> values);
-
 /** Input paths of a command that takes a file or a folder: the folder's files with one of
   * \a extensions (lower case, with the dot), sorted by name; or the file itself. */
 std::vector<std::string>

@@ -15,6 +15,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
+#include <cuefusion/pipeline/run_files.h>
 
 #include <boost/filesystem.hpp>
 #include <nlohmann/json.hpp>
@@ -118,14 +119,10 @@ readPlan (const std::string& dir)
 bool
 runComplete (const fs::path& result)
 {
-  boost::system::error_code ec;
-  const fs::path manifest = result / "outputs.json";
-  if (!fs::is_regular_file (manifest, ec))
-    return false;
   try
   {
-    const nlohmann::json j = io::readJsonFile (manifest.string ());
-    return j.is_object () && !j.value ("stopped_early", false);
+    const pipeline::RunFilesSummary files = pipeline::readRunFiles (result.string ());
+    return files.has_manifest && !files.stopped_early;
   }
   catch (const std::exception&)
   {

@@ -2,7 +2,6 @@
 #include "cli.h"
 #include "process.h"
 #include "run_display.h"
-#include "run_report.h"
 
 #include <cuefusion/common/data_directory.h>
 #include <cuefusion/common/exceptions.h>
@@ -15,6 +14,7 @@
 #include <cuefusion/io/sequence.h>
 #include <cuefusion/common/label_colors.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
+#include <cuefusion/pipeline/run_files.h>
 #include <cuefusion/pipeline/settings.h>
 #include <cuefusion/recognition/settings.h>
 #include <cuefusion/segmentation/fragmentation.h>
@@ -197,7 +197,7 @@ private:
   std::unique_ptr<VideoSink> video_;
   std::unique_ptr<ViewerWindow> viewer_;
   std::chrono::steady_clock::time_point last_view_post_ = std::chrono::steady_clock::now () - std::chrono::seconds (10);
-  RunOutputs result_;
+  pipeline::RunRecord result_;
   std::mutex mutex_;
   std::string callback_error_;
   bool callback_error_named_ = false;  ///< callback_error_ names its file (else: the sequence's)
@@ -547,42 +547,21 @@ RunSession::staged (const std::string& name) const
 nlohmann::json
 RunSession::trackingJson ()
 {
-  const reconstruction::TSDFVolume& volume = fusion_.reconstruction ().volume ();
-  nlohmann::json tracking;
-  nlohmann::json lost = nlohmann::json::array ();
-  for (const auto& r : result_.reports)
-    if (!r.tracked)
-      lost.push_back ({{"index", r.index}, {"timestamp", r.timestamp}, {"reason", r.failure}});
-  nlohmann::json relocalised = nlohmann::json::array ();
-  for (const auto& r : result_.reports)
-    if (r.relocalised)
-      relocalised.push_back ({{"index", r.index}, {"timestamp", r.timestamp}, {"from", r.relocalised_from},
-                              {"ms", r.timings.relocalise_ms}});
-  lost_ = lost.size ();
-  relocalised_ = relocalised.size ();
-  tracking["frames"] = result_.reports.size ();
-  tracking["tracked"] = result_.trajectory.size ();
-  tracking["lost"] = lost;
-  tracking["relocalised"] = relocalised;
-  tracking["mode"] = s_.pipeline.reconstruction.use_reference_poses ? "reference poses" : "frame-to-model ICP";
-  tracking["segmentation"] = {{"mode", pipeline::segmentationModeName (pipeline_config_.mode)},
-                              {"mask_source", mask_source_ ? mask_source_->name () : std::string ()},
-                              {"frames_without_masks", result_.frames_without_masks},
-                              {"merges", result_.merges},
-                              {"noise_scale", fusion_.noiseScale ()}};
-  tracking["volume"] = {{"blocks", volume.blockCount ()}, {"bytes", volume.memoryUsage ()},
-                        {"voxel_size", volume.getConfig ().voxel_size}, {"truncation_voxels", volume.getConfig ().truncation_voxels}};
-  if (!s_.load_volume.empty ())
-    tracking["continued_from"] = s_.load_volume;
+  pipeline::TrackingFileContext context;
+  context.mask_source = mask_source_ ? mask_source_->name () : std::string ();
+  context.continued_from = s_.load_volume;
   if (!s_.pipeline.reconstruction.use_reference_poses && result_.reference.size () >= 3 && result_.trajectory.size () >= 3)
   {
     const evaluation::TrajectoryError ate = evaluation::absoluteTrajectoryError (result_.trajectory, result_.reference, 1e-4);
-    tracking["ate"] = {{"rmse", ate.rmse}, {"mean", ate.mean}, {"median", ate.median}, {"max", ate.max}, {"pairs", ate.pairs}};
+    context.ate = pipeline::TrackingAccuracy{ate.rmse, ate.mean, ate.median, ate.max, ate.pairs};
     std::ostringstream line;
     line << std::fixed << std::setprecision (4) << "  ATE RMSE:   " << ate.rmse << " m against the sequence's poses ("
          << ate.pairs << " frames)\n";
     ate_line_ = line.str ();
   }
+  const nlohmann::json tracking = pipeline::trackingJson (result_, fusion_, context);
+  lost_ = tracking["lost"].size ();
+  relocalised_ = tracking["relocalised"].size ();
   return tracking;
 }
 
@@ -635,7 +614,7 @@ RunSession::writeOutputs ()
     fusion_.saveVolume (staged ("volume.tsdf"), staged ("volume.labels"), staged ("volume.keyframes"));
   io::writeTextAtomic (staged ("tracking.json"), io::jsonText (trackingJson (), 2) + "\n");
   io::writeTextAtomic (staged ("timings.json"),
-                       io::jsonText (timingsJson (result_, seconds_), 2) + "\n");
+                       io::jsonText (pipeline::timingsJson (result_, seconds_), 2) + "\n");
   nlohmann::json files = nlohmann::json::array ();
   for (const std::string& name : kRunOutputs)
     if (fs::exists (fs::path (outputs_.stagingPath (name))))

@@ -12,6 +12,7 @@
 #include <cuefusion/common/instance.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/pipeline/frame_segmentation.h>
+#include <cuefusion/pipeline/run_files.h>
 #include <cuefusion/pipeline/settings.h>
 #include <cuefusion/recognition/settings.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
@@ -635,10 +636,10 @@ runSegmentFrame (const std::vector<std::string>& args)
     outputs->commit ();
   if (!s.timings_path.empty ())
     io::writeTextAtomic (s.timings_path,
-                         io::jsonText (nlohmann::json ({{"segmentation_ms", timingSummary (totals)}, {"frames", frames}}), 1) + "\n");
+                         io::jsonText (nlohmann::json ({{"segmentation_ms", pipeline::timingSummary (totals)}, {"frames", frames}}), 1) + "\n");
   if (s.verbose || inputs.size () > 1)
     std::cout << inputs.size () << " frame(s) segmented; geometric segmentation median "
-              << timingSummary (totals)["median"].get<double> () << " ms per frame\n";
+              << pipeline::timingSummary (totals)["median"].get<double> () << " ms per frame\n";
   return 0;
 }
 }  // namespace cli

@@ -6,6 +6,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
+#include <cuefusion/pipeline/run_files.h>
 
 #include <boost/filesystem.hpp>
 
@@ -38,16 +39,6 @@ numberAt (const nlohmann::json& json, const std::string& key)
     return std::nan ("");
   const auto it = json.find (key);
   return it != json.end () && it->is_number () ? it->get<double> () : std::nan ("");
-}
-
-/** A JSON file when it is there and readable, else null (summaries skip what is missing). */
-nlohmann::json
-jsonIfPresent (const fs::path& path)
-{
-  boost::system::error_code ec;
-  if (!fs::is_regular_file (path, ec))
-    return nullptr;
-  return io::readJsonFile (path.string ());
 }
 
 std::vector<evaluation::ThresholdMatches>
@@ -228,24 +219,18 @@ matchesFromJson (const nlohmann::json& json, const std::string& source)
 void
 addRunStatistics (const std::string& run_dir, SequenceResult& row)
 {
-  const fs::path dir (run_dir);
+  const pipeline::RunFilesSummary files = pipeline::readRunFiles (run_dir);
   nlohmann::json& v = row.values;
-  const nlohmann::json outputs = jsonIfPresent (dir / "outputs.json");
-  const double frames = numberAt (outputs, "frames"), seconds = numberAt (outputs, "seconds");
-  v["frames"] = numberOrNull (frames);
-  v["seconds"] = numberOrNull (seconds);
+  const auto figure = [] (const std::optional<double>& x) { return numberOrNull (x ? *x : std::nan ("")); };
+  const double frames = files.frames.value_or (std::nan ("")), seconds = files.seconds.value_or (std::nan (""));
+  v["frames"] = figure (files.frames);
+  v["seconds"] = figure (files.seconds);
   v["fps"] = numberOrNull (seconds > 0.0 ? frames / seconds : std::nan (""));
-  const nlohmann::json tracking = jsonIfPresent (dir / "tracking.json");
-  v["tracked"] = numberOrNull (numberAt (tracking, "tracked"));
-  v["lost"] = tracking.is_object () && tracking.contains ("lost") && tracking["lost"].is_array () ? nlohmann::json (tracking["lost"].size ())
-                                                                                                  : nlohmann::json (nullptr);
-  if (tracking.is_object () && tracking.contains ("ate"))
-    v["ate_rmse_m"] = numberOrNull (numberAt (tracking["ate"], "rmse"));
-  const nlohmann::json timings = jsonIfPresent (dir / "timings.json");
-  double loop = std::nan ("");
-  if (timings.is_object () && timings.contains ("stages") && timings["stages"].is_object () && timings["stages"].contains ("whole loop"))
-    loop = numberAt (timings["stages"]["whole loop"], "median");
-  v["loop_ms"] = numberOrNull (loop);
+  v["tracked"] = figure (files.tracked);
+  v["lost"] = files.lost ? nlohmann::json (static_cast<std::size_t> (*files.lost)) : nlohmann::json (nullptr);
+  if (files.ate_rmse)
+    v["ate_rmse_m"] = figure (files.ate_rmse);
+  v["loop_ms"] = figure (files.loop_ms);
 }
 
 void

@@ -21,6 +21,16 @@ struct Instance
   cv::Rect box;              ///< bounding box of the mask (or the detector's box)
 };
 
+/** \brief Milliseconds of a mask source's last segment() by stage (a network's: building
+  * its input, the forward pass, decoding its output into masks); zeros for a source that
+  * does not time its stages. */
+struct SegmenterTimings
+{
+  double input_ms = 0.0;
+  double forward_ms = 0.0;
+  double decode_ms = 0.0;
+};
+
 /** \brief Instances → CV_16U id image (instance i has id i + 1, 0 = none); where masks
   * overlap the higher score wins (the earlier instance on a tie).
   */

@@ -12,15 +12,8 @@ namespace cuefusion
 {
 namespace recognition
 {
-/** \brief Milliseconds of a mask source's last segment() by stage (a network's: building
-  * its input, the forward pass, decoding its output into masks); zeros for a source that
-  * does not time its stages. */
-struct SegmenterTimings
-{
-  double input_ms = 0.0;
-  double forward_ms = 0.0;
-  double decode_ms = 0.0;
-};
+/** \brief A mask source's stage timings (common/instance.h, where run records take them from). */
+using SegmenterTimings = cuefusion::SegmenterTimings;
 
 /** \brief A source of instance masks for a frame (thesis §4.2.1.2): a network run on the
   * colour image, or masks some other tool wrote. Sources are swappable; the pipeline and

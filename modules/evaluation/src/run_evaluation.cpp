@@ -8,11 +8,11 @@
 #include <cuefusion/io/dataset_grabber.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/map_io.h>
+#include <cuefusion/pipeline/run_files.h>
 #include <cuefusion/segmentation/segments_file.h>
 #include <cuefusion/visualization/mesh_rasterizer.h>
 
 #include <boost/filesystem.hpp>
-#include <nlohmann/json.hpp>
 #include <pcl/conversions.h>
 #include <pcl/kdtree/kdtree_flann.h>
 
@@ -169,9 +169,7 @@ scoreInstanceAP (const RunOutputs& run, const io::GroundTruthCloud& truth, const
   for (const auto& [id, name] : truth.class_names)
     input.truth_instances[id] = {name, truth.ignored.count (id) > 0};
   input.predicted_instances.insert (run.segments.begin (), run.segments.end ());
-  InstanceAPConfig ap_config;
-  ap_config.min_region_size = config.min_region_size;
-  return evaluateInstanceAP (input, ap_config);
+  return evaluateInstanceAP (input, config.instance_ap);
 }
 }  // namespace
 
@@ -209,18 +207,9 @@ readRunOutputs (const std::string& dir, bool with_mesh, const std::string& name)
       p.confidence = entry.score;
     run.segments[entry.id] = p;
   }
-  const fs::path tracking = folder / "tracking.json";
-  if (fs::exists (tracking))
-  {
-    try
-    {
-      run.voxel_size = io::readJsonFile (tracking.string ()).at ("volume").at ("voxel_size").get<double> ();
-    }
-    catch (const nlohmann::json::exception&)
-    {
-      // older or hand-made folders: keep the default voxel size
-    }
-  }
+  // Older or hand-made folders (and Pipeline.save's) have no voxel size: keep the default.
+  if (const std::optional<double> voxel_size = pipeline::readRunFiles (dir).voxel_size)
+    run.voxel_size = *voxel_size;
   return run;
 }
 
@@ -252,10 +241,8 @@ RunEvaluationConfig::validate () const
 {
   if (every == 0)
     throw ParameterError ("RunEvaluationConfig::every", "must be at least 1");
-  if (min_truth_pixels == 0)
-    throw ParameterError ("RunEvaluationConfig::min_truth_pixels", "must be at least 1");
-  if (min_region_size == 0)
-    throw ParameterError ("RunEvaluationConfig::min_region_size", "must be at least 1");
+  frame_iou.validate ();
+  instance_ap.validate ();
   if (!(match_radius >= 0.0 && match_radius <= 1.0))
     throw ParameterError ("RunEvaluationConfig::match_radius", "must lie in [0, 1] metres");
   if (!(max_time_difference >= 0.0 && max_time_difference <= 1.0))
@@ -280,8 +267,6 @@ evaluateRuns (const std::vector<RunOutputs>& runs, const SequenceTruth& truth, c
     predicted.emplace_back (runs[k], config.labels);
   }
 
-  FrameIoUConfig iou_config;
-  iou_config.min_truth_pixels = config.min_truth_pixels;
   const io::DatasetGrabber& dataset = *truth.dataset;
   for (std::size_t i = 0; i < dataset.size (); i += config.every)
   {
@@ -302,7 +287,7 @@ evaluateRuns (const std::vector<RunOutputs>& runs, const SequenceTruth& truth, c
         ++results[k].frames_skipped;
         continue;
       }
-      results[k].frame_iou.push_back (frameObjectIoU (labels, objects, valid, iou_config));
+      results[k].frame_iou.push_back (frameObjectIoU (labels, objects, valid, config.frame_iou));
       results[k].frame_index.push_back (i);
     }
   }
