@@ -77,11 +77,14 @@ main (int argc, char** argv)
       if (hole_skip)
         std::swap (skip.empty_holes, result.empty_holes);
       ++skip.phase;
+      reconstruction::RaycastOptions hinted;
+      hinted.depth_hint = pyramid[0].depth;
+      hinted.hole_skip = skip;
       double fastest = 0.0;
       for (int r = 0; r < repeats; ++r)
       {
         const auto start = std::chrono::steady_clock::now ();
-        volume.raycast (frame->camera, *frame->pose, pyramid[0].depth, skip, result);
+        volume.raycast (frame->camera, *frame->pose, result, hinted);
         const double ms = std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - start).count ();
         if (r == 0)
           cold.push_back (ms);

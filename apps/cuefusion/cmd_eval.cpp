@@ -142,8 +142,8 @@ parseEvalSettings (const std::vector<std::string>& args, EvalSettings& s, po::va
     ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
     ("labels", po::value (&s.labels_from)->default_value (s.labels_from), "per-frame IoU from the 'final' map seen from each estimated pose, or the run's 'per-frame' labels/ (run --save-every)")
     ("every", po::value (&c.every)->default_value (c.every), "score every K-th frame")
-    ("min-pixels", po::value (&c.min_truth_pixels)->default_value (c.min_truth_pixels), "objects with fewer visible pixels in a frame are not scored there")
-    ("min-region", po::value (&c.min_region_size)->default_value (c.min_region_size), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
+    ("min-pixels", po::value (&c.frame_iou.min_truth_pixels)->default_value (c.frame_iou.min_truth_pixels), "objects with fewer visible pixels in a frame are not scored there")
+    ("min-region", po::value (&c.instance_ap.min_region_size)->default_value (c.instance_ap.min_region_size), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
     ("match-radius", po::value (&c.match_radius)->default_value (c.match_radius), "3D AP: ground-truth points take the label of the nearest map point within this (metres; 0 = two voxels)")
     ("no-plots", po::bool_switch (&s.no_plots), "write report.json and CSV only");
   po::positional_options_description positional;

@@ -146,8 +146,8 @@ main (int argc, char** argv)
       {"DepthPreprocessorConfig::max_depth", "--max-depth"},
       {"DenseReconstructionConfig::hole_refresh_period", "--hole-refresh"},
       {"RunEvaluationConfig::every", "--every"},
-      {"RunEvaluationConfig::min_truth_pixels", "--min-pixels"},
-      {"RunEvaluationConfig::min_region_size", "--min-region"},
+      {"FrameIoUConfig::min_truth_pixels", "--min-pixels"},
+      {"InstanceAPConfig::min_region_size", "--min-region"},
       {"RunEvaluationConfig::match_radius", "--match-radius"},
     };
     const auto option = options.find (e.parameter ());

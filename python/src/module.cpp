@@ -525,8 +525,8 @@ evaluateRun (const std::string& run, const std::string& sequence, const std::str
     throw py::value_error ("labels must be 'final' or 'per-frame', not '" + labels + "'");
   config.labels = labels == "final" ? evaluation::RunEvaluationConfig::Labels::FinalMap : evaluation::RunEvaluationConfig::Labels::PerFrame;
   config.every = every;
-  config.min_truth_pixels = min_pixels;
-  config.min_region_size = min_region;
+  config.frame_iou.min_truth_pixels = min_pixels;
+  config.instance_ap.min_region_size = min_region;
   config.match_radius = match_radius;
   config.validate ();
   io::SequenceOptions options;

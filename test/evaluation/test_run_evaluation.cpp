@@ -45,7 +45,7 @@ protected:
           ++pixels[frame->instance_mask.at<std::uint16_t> (r, c)];
       // The objects the evaluation scores: seen with enough pixels in some frame.
       for (const auto& [id, n] : pixels)
-        if (id != 0 && !truth.stuff.count (id) && n >= evaluation::RunEvaluationConfig ().min_truth_pixels)
+        if (id != 0 && !truth.stuff.count (id) && n >= evaluation::RunEvaluationConfig ().frame_iou.min_truth_pixels)
           objects.insert (id);
     }
     ASSERT_GE (objects.size (), 3u);

@@ -14,6 +14,25 @@ namespace cuefusion
 {
 namespace test
 {
+/** The volume's model seen from \a pose (TSDFVolume::raycast into a new result). */
+inline reconstruction::RaycastResult
+rendered (const reconstruction::TSDFVolume& volume, const PinholeCamera& camera, const Eigen::Isometry3d& pose)
+{
+  reconstruction::RaycastResult out;
+  volume.raycast (camera, pose, out);
+  return out;
+}
+
+/** Raycast options with a depth hint (and a hole skip). */
+inline reconstruction::RaycastOptions
+withHint (const cv::Mat& hint, const reconstruction::RaycastHoleSkip& skip = reconstruction::RaycastHoleSkip ())
+{
+  reconstruction::RaycastOptions options;
+  options.depth_hint = hint;
+  options.hole_skip = skip;
+  return options;
+}
+
 /** A sphere (r = 0.15 m) and a cube (0.24 m) floating side by side; the camera orbits them
   * a full turn. Primitive 0 of object 1 is the sphere, of object 2 the box.
   */

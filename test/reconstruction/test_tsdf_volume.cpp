@@ -110,7 +110,7 @@ TEST (TSDFVolume, RaycastDepthMatchesRenderedDepth)
   // A view between the integrated ones.
   const Eigen::Isometry3d pose = scene.trajectory.poseAt (0.53);
   const simulation::RenderedView truth = renderer.render (scene.camera, pose);
-  const RaycastResult model = volume.raycast (scene.camera, pose);
+  const RaycastResult model = test::rendered (volume, scene.camera, pose);
   const cv::Mat depth = model.depth ();
   std::vector<double> error;
   std::size_t rendered = 0, missing = 0, spurious = 0;
@@ -162,7 +162,7 @@ TEST (TSDFVolume, RaycastOfAnIntegratedViewReproducesIt)
   const simulation::RenderedView truth = renderer.render (scene.camera, pose);
   TSDFVolume volume;
   volume.integrate (truth.depth, truth.color, scene.camera, pose);
-  const cv::Mat depth = volume.raycast (scene.camera, pose).depth ();
+  const cv::Mat depth = test::rendered (volume, scene.camera, pose).depth ();
   std::size_t valid = 0, matched = 0;
   std::vector<double> error;
   for (int v = 0; v < depth.rows; ++v)
@@ -190,7 +190,7 @@ TEST (TSDFVolume, RaycastNormalsOfASingleViewMatchTheSurface)
   const simulation::RenderedView truth = renderer.render (scene.camera, pose);
   TSDFVolume volume;
   volume.integrate (truth.depth, truth.color, scene.camera, pose);
-  const RaycastResult model = volume.raycast (scene.camera, pose);
+  const RaycastResult model = test::rendered (volume, scene.camera, pose);
   std::vector<double> angle;
   for (int v = 0; v < truth.depth.rows; ++v)
     for (int u = 0; u < truth.depth.cols; ++u)
@@ -495,7 +495,7 @@ TEST (TSDFVolume, DepthHintedRaycastMatchesTheFullRaycast)
   const RGBDFrame::Ptr last = sequence.frame (9);
   RaycastResult full, hinted;
   volume.raycast (last->camera, *last->pose, full);
-  volume.raycast (last->camera, *last->pose, last->depth, hinted);
+  volume.raycast (last->camera, *last->pose, hinted, test::withHint (last->depth));
   const cv::Mat a = full.depth (), b = hinted.depth ();
   std::size_t both = 0, same = 0, only_full = 0;
   for (int v = 0; v < a.rows; ++v)
@@ -535,7 +535,7 @@ TEST (TSDFVolume, HintBehindTheSurfaceStillFindsIt)
   RaycastResult full, hinted;
   volume.raycast (scene.camera, pose, full);
   cv::Mat hint = view.depth + 5.0 * volume.getConfig ().voxel_size;
-  volume.raycast (scene.camera, pose, hint, hinted);
+  volume.raycast (scene.camera, pose, hinted, test::withHint (hint));
   const cv::Mat a = full.depth (), b = hinted.depth ();
   // Away from the view's rim, whose cells have unobserved corners (both marches then
   // use nearest-voxel values and give no normal).
@@ -570,7 +570,7 @@ TEST (TSDFVolume, HoleSkipSearchesOnlyTheRefreshedHoles)
   cv::Mat hint = last->depth.clone ();
   hint.rowRange (100, 140).setTo (0.f);
   RaycastResult searched, skipped, stale;
-  volume.raycast (last->camera, *last->pose, hint, searched);
+  volume.raycast (last->camera, *last->pose, searched, test::withHint (hint));
   ASSERT_EQ (searched.empty_holes.type (), CV_8U);
   const cv::Mat depth = searched.depth ();
   int holes_found = 0, holes_empty = 0;
@@ -593,14 +593,14 @@ TEST (TSDFVolume, HoleSkipSearchesOnlyTheRefreshedHoles)
   RaycastHoleSkip skip;
   skip.empty_holes = searched.empty_holes.clone ();
   skip.phase = 3;
-  volume.raycast (last->camera, *last->pose, hint, skip, skipped);
+  volume.raycast (last->camera, *last->pose, skipped, test::withHint (hint, skip));
   EXPECT_EQ (cv::countNonZero (skipped.depth () != depth), 0);
   EXPECT_EQ (cv::countNonZero (skipped.empty_holes != searched.empty_holes), 0);
 
   // A stale mask marking every pixel: hole rays Newton cannot settle are searched only on
   // the refreshed diagonals (u + v + phase) mod 8 = 0; rays with a usable hint as before.
   skip.empty_holes.setTo (255);
-  volume.raycast (last->camera, *last->pose, hint, skip, stale);
+  volume.raycast (last->camera, *last->pose, stale, test::withHint (hint, skip));
   const cv::Mat stale_depth = stale.depth ();
   int stale_found = 0, refreshed_found = 0, lost = 0;
   for (int v = 0; v < hint.rows; ++v)
@@ -643,5 +643,5 @@ TEST (TSDFVolume, HoleSkipSearchesOnlyTheRefreshedHoles)
 
   // Bad masks are refused with a message, not read out of bounds.
   skip.empty_holes = cv::Mat (10, 10, CV_8U, cv::Scalar (0));
-  EXPECT_THROW (volume.raycast (last->camera, *last->pose, hint, skip, stale), Error);
+  EXPECT_THROW (volume.raycast (last->camera, *last->pose, stale, test::withHint (hint, skip)), Error);
 }

@@ -409,7 +409,7 @@ TEST (VectorKernels, HintedRaycastIsTheScalarOne)
   for (const bool vector : {false, true})
   {
     const KernelChoice choice (vector);
-    volume.raycast (scene.camera, pose, views[1].depth, result[vector]);
+    volume.raycast (scene.camera, pose, result[vector], test::withHint (views[1].depth));
   }
   int hits = 0, only_one = 0, far = 0, colors_differ = 0;
   float worst_normal = 0.f;

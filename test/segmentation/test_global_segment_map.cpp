@@ -568,8 +568,10 @@ TEST_F (PropagationFixture, LabelLayerKeysTheVolumesVoxelsAndItsFileRoundTrips)
   // L^m: each pixel shows the label of the voxel the raycast reports, 0 where it hit none;
   // the raycast sampling the layer itself gives the same image.
   reconstruction::RaycastResult model;
-  volume->raycast (sequence->camera (), sequence->poseAt (3), sequence->frame (3)->depth, reconstruction::RaycastHoleSkip (),
-                   model, &layer.labelValues ());
+  reconstruction::RaycastOptions options;
+  options.depth_hint = sequence->frame (3)->depth;
+  options.values = &layer.labelValues ();
+  volume->raycast (sequence->camera (), sequence->poseAt (3), model, options);
   const cv::Mat labels = modelLabels (model);
   ASSERT_EQ (model.values.size (), labels.size ());
   EXPECT_EQ (cv::countNonZero (model.values != labels), 0);

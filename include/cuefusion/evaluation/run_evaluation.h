@@ -8,6 +8,7 @@
 #include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
 #include <cuefusion/io/sequence.h>
+#include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -33,7 +34,7 @@ struct RunOutputs
   io::Trajectory trajectory;
   io::TriangleMesh mesh;                                 ///< empty unless read with the mesh
   std::map<std::uint32_t, PredictedInstance> segments;  ///< segments.json: id → class, score
-  double voxel_size = 0.01;                              ///< tracking.json's, else 1 cm
+  double voxel_size = reconstruction::TSDFVolumeConfig ().voxel_size;  ///< tracking.json's, else the default
 };
 
 /** \brief The name a run folder is shown under when none is given: the folder's name
@@ -82,12 +83,12 @@ struct RunEvaluationConfig
   };
   Labels labels = Labels::FinalMap;
   std::size_t every = 1;               ///< score every K-th frame
-  std::size_t min_truth_pixels = 100;  ///< objects with fewer visible pixels in a frame are not scored there
-  std::size_t min_region_size = 100;   ///< 3D AP: instances with fewer points are skipped (ScanNet)
+  FrameIoUConfig frame_iou;            ///< per-frame object IoU (min_truth_pixels)
+  InstanceAPConfig instance_ap;        ///< 3D AP (min_region_size, ScanNet's)
   double match_radius = 0.0;           ///< 3D AP: truth points take the nearest map point's label within this (m; 0 = two voxels)
   double max_time_difference = 1e-3;   ///< a run's pose and a reference pose pair within this (s)
 
-  /** Throws ParameterError ("RunEvaluationConfig::field", why). */
+  /** Throws ParameterError ("RunEvaluationConfig::field", why; the embedded configs' own names). */
   void validate () const;
 };
 

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cuefusion/io/dataset_grabber.h>
+#include <cuefusion/common/sensor_defaults.h>
 
 #include <string>
 
@@ -39,7 +40,7 @@ public:
 struct FolderGrabberConfig
 {
   std::string intrinsics_path;   ///< overrides the folder's intrinsics
-  double fps = 30.0;             ///< timestamps = frame number / fps
+  double fps = kFrameRate;             ///< timestamps = frame number / fps
 };
 
 /** \brief Redwood / ICL-NUIM folder as Open3D reads it: depth/ (mm), image/ or color/,

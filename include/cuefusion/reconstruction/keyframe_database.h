@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <cuefusion/common/sensor_defaults.h>
+
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
@@ -21,7 +23,7 @@ struct KeyframeDatabaseConfig
   int ferns = 500;                  ///< random ferns
   int decisions = 4;                ///< binary tests per fern (a code of this many bits)
   cv::Size size{80, 60};            ///< the depth is reduced to this before the tests
-  double max_depth = 5.0;           ///< test thresholds are drawn in (0, max_depth] metres
+  double max_depth = kMaxDepth;       ///< test thresholds are drawn in (0, max_depth] metres
   /** A tracked frame becomes a keyframe when every stored keyframe differs from it in at
     * least this share of its fern codes. */
   double min_novelty = 0.2;

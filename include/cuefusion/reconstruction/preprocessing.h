@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cuefusion/common/pinhole_camera.h>
+#include <cuefusion/common/sensor_defaults.h>
 #include <cuefusion/reconstruction/vertex_maps.h>
 
 #include <opencv2/core.hpp>
@@ -39,9 +40,9 @@ struct DepthPreprocessorConfig
 {
   BilateralFilterConfig bilateral;   ///< KinectFusion's filter: range σ 3 cm, spatial σ 4.5 px
   int pyramid_levels = 3;
-  double min_depth = 0.1;            ///< measurements outside [min, max] are dropped
-  double max_depth = 5.0;
-  double max_depth_jump = 0.05;      ///< relative depth step that breaks a 2×2 block average and the coarser levels' (±1 px) normals
+  double min_depth = kMinDepth;      ///< measurements outside [min, max] are dropped
+  double max_depth = kMaxDepth;
+  double max_depth_jump = kPyramidDepthJump;  ///< relative depth step that breaks a 2×2 block average and the coarser levels' (±1 px) normals
   /// level 0's normals (§4.1.2: ±1 pixel); FusionPipeline gives tracking the segmentation's
   /// (segmentation::SurfacePreprocessingConfig::normals), so one normal map serves both
   NormalMapConfig normals;

@@ -3,6 +3,7 @@
 
 #include <cuefusion/common/pinhole_camera.h>
 #include <cuefusion/common/rgbd_frame.h>
+#include <cuefusion/common/sensor_defaults.h>
 #include <cuefusion/reconstruction/voxel.h>
 #include <cuefusion/reconstruction/voxel_block_store.h>
 
@@ -30,8 +31,8 @@ struct TSDFVolumeConfig
   double voxel_size = 0.01;          ///< metres
   double truncation_voxels = 4.0;    ///< truncation distance τ in voxels
   float max_weight = 100.f;          ///< w_max of §4.1.4
-  double min_depth = 0.1;            ///< depth measurements outside [min, max] are not fused
-  double max_depth = 5.0;
+  double min_depth = kMinDepth;      ///< depth measurements outside [min, max] are not fused
+  double max_depth = kMaxDepth;
   std::optional<Eigen::AlignedBox3d> bounds;  ///< when set, no block is allocated outside it
 
   double truncation () const { return voxel_size * truncation_voxels; }
@@ -98,6 +99,22 @@ struct RaycastHoleSkip
   unsigned refresh_period = 8;
 };
 
+/** \brief What a raycast may use beyond the camera and the pose (TSDFVolume::raycast). */
+struct RaycastOptions
+{
+  /** A depth map seen from this very pose (CV_32F metres of the image size, e.g. the frame
+    * just integrated): rays start two voxels in front of its valid pixels instead of at
+    * the nearest block (the full march where that start lies behind a surface), which
+    * skips most of the march; model surfaces further in front of the hint (stale geometry
+    * the frame no longer sees there) are then not rendered. Empty: no hint. */
+  cv::Mat depth_hint;
+  /** With a hint: the searches behind holes it marks are skipped (RaycastHoleSkip); its
+    * empty_holes must not share data with the result's. */
+  RaycastHoleSkip hole_skip;
+  /** When given, each hit voxel's value in this layer goes to RaycastResult::values. */
+  const VoxelValueLayer* values = nullptr;
+};
+
 /** \brief Truncated signed distance volume on sparse voxel hashing (Nießner et al. 2013,
   * InfiniTAM / Kähler et al. 2015): 8³-voxel blocks are allocated only inside the
   * truncation band of observed surfaces, found through a hash of block coordinates.
@@ -134,35 +151,16 @@ public:
   void
   integrate (const cv::Mat& depth, const cv::Mat& color, const PinholeCamera& camera, const Eigen::Isometry3d& pose);
 
-  /** \brief Renders the model from \a camera at camera-to-world \a pose. Rays start and
-    * stop at the depth range of the allocated blocks covering each 8×8 tile, skip
-    * unallocated blocks a block at a time, and locate the zero crossing by trilinear
-    * interpolation. \a out's buffers are reused when their size fits.
+  /** \brief Renders the model from \a camera at camera-to-world \a pose into \a out
+    * (its buffers are reused when their size fits). Rays start and stop at the depth range
+    * of the allocated blocks covering each 8×8 tile, skip unallocated blocks a block at a
+    * time, and locate the zero crossing by trilinear interpolation; \a options add a depth
+    * hint, the hole skip and a value layer to sample (RaycastOptions). Throws
+    * cuefusion::Error on a camera or option of the wrong kind.
     */
   void
-  raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out) const;
-
-  /** \brief As above, with a depth map seen from this very pose (CV_32F metres, e.g. the
-    * frame just integrated): rays start two voxels in front of its valid pixels instead
-    * of at the nearest block (falling back to the full march where that start lies behind
-    * a surface), which skips most of the march. Model surfaces further in
-    * front of the hint (stale geometry the frame no longer sees there) are then not
-    * rendered.
-    */
-  void
-  raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,
-           RaycastResult& out) const;
-
-  /** \brief As above, skipping the searches behind holes that \a skip marks (see
-    * RaycastHoleSkip). \a skip.empty_holes must not share data with \a out.empty_holes.
-    * With \a values, each hit voxel's value in that layer goes to \a out.values.
-    */
-  void
-  raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,
-           const RaycastHoleSkip& skip, RaycastResult& out, const VoxelValueLayer* values = nullptr) const;
-
-  RaycastResult
-  raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose) const;
+  raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out,
+           const RaycastOptions& options = RaycastOptions ()) const;
 
   /** \brief What an extraction writes as each point's label: a function of the number of
     * the voxel nearer the point (e.g. a label layer's lookup), called from several threads

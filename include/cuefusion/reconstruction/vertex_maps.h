@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cuefusion/common/pinhole_camera.h>
+#include <cuefusion/common/sensor_defaults.h>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -41,7 +42,7 @@ computeVertexMap (const cv::Mat& depth, const PinholeCamera& camera, cv::Mat& ve
 struct NormalMapConfig
 {
   int step = 1;                ///< the differences span ±step pixels (§4.1.2: 1, the 4-neighbourhood)
-  float max_depth_jump = 0.05f;  ///< a neighbour more than this × z away in depth is across an edge
+  float max_depth_jump = kPyramidDepthJump;  ///< a neighbour more than this × z away in depth is across an edge
 
   /** \brief Throws ParameterError naming the field as \a owner + "." + field (e.g.
     * "SurfacePreprocessingConfig::normals.step"). */

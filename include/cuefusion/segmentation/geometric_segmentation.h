@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <cuefusion/common/sensor_defaults.h>
 #include <cuefusion/segmentation/concavity_edge_estimation.h>
 #include <cuefusion/segmentation/depth_discontinuity_edge_estimation.h>
+#include <cuefusion/segmentation/segment_size.h>
 #include <cuefusion/segmentation/surface_planes.h>
 #include <cuefusion/segmentation/surface_preprocessing.h>
 
@@ -24,14 +26,14 @@ namespace segmentation
 struct EdgeLabelingConfig
 {
   int closing_iterations = 2;       ///< §4.2.1.1: closings of the edge map (3×3 kernel); 0 switches it off
-  int min_segment_size = 50;        ///< smaller connected components are relabelled 0 (pixels)
+  int min_segment_size = kMinSegmentPixels;///< smaller connected components are relabelled 0 (pixels)
   /** Edge pixels with valid depth are given to the adjacent segment they continue in
     * depth (breadth-first, at most this many pixels out; 0 = off: edge pixels stay 0).
     * The edge band is 2–4 px wide after closing; without this every object loses a rim
     * that wide.
     */
   int edge_assignment_radius = 4;
-  float max_depth_jump = 0.02f;     ///< growing into an edge pixel needs |Δz| < this × z
+  float max_depth_jump = kSurfaceDepthJump;  ///< growing into an edge pixel needs |Δz| < this × z
   void validate () const;
 };
 

@@ -3,6 +3,7 @@
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/instance.h>
+#include <cuefusion/common/sensor_defaults.h>
 #include <cuefusion/segmentation/surface_planes.h>
 
 #include <opencv2/core.hpp>
@@ -66,7 +67,7 @@ struct InstanceGuidedRegionMergeConfig
   /** Neighbouring pixels further apart in depth than this × z meet along a depth jump,
     * not on one surface (the mask's rim is grown only across one surface; a mask divided
     * along jumps is two objects): the same 2 % as EdgeLabelingConfig::max_depth_jump. */
-  float max_depth_jump = 0.02f;
+  float max_depth_jump = kSurfaceDepthJump;
   void validate () const;
 };
 /// The name before 0.2 (one config per class, named after it).

@@ -3,6 +3,7 @@
 
 #include <cuefusion/common/pinhole_camera.h>
 #include <cuefusion/segmentation/global_segment_map.h>
+#include <cuefusion/segmentation/segment_size.h>
 #include <cuefusion/segmentation/voxel_label_update.h>  // the map update that follows (§4.2.4)
 
 #include <opencv2/core.hpp>
@@ -30,7 +31,7 @@ struct SegmentPropagationConfig
   float normal_agreement = 0.7f;   ///< τ_N: N(u)·N^m(u) must exceed this
   float inherit_overlap = 0.3f;    ///< τ_l: Π̃ above this inherits the model label
   float noise_factor = 1.f;        ///< the distance test is |(V − V^m)·V/|V|| < k·σ_d(u)
-  int min_segment_size = 50;       ///< frame segments with fewer pixels get label 0; map segments seen on fewer get no vote
+  int min_segment_size = kMinSegmentPixels;///< frame segments with fewer pixels get label 0; map segments seen on fewer get no vote
   /** A map segment counts as seen inside one frame segment when more than this share of
     * its agreeing pixels lie in it; only such segments get votes (§4.2.3 as evidence).
     */

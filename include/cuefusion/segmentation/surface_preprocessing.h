@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <cuefusion/common/sensor_defaults.h>
 #include <cuefusion/reconstruction/preprocessing.h>
 #include <cuefusion/segmentation/surface_planes.h>
 
@@ -58,7 +59,7 @@ struct SurfacePreprocessingConfig
   {
     reconstruction::NormalMapConfig c;
     c.step = 4;
-    c.max_depth_jump = 0.02f;
+    c.max_depth_jump = kSurfaceDepthJump;
     return c;
   }
 

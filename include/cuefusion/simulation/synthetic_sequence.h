@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cuefusion/common/rgbd_frame.h>
+#include <cuefusion/common/sensor_defaults.h>
 #include <cuefusion/simulation/scene_renderer.h>
 #include <cuefusion/io/sequence_writer.h>
 #include <cuefusion/simulation/simulated_detector.h>
@@ -22,7 +23,7 @@ namespace simulation
 struct SyntheticSequenceConfig
 {
   std::size_t frames = 60;
-  double fps = 30.0;
+  double fps = kFrameRate;
   std::uint64_t seed = 1;
   int width = 0;                     ///< 0 = the scene's camera; else scaled to this size
   int height = 0;

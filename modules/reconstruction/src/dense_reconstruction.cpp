@@ -224,7 +224,9 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
     // right candidate converges close by with most points agreeing.
     // The frame's own depth as the raycast's start: where the candidate is right, each ray
     // settles by a Newton step or two near it instead of marching (a third of the cost).
-    volume_.raycast (frame.camera, candidate, frame_pyramid_[0].depth, view);
+    RaycastOptions hinted;
+    hinted.depth_hint = frame_pyramid_[0].depth;
+    volume_.raycast (frame.camera, candidate, view, hinted);
     buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
                        static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
     const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate, candidate);
@@ -407,7 +409,11 @@ DenseReconstruction::process (const RGBDFrame& frame)
     hole_skip_.empty_holes.release ();
   hole_skip_.refresh_period = config_.hole_refresh_period;
   ++hole_skip_.phase;
-  volume_.raycast (frame.camera, report.pose, frame_pyramid_[0].depth, hole_skip_, model_, model_values_);
+  RaycastOptions options;
+  options.depth_hint = frame_pyramid_[0].depth;
+  options.hole_skip = hole_skip_;
+  options.values = model_values_;
+  volume_.raycast (frame.camera, report.pose, model_, options);
   buildModelPyramid (model_.vertices, model_.normals, model_.camera, config_.preprocessing.pyramid_levels,
                      static_cast<float> (config_.preprocessing.max_depth_jump), model_pyramid_);
   report.timings.raycast_ms = clock.lap ();

@@ -2,6 +2,7 @@
 #include "integration.h"
 
 #include <cuefusion/common/avx2.h>
+#include <cuefusion/common/sensor_defaults.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,7 +18,7 @@ namespace
 {
 /// Four pixels are one surface for the bilinear depth when within this × the nearest
 /// depth of each other (2 %, the scalar and the AVX2 kernel alike).
-constexpr float kSameSurface = 0.02f;
+constexpr float kSameSurface = kSurfaceDepthJump;
 
 /** \brief Depth seen along the voxel's own ray: bilinear between the four pixels around
   * (uf, vf) when all are valid and on one surface (within 2 % of each other), else the

@@ -856,31 +856,12 @@ RowCaster::castRow (int v)
 }
 }  // namespace
 
-RaycastResult
-TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose) const
-{
-  RaycastResult out;
-  raycast (camera, pose, out);
-  return out;
-}
-
 void
-TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out) const
+TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, RaycastResult& out, const RaycastOptions& options) const
 {
-  raycast (camera, pose, cv::Mat (), out);
-}
-
-void
-TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,
-                     RaycastResult& out) const
-{
-  raycast (camera, pose, depth_hint, RaycastHoleSkip (), out);
-}
-
-void
-TSDFVolume::raycast (const PinholeCamera& camera, const Eigen::Isometry3d& pose, const cv::Mat& depth_hint,
-                     const RaycastHoleSkip& skip, RaycastResult& out, const VoxelValueLayer* values) const
-{
+  const cv::Mat& depth_hint = options.depth_hint;
+  const RaycastHoleSkip& skip = options.hole_skip;
+  const VoxelValueLayer* values = options.values;
   camera.validate ("TSDFVolume::raycast");
   if (!depth_hint.empty () && (depth_hint.type () != CV_32F || depth_hint.cols != camera.width || depth_hint.rows != camera.height))
     throw Error ("TSDFVolume::raycast", "depth hint must be CV_32F of the camera's image size");

@@ -3,6 +3,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/simulation/synthetic_scene.h>
+#include "scene_shapes.h"
 
 #include <boost/algorithm/string.hpp>
 #include <boost/filesystem.hpp>
@@ -22,7 +23,7 @@ namespace simulation
 {
 namespace
 {
-constexpr double kPi = 3.14159265358979323846;
+using shapes::kPi;
 
 /** \a v turned about z by the angle whose cosine and sine are \a c and \a s. The renderer
   * calls this per ray and primitive: Eigen::AngleAxisd builds a whole 3×3 matrix from two

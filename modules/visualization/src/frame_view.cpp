@@ -10,7 +10,7 @@ namespace cuefusion
 namespace visualization
 {
 cv::Mat
-colorizeDepth (const cv::Mat& depth, float min_depth, float max_depth)
+colorizeDepth (const cv::Mat& depth, float colour_near, float colour_far)
 {
   if (depth.type () != CV_32FC1)
     throw Error ("colorizeDepth", "depth must be CV_32FC1");
@@ -21,7 +21,7 @@ colorizeDepth (const cv::Mat& depth, float min_depth, float max_depth)
     {
       const float z = depth.at<float> (r, c);
       valid.at<std::uint8_t> (r, c) = isValidDepth (z) ? 255 : 0;
-      const float t = std::min (1.f, std::max (0.f, (z - min_depth) / (max_depth - min_depth)));
+      const float t = std::min (1.f, std::max (0.f, (z - colour_near) / (colour_far - colour_near)));
       scaled.at<std::uint8_t> (r, c) = cv::saturate_cast<std::uint8_t> (255.f * (1.f - t));
     }
   cv::Mat out;
