@@ -169,6 +169,8 @@ private:
   /** A recorded sequence: frames read (and masked) ahead on another thread, or one after
     * the other with --sequential. */
   void processRecording ();
+  /** Whether frames get masks: a mask source, and a mode that uses them. */
+  bool usesMasks () const { return mask_source_ && pipeline_config_.mode != pipeline::SegmentationMode::Geometry; }
   /** The frame's masks from the mask source (or \a masks_ahead's); false when it has none. */
   bool masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, recognition::PreparedFrame* masks_ahead);
   /** labels/INDEX.png, --render's PNG and --video's frame of a segmented frame. */
@@ -179,8 +181,8 @@ private:
   nlohmann::json trackingJson ();
   /** The staging path of \a name; throws when a second signal came while writing. */
   std::string staged (const std::string& name) const;
-  /** outputs.json's record of what ran: command line, working folder, the model's sha256. */
-  nlohmann::json withProvenance (nlohmann::json manifest) const;
+  /** outputs.json's record of the run: what ran, on what, the files, the model's sha256. */
+  pipeline::RunManifest manifest () const;
 
   /// First: a signal while the session sets up (after the output set's staging folder
   /// exists) stops it before its first frame with its outputs written, instead of ending
@@ -285,7 +287,7 @@ RunSession::RunSession (const RunSettings& s, const po::variables_map& vm)
 bool
 RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, recognition::PreparedFrame* masks_ahead)
 {
-  if (!mask_source_ || pipeline_config_.mode == pipeline::SegmentationMode::Geometry)
+  if (!usesMasks ())
     return false;
   bool have_masks = false;
   if (masks_ahead)
@@ -453,7 +455,7 @@ RunSession::processRecording ()
   // The masks of a frame do not depend on the map: reading, decoding and the network run
   // one or two frames ahead of the loop, and every frame still gets its own masks. With
   // --async-masks the mask source stays in the loop (it hands out its newest masks).
-  const bool masks_ahead = mask_source_ && !asynchronous_masks_ && pipeline_config_.mode != pipeline::SegmentationMode::Geometry;
+  const bool masks_ahead = usesMasks () && !asynchronous_masks_;
   const io::DatasetGrabber::Ptr dataset = dataset_;
   recognition::FramePrefetcher ahead ([dataset] (std::size_t i) { return dataset->readFrame (i); }, dataset_->size (),
                                       masks_ahead ? mask_source_ : nullptr);
@@ -565,25 +567,31 @@ RunSession::trackingJson ()
   return tracking;
 }
 
-nlohmann::json
-RunSession::withProvenance (nlohmann::json manifest) const
+pipeline::RunManifest
+RunSession::manifest () const
 {
+  pipeline::RunManifest m;
+  m.sequence = s_.source;
+  m.frames = result_.reports.size ();
+  m.seconds = seconds_;
+  m.stopped_early = dataset_ != nullptr && InterruptHandlers::interrupted ();
+  for (const std::string& name : kRunOutputs)
+    if (fs::exists (fs::path (outputs_.stagingPath (name))))
+      m.files.push_back (name);
   // What ran, to repeat it: the arguments as given (`cuefusion run` then these repeats the
   // run exactly: offline runs are frame-exact), the working folder they are relative to,
-  // and the network by its bytes.
-  nlohmann::json arguments = nlohmann::json::array ({"run"});
-  for (const std::string& a : s_.command_line)
-    arguments.push_back (a);
-  manifest["command_line"] = arguments;
-  manifest["working_directory"] = fs::current_path ().string ();
-  // The settings as one settings file: `run SEQUENCE --config outputs.json` uses them.
-  manifest["config"] = runConfigJson (s_);
+  // the settings as one settings file, and the network by its bytes.
+  m.command_line = {"run"};
+  m.command_line.insert (m.command_line.end (), s_.command_line.begin (), s_.command_line.end ());
+  m.working_directory = fs::current_path ().string ();
+  m.config = runConfigJson (s_);
   if (!s_.onnx.model_path.empty ())
   {
     const std::string model = findDataFile (s_.onnx.model_path, "models", ".onnx");
-    manifest["model"] = {{"path", fs::absolute (model).string ()}, {"sha256", io::sha256OfFile (model)}};
+    m.model_path = fs::absolute (model).string ();
+    m.model_sha256 = io::sha256OfFile (model);
   }
-  return manifest;
+  return m;
 }
 
 void
@@ -615,20 +623,7 @@ RunSession::writeOutputs ()
   io::writeTextAtomic (staged ("tracking.json"), io::jsonText (trackingJson (), 2) + "\n");
   io::writeTextAtomic (staged ("timings.json"),
                        io::jsonText (pipeline::timingsJson (result_, seconds_), 2) + "\n");
-  nlohmann::json files = nlohmann::json::array ();
-  for (const std::string& name : kRunOutputs)
-    if (fs::exists (fs::path (outputs_.stagingPath (name))))
-      files.push_back (name);
-  const nlohmann::json manifest = {{"command", "run"},
-                                   {"version", version ()},
-                                   {"sequence", s_.source},
-                                   {"frames", result_.reports.size ()},
-                                   {"seconds", seconds_},  // processing, opening the sequence to the last frame
-                                   {"complete", true},
-                                   // a recorded sequence cut short by a signal or a closed window
-                                   {"stopped_early", dataset_ != nullptr && InterruptHandlers::interrupted ()},
-                                   {"files", files}};
-  io::writeTextAtomic (staged ("outputs.json"), io::jsonText (withProvenance (manifest), 2) + "\n");
+  io::writeTextAtomic (staged ("outputs.json"), io::jsonText (pipeline::outputsJson (manifest ()), 2) + "\n");
   if (video_)
     video_->finish ();
   outputs_.commit ();

@@ -326,9 +326,8 @@ public:
     else
     {
       recognition::OnnxInstanceSegmenterConfig config;
-      config.model_path = source;
       recognition::readConfig (settingsJson (options_json, "options", "network"), config);
-      config.model_path = source;
+      config.model_path = source;  // after the options, which must not replace the source
       config.validate ();
       inner_ = withFiles ([&] { return std::make_shared<recognition::OnnxInstanceSegmenter> (config); });
     }

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 
+#include <cuefusion/common/triangle_mesh.h>
+
 #include <Eigen/Core>
 #include <pcl/PolygonMesh.h>
 
@@ -14,18 +16,9 @@ namespace cuefusion
 {
 namespace io
 {
-/** \brief A triangle mesh as PLY files carry it: per-vertex position, optional normal,
-  * colour and segment label, and triangles. Compact (12 bytes a triangle; a
-  * pcl::PolygonMesh spends about 56, a heap vector per face): what TSDFVolume extracts and
-  * `run` writes. */
-struct TriangleMesh
-{
-  std::vector<Eigen::Vector3f> vertices;
-  std::vector<Eigen::Vector3f> normals;             ///< unit (zero where undefined), empty when none
-  std::vector<std::array<std::uint8_t, 3>> colors;  ///< RGB, empty when the file has none
-  std::vector<std::uint32_t> labels;                ///< empty when the file has no `label`
-  std::vector<Eigen::Vector3i> triangles;
-};
+/** \brief The mesh type the PLY readers and writers take (common/triangle_mesh.h; the
+  * name io::TriangleMesh is kept for code written before it moved). */
+using TriangleMesh = cuefusion::TriangleMesh;
 
 /** \brief Reads a binary little-endian PLY mesh: `cuefusion run`'s mesh.ply (x y z
   * [nx ny nz] red green blue label) or a ScanNet *_vh_clean_2.ply (x y z red green blue

@@ -147,7 +147,7 @@ public:
   /** \brief The label layer beside the volume (§4.2.4): each voxel's label (as stored, not
     * resolved) and confidence Ψ.
     */
-  const segmentation::VoxelLabelLayer& voxelLabels () const { return labels_; }
+  const segmentation::VoxelLabelLayer& voxelLabels () const { return *labels_; }
   /** \brief The last frame's L^p (global labels), empty before the first segmented frame. */
   const cv::Mat& frameLabels () const { return frame_labels_; }
   /** \brief The model's labels seen from the last pose, as outputs show them (CV_32S). */
@@ -163,7 +163,7 @@ public:
     * segment (segmentColor) when \a color_by_segment, else by the fused colour.
     * io::writeMeshPLY writes it.
     */
-  io::TriangleMesh labelledTriangleMesh (bool color_by_segment = true) const;
+  TriangleMesh labelledTriangleMesh (bool color_by_segment = true) const;
   /** \brief labelledTriangleMesh as a pcl::PolygonMesh (io::toPolygonMesh). */
   pcl::PolygonMesh labelledMesh (bool color_by_segment = true) const;
   /** \brief Refreshes and returns the records of the segments outputs show (voxel counts,
@@ -178,7 +178,9 @@ private:
   segmentation::InstanceGuidedRegionMerge instance_merge_;
   segmentation::SegmentPropagation propagation_;
   segmentation::GlobalSegmentMap map_;
-  segmentation::VoxelLabelLayer labels_;
+  /** On the heap, so that its address, which the model raycast samples (setModelValues,
+    * set once), stays when the pipeline is moved. */
+  std::unique_ptr<segmentation::VoxelLabelLayer> labels_ = std::make_unique<segmentation::VoxelLabelLayer> ();
   segmentation::SurfacePlanes planes_;
   cv::Mat frame_labels_;
   /** \brief The output label of \a label (GlobalSegmentMap::settledLabels). Exact for

@@ -72,6 +72,25 @@ struct TrackingFileContext
 nlohmann::json
 trackingJson (const RunRecord& run, const FusionPipeline& pipeline, const TrackingFileContext& context);
 
+/** \brief outputs.json's record of a run: what ran, on what, how far, with which settings
+  * and network, and which files the set holds (written last, it marks the set complete). */
+struct RunManifest
+{
+  std::string sequence;                  ///< as given
+  std::size_t frames = 0;
+  double seconds = 0.0;                  ///< processing: opening the sequence to the last frame
+  bool stopped_early = false;            ///< a recorded sequence cut short by a signal or a closed window
+  std::vector<std::string> files;        ///< the set's files written before outputs.json
+  std::vector<std::string> command_line; ///< `cuefusion run` and its arguments as given
+  std::string working_directory;         ///< what the arguments are relative to
+  nlohmann::json config;                 ///< the settings as one settings file (`run --config outputs.json` takes them)
+  std::string model_path, model_sha256;  ///< the network by its bytes; empty without one
+};
+
+/** \brief outputs.json of \a manifest (with the library's version). */
+nlohmann::json
+outputsJson (const RunManifest& manifest);
+
 /** \brief What a run folder's outputs.json, tracking.json and timings.json say, for
   * summaries and the evaluation; each figure absent where its file or field is (folders of
   * older versions, or written by Pipeline.save). Throws cuefusion::Error naming a file that

@@ -149,6 +149,19 @@ public:
   /** \brief Filtered vertex/normal pyramid of the last processed frame. */
   const FramePyramid& framePyramid () const { return frame_pyramid_; }
 
+  /** \brief What the frame just processed shares with the stages after tracking (the
+    * segmentation of §4.2 reads these instead of computing them again). */
+  struct SharedMaps
+  {
+    const PyramidLevel& frame;  ///< level 0: the filtered depth (0 = invalid), its vertices and normals
+    /** The frame's normals are DepthPreprocessorConfig::normals' (the configured span and
+      * edge test); false where the image is too small for that span and level 0 has ±1 px
+      * normals (DepthPreprocessorConfig::levelZeroUsesNormals). */
+    bool configured_normals;
+    const RaycastResult& model;  ///< V^m, N^m and the sampled values (setModelValues) at the frame's pose
+  };
+  SharedMaps sharedMaps () const;
+
   bool initialized () const { return initialized_; }
   const Eigen::Isometry3d& lastGoodPose () const { return last_good_pose_; }
 

@@ -4,12 +4,12 @@
 #include <cuefusion/common/pinhole_camera.h>
 #include <cuefusion/common/rgbd_frame.h>
 #include <cuefusion/common/sensor_defaults.h>
+#include <cuefusion/common/triangle_mesh.h>
 #include <cuefusion/reconstruction/voxel.h>
 #include <cuefusion/reconstruction/voxel_block_store.h>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
-#include <cuefusion/io/mesh_io.h>
 
 #include <pcl/PolygonMesh.h>
 #include <pcl/point_cloud.h>
@@ -181,7 +181,7 @@ public:
     * triangles and, when \a label_of is given, label_of (the voxel nearer it) (labels stay
     * empty otherwise); triangles wind counter-clockwise seen from outside.
     */
-  io::TriangleMesh
+  TriangleMesh
   extractTriangleMesh (const VoxelLabelFunction& label_of = {}) const;
 
   /** \brief extractTriangleMesh () as a pcl::PolygonMesh (io::toPolygonMesh: cloud fields x

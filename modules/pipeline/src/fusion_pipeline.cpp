@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/label_colors.h>
+#include <cuefusion/io/mesh_io.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/reconstruction/noise_estimation.h>
 
@@ -107,6 +108,8 @@ FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
   }
   // The label update (§4.2.4) reads the voxels each integration saw in the band.
   reconstruction_.volume ().setRecordObservedSurface (true);
+  // The model raycast samples the labels (L^m of §4.2.2.1).
+  reconstruction_.setModelValues (&labels_->labelValues ());
 }
 
 void
@@ -128,7 +131,7 @@ FusionPipeline::continueFrom (reconstruction::TSDFVolume volume, segmentation::V
           it->second = map_.newLoadedSegment (0);
         label = it->second;
       }
-  labels_ = std::move (labels);
+  *labels_ = std::move (labels);  // keeps labelValues ()'s address
   reconstruction_.continueFrom (std::move (volume), std::move (keyframes));
   settled_at_ = static_cast<std::size_t> (-1);
 }
@@ -139,7 +142,7 @@ FusionPipeline::saveVolume (const std::string& volume_path, const std::string& l
 {
   refreshSettled (true);
   reconstruction_.volume ().save (volume_path);
-  labels_.save (labels_path, reconstruction_.volume (), [this] (std::uint32_t label) { return settledLabel (label, true); });
+  labels_->save (labels_path, reconstruction_.volume (), [this] (std::uint32_t label) { return settledLabel (label, true); });
   if (!keyframes_path.empty ())
     reconstruction_.keyframesForContinuing ().save (keyframes_path, reconstruction_.volume ());
 }
@@ -185,9 +188,6 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   ++processed_;
   followNoise (frame);
   report.noise_scale = noise_scale_;
-  // The model raycast samples the labels (L^m); set per frame, as a moved pipeline's layer
-  // lives elsewhere.
-  reconstruction_.setModelValues (&labels_.labelValues ());
   report.reconstruction = reconstruction_.process (frame);
   if (!report.reconstruction.tracked)
     return report;
@@ -196,7 +196,8 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
 
   // L^G from the frame's depth (§4.2.1.1).
   const PinholeCamera& camera = frame.camera;
-  const reconstruction::PyramidLevel& level = reconstruction_.framePyramid ().front ();
+  const reconstruction::DenseReconstruction::SharedMaps shared = reconstruction_.sharedMaps ();
+  const reconstruction::PyramidLevel& level = shared.frame;
   if (sharesSmoothing (config_))
   {
     // Tracking's level 0 is this frame's depth through the same filter (0 = invalid), and
@@ -204,7 +205,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
     planes_.assignDepth (level.depth, camera.fx, camera.fy, camera.cx, camera.cy);
     // (On images too small for tracking to use the segmentation's span, level 0 has ±1 px
     // normals, and the segmentation computes its own.)
-    if (sharesNormals (config_) && reconstruction_.getConfig ().preprocessing.levelZeroUsesNormals (level.depth.cols))
+    if (sharesNormals (config_) && shared.configured_normals)
     {
       planes_.assignNormals (level.normals);
       // Tracking keeps the sensor's holes; the segmentation fills the small ones inside a
@@ -244,7 +245,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
 
   // L^p against the model seen from the fused pose (§4.2.2).
   watch.reset ();
-  const reconstruction::RaycastResult& model = reconstruction_.model ();
+  const reconstruction::RaycastResult& model = shared.model;
   segmentation::PropagationResult propagated;
   propagation_.propagate (level.vertices, level.normals, frame_segments, model.vertices, model.normals, model.values, map_,
                           frame.index, propagated, info.empty () ? nullptr : &info);
@@ -259,7 +260,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   report.segmentation.merging_ms = watch.getTime ();
   watch.reset ();
   report.voxel_writes =
-      segmentation::updateVoxelLabels (reconstruction_.volume (), labels_, propagated.labels, map_, config_.update);
+      segmentation::updateVoxelLabels (reconstruction_.volume (), *labels_, propagated.labels, map_, config_.update);
   report.segmentation.update_ms = watch.getTime ();
   return report;
 }
@@ -271,7 +272,7 @@ FusionPipeline::refreshSettled (bool exact) const
                      (exact ? settled_at_ != processed_ : processed_ - settled_at_ >= kViewSettleFrames);
   if (!stale)
     return;
-  settled_ = map_.settledLabels (reconstruction_.volume (), labels_);
+  settled_ = map_.settledLabels (reconstruction_.volume (), *labels_);
   settled_at_ = processed_;
   settled_end_ = static_cast<std::uint32_t> (map_.labelsAllocated () + 1);
 }
@@ -310,7 +311,7 @@ FusionPipeline::labelledCloud (bool color_by_segment) const
   pcl::PointCloud<pcl::PointXYZRGBL>::Ptr cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZRGBL>> ();
   refreshSettled (true);
   reconstruction_.volume ().extractPointCloud (*cloud, nullptr, [this] (reconstruction::VoxelNumber v) {
-    return settledLabel (labels_.label (v), true);
+    return settledLabel (labels_->label (v), true);
   });
   if (color_by_segment)
     for (pcl::PointXYZRGBL& p : *cloud)
@@ -323,12 +324,12 @@ FusionPipeline::labelledCloud (bool color_by_segment) const
   return cloud;
 }
 
-io::TriangleMesh
+TriangleMesh
 FusionPipeline::labelledTriangleMesh (bool color_by_segment) const
 {
   refreshSettled (true);
-  io::TriangleMesh mesh = reconstruction_.volume ().extractTriangleMesh (
-      [this] (reconstruction::VoxelNumber v) { return settledLabel (labels_.label (v), true); });
+  TriangleMesh mesh = reconstruction_.volume ().extractTriangleMesh (
+      [this] (reconstruction::VoxelNumber v) { return settledLabel (labels_->label (v), true); });
   for (std::size_t i = 0; i < mesh.labels.size (); ++i)
   {
     if (color_by_segment)
@@ -349,7 +350,7 @@ FusionPipeline::labelledMesh (bool color_by_segment) const
 std::vector<segmentation::SegmentRecord>
 FusionPipeline::segments ()
 {
-  map_.refreshStatistics (reconstruction_.volume (), labels_);
+  map_.refreshStatistics (reconstruction_.volume (), *labels_);
   refreshSettled (true);
   std::vector<segmentation::SegmentRecord> all = map_.segments (&settled_), kept;
   for (auto& s : all)

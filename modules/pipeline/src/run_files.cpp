@@ -4,6 +4,7 @@
 #include <cuefusion/pipeline/run_files.h>
 
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/data_directory.h>
 #include <cuefusion/io/file_io.h>
 
 #include <boost/filesystem.hpp>
@@ -171,6 +172,25 @@ trackingJson (const RunRecord& run, const FusionPipeline& pipeline, const Tracki
   if (const auto& ate = context.ate)
     tracking["ate"] = {{"rmse", ate->rmse}, {"mean", ate->mean}, {"median", ate->median}, {"max", ate->max}, {"pairs", ate->pairs}};
   return tracking;
+}
+
+nlohmann::json
+outputsJson (const RunManifest& manifest)
+{
+  nlohmann::json out = {{"command", "run"},
+                        {"version", version ()},
+                        {"sequence", manifest.sequence},
+                        {"frames", manifest.frames},
+                        {"seconds", manifest.seconds},
+                        {"complete", true},
+                        {"stopped_early", manifest.stopped_early},
+                        {"files", manifest.files},
+                        {"command_line", manifest.command_line},
+                        {"working_directory", manifest.working_directory},
+                        {"config", manifest.config}};
+  if (!manifest.model_path.empty ())
+    out["model"] = {{"path", manifest.model_path}, {"sha256", manifest.model_sha256}};
+  return out;
 }
 
 RunFilesSummary

@@ -94,6 +94,13 @@ DenseReconstruction::DenseReconstruction (const DenseReconstructionConfig& confi
   config_.validate ();
 }
 
+DenseReconstruction::SharedMaps
+DenseReconstruction::sharedMaps () const
+{
+  const PyramidLevel& level = frame_pyramid_.front ();
+  return {level, config_.preprocessing.levelZeroUsesNormals (level.depth.cols), model_};
+}
+
 void
 DenseReconstruction::setPreprocessingConfig (const DepthPreprocessorConfig& config)
 {

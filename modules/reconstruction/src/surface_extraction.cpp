@@ -3,6 +3,7 @@
 #include "voxel_access.h"
 
 #include <cuefusion/common/parallel.h>
+#include <cuefusion/io/mesh_io.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <pcl/surface/marching_cubes.h>  // pcl::edgeTable, pcl::triTable (Bourke's tables)
@@ -163,7 +164,7 @@ TSDFVolume::extractPointCloud (pcl::PointCloud<pcl::PointXYZRGBL>& cloud, pcl::P
   }
 }
 
-io::TriangleMesh
+TriangleMesh
 TSDFVolume::extractTriangleMesh (const VoxelLabelFunction& label_of) const
 {
   // Pass 1 (parallel over blocks): for every cube with a surface, the keys of its crossed
@@ -232,7 +233,7 @@ TSDFVolume::extractTriangleMesh (const VoxelLabelFunction& label_of) const
         first_met.push_back (edge);
     std::vector<std::uint64_t> ().swap (part.edges);
   }
-  io::TriangleMesh mesh;
+  TriangleMesh mesh;
   mesh.vertices.reserve (first_met.size ());
   mesh.colors.reserve (first_met.size ());
   if (label_of)
