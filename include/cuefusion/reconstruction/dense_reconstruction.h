@@ -195,6 +195,28 @@ public:
   bool awaitingPlacement () const { return awaiting_placement_; }
 
 private:
+  /** The source name of a pose from the motion model (FrameReport::relocalised_from). */
+  static constexpr const char* kMotionModel = "motion model";
+
+  /** §4.1.3 (pose_estimation.cpp): the frame's pose — its reference pose, its placement in
+    * a loaded volume, the first frame's, or ICP from the motion model's or the last pose,
+    * refused by the failure checks (implausible motion, dropped agreement) and then
+    * relocalised. Fills \a report's pose, tracked, failure, icp, relocalisation and their
+    * times; \a code gets the frame's keyframe code when one was made. False when the frame
+    * has nothing to be placed with (reference poses, and it has none): it ends there. */
+  bool
+  estimatePose (const RGBDFrame& frame, FrameReport& report, KeyframeDatabase::Code& code);
+
+  /** An accepted pose's bookkeeping: the motion model, the recent agreement shares,
+    * keyframes and the features' memory of the last tracked frame. */
+  void
+  acceptPose (const RGBDFrame& frame, const FrameReport& report, KeyframeDatabase::Code& code);
+
+  /** §4.1.4–§4.1.5: fuses the frame at its pose and renders the model there, the frame's
+    * depth the raycast's hint; times both into \a report. */
+  void
+  fuseAndRender (const RGBDFrame& frame, FrameReport& report);
+
   /** A candidate pose for relocalisation and where it came from. */
   struct Candidate
   {

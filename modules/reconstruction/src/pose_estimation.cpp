@@ -1,0 +1,245 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// DenseReconstruction's pose estimation (§4.1.3): the motion model's prediction, ICP and
+// its failure checks, and relocalisation when they fail (features, candidates, keyframes).
+// The fusing and rendering that follow an accepted pose are in dense_reconstruction.cpp.
+#include <cuefusion/common/exceptions.h>
+#include <cuefusion/reconstruction/dense_reconstruction.h>
+
+#include "stage_clock.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+
+namespace cuefusion
+{
+namespace reconstruction
+{
+namespace
+{
+/** \a motion applied \a steps times (a real number: the rotation about the same axis and
+  * the translation scaled for the fraction; repeated squaring for the whole part). */
+Eigen::Isometry3d
+repeatMotion (const Eigen::Isometry3d& motion, double steps)
+{
+  Eigen::Isometry3d result = Eigen::Isometry3d::Identity (), power = motion;
+  for (auto whole = static_cast<std::uint64_t> (std::floor (steps)); whole > 0; whole >>= 1)
+  {
+    if (whole & 1u)
+      result = result * power;
+    power = power * power;
+  }
+  const double fraction = steps - std::floor (steps);
+  if (fraction > 0.0)
+  {
+    const Eigen::AngleAxisd rotation (motion.rotation ());
+    Eigen::Isometry3d part = Eigen::Isometry3d::Identity ();
+    part.linear () = Eigen::AngleAxisd (rotation.angle () * fraction, rotation.axis ()).toRotationMatrix ();
+    part.translation () = motion.translation () * fraction;
+    result = result * part;
+  }
+  return result;
+}
+}  // namespace
+
+bool
+DenseReconstruction::estimatePose (const RGBDFrame& frame, FrameReport& report, KeyframeDatabase::Code& code)
+{
+  StageClock clock;
+  if (config_.use_reference_poses)
+  {
+    if (!frame.pose)
+    {
+      report.pose = last_good_pose_;
+      report.failure = "no reference pose";
+      return false;  // nothing to place it with: the frame ends here
+    }
+    report.pose = *frame.pose;
+    report.tracked = true;
+    report.timings.track_ms = clock.lap ();
+  }
+  else if (awaiting_placement_)
+  {
+    // A loaded volume: the frame must be found in it before anything is fused.
+    std::vector<Candidate> first;
+    if (frame.pose)
+      first.push_back ({*frame.pose, "reference pose", false});
+    code = keyframes_.encode (frame.depth);
+    relocalise (frame, false, std::move (first), code, report);
+    report.timings.relocalise_ms = clock.lap ();
+    if (!report.tracked)
+      report.failure = "not placed in the loaded volume (no candidate pose verified by ICP)";
+    else
+      awaiting_placement_ = false;
+  }
+  else if (!initialized_)
+  {
+    report.pose = frame.pose ? *frame.pose : Eigen::Isometry3d::Identity ();
+    report.tracked = true;
+    report.timings.track_ms = clock.lap ();
+  }
+  else
+  {
+    const std::optional<Prediction> prediction = config_.motion_model ? predictedPose (frame) : std::nullopt;
+    const bool predict = prediction.has_value ();
+    TrackingResult tracking = tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, predict ? prediction->pose : last_good_pose_);
+    if (!tracking.tracked && predict)
+    {
+      // The camera stopped or turned: the prediction misled ICP; start from the last pose.
+      TrackingResult still = tracker_.track (frame_pyramid_, model_pyramid_, model_.pose, last_good_pose_);
+      if (still.tracked)
+        tracking = std::move (still);
+    }
+    if (!tracking.tracked)
+      tracking.pose = last_good_pose_;
+    // ICP itself was fine: its motion, or its agreement with the model, was not.
+    const bool verify_estimate = tracking.implausible_motion || refuseDroppedAgreement (tracking);
+    report.pose = tracking.pose;
+    report.tracked = tracking.tracked;
+    report.failure = tracking.failure;
+    report.icp = tracking.icp;
+    report.timings.track_ms = clock.lap ();
+    if (!report.tracked && config_.relocalise)
+    {
+      code = keyframes_.encode (frame.depth);
+      std::vector<Candidate> first;
+      if (predict && prediction->across_gap)  // the model seen from where the motion leads
+        first.push_back ({prediction->pose, kMotionModel, true});
+      if (verify_estimate)
+        first.push_back ({tracking.estimate, "ICP estimate", false});
+      relocalise (frame, true, std::move (first), code, report);
+      report.timings.relocalise_ms = clock.lap ();
+    }
+  }
+  return true;
+}
+
+std::optional<DenseReconstruction::Prediction>
+DenseReconstruction::predictedPose (const RGBDFrame& frame) const
+{
+  if (!velocity_valid_)
+    return std::nullopt;
+  const double elapsed = frame.timestamp - last_tracked_timestamp_;
+  const bool stamped = velocity_seconds_ > 0.0 && elapsed > 0.0 && std::isfinite (elapsed);
+  // The frame after a tracked one, its stamp not showing frames dropped: the motion once
+  // (stamps jitter by milliseconds; 1.5 intervals is a dropped frame).
+  if (frames_since_tracked_ == 0 && !(stamped && elapsed > 1.5 * velocity_seconds_))
+    return Prediction{last_good_pose_ * velocity_, false};
+  // Through lost or dropped frames: once per frame interval, by the stamps when usable.
+  double steps = static_cast<double> (frames_since_tracked_ + 1);
+  double seconds = velocity_seconds_ > 0.0 ? steps * velocity_seconds_ : 0.0;
+  if (stamped)
+  {
+    steps = elapsed / velocity_seconds_;
+    seconds = elapsed;
+  }
+  if (seconds > config_.max_prediction_gap || steps > 1e4)
+    return std::nullopt;
+  return Prediction{last_good_pose_ * repeatMotion (velocity_, steps), true};
+}
+
+std::optional<DenseReconstruction::Candidate>
+DenseReconstruction::featureCandidate (const RGBDFrame& frame, const KeyframeDatabase::Code& code)
+{
+  // Beside the last tracked frame one keyframe a round (a match costs ~10 ms): the most like
+  // the frame by its fern code, and on every other round the next one round-robin.
+  std::vector<std::size_t> views;
+  const std::vector<std::size_t> stored = features_.keyframeIds ();
+  if (feature_rounds_ % 2 == 0)
+  {
+    for (const KeyframeDatabase::Match& m : keyframes_.query (code, 1))
+      views.push_back (m.keyframe);
+  }
+  else if (!stored.empty ())
+    views.push_back (stored[(feature_rounds_ / 2) % stored.size ()]);
+  ++feature_rounds_;
+  const std::optional<FeatureRelocaliser::Estimate> found = features_.relocalise (frame.color, frame.depth, frame.camera, views);
+  if (!found)
+    return std::nullopt;
+  return Candidate{found->pose, "features (" + found->view + ")", true};
+}
+
+void
+DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vector<Candidate> candidates,
+                                 const KeyframeDatabase::Code& code, FrameReport& report)
+{
+  for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
+    candidates.push_back ({m.pose, "keyframe " + std::to_string (m.keyframe), false});
+  // Features on every other lost frame, the first of a stretch included (not while the view
+  // is blank, a hand over the lens: nothing to describe). They cost about what verifying a
+  // candidate does, so on their rounds they take one candidate's place in the budget.
+  const bool feature_round = features && config_.feature_relocalisation && !frame.color.empty () && lost_streak_ % 2 == 0 &&
+                             cv::countNonZero (frame_pyramid_.back ().depth > 0.f) >= 100;
+  const std::optional<Candidate> found = feature_round ? featureCandidate (frame, code) : std::nullopt;
+  // A time budget: a few candidates a frame, the next few on the next lost frame.
+  const std::size_t budget = config_.relocalisation_candidates_per_frame;
+  if (budget > 0 && !candidates.empty ())
+  {
+    const std::size_t take = std::min (candidates.size (), budget - (feature_round ? 1 : 0));
+    std::vector<Candidate> chosen;
+    for (std::size_t k = 0; k < take; ++k)
+      chosen.push_back (candidates[(round_robin_ + k) % candidates.size ()]);
+    round_robin_ += take;
+    candidates = std::move (chosen);
+  }
+  if (found)
+    candidates.insert (candidates.begin (), *found);
+  ++lost_streak_;
+  RaycastResult view;
+  FramePyramid view_pyramid;
+  for (const auto& [candidate, source, evidenced] : candidates)
+  {
+    // The model as seen from the candidate, and the frame aligned to it from there: a
+    // right candidate converges close by with most points agreeing.
+    // The frame's own depth as the raycast's start: where the candidate is right, each ray
+    // settles by a Newton step or two near it instead of marching (a third of the cost).
+    RaycastOptions hinted;
+    hinted.depth_hint = frame_pyramid_[0].depth;
+    volume_.raycast (frame.camera, candidate, view, hinted);
+    buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
+                       static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
+    const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate, candidate);
+    // The motion model's and the features' candidates have evidence of their own: the frame
+    // must agree with the model where the model exists (a view that moved on into space the
+    // map has not seen yet overlaps it in part) and still explain a fair share of the frame
+    // (relocalisation_min_overlap). The others must agree over most of the frame.
+    const bool passed = evidenced ? verified.icp.agreement () >= config_.relocalisation_min_agreement &&
+                                      verified.icp.inlierShare () >= config_.relocalisation_min_overlap
+                                  : verified.icp.inlierShare () >= config_.relocalisation_min_inlier_fraction;
+    if (!verified.tracked || !passed)
+      continue;
+    report.pose = verified.pose;
+    report.tracked = true;
+    report.relocalised = true;
+    report.relocalised_from = source;
+    report.failure.clear ();
+    report.icp = verified.icp;
+    return;
+  }
+}
+
+bool
+DenseReconstruction::refuseDroppedAgreement (TrackingResult& tracking) const
+{
+  if (!tracking.tracked || !(config_.min_inlier_share_ratio > 0.0) || recent_shares_.size () < 3)
+    return false;
+  // Agreement where frame and model overlap, not the share of the whole frame: a camera
+  // turning into space the map has not seen yet overlaps it less, rightly.
+  const double share = tracking.icp.agreement ();
+  std::vector<double> sorted = recent_shares_;
+  std::nth_element (sorted.begin (), sorted.begin () + static_cast<long> (sorted.size () / 2), sorted.end ());
+  const double median = sorted[sorted.size () / 2];
+  if (share >= config_.min_inlier_share_ratio * median)
+    return false;
+  std::ostringstream why;
+  why << "agreement with the model dropped to " << std::lround (100.0 * share) << " % of the matched points (recent frames "
+      << std::lround (100.0 * median) << " %)";
+  tracking.tracked = false;
+  tracking.failure = why.str ();
+  tracking.pose = last_good_pose_;
+  return true;
+}
+
+}  // namespace reconstruction
+}  // namespace cuefusion
