@@ -2,6 +2,7 @@
 // cuefusion eval: tracking (ATE, RPE), per-frame object IoU and 3D instance AP of one or
 // more runs against a sequence's ground truth, as report.json, CSV files and PNG plots.
 #include "cli.h"
+#include "option_fields.h"
 #include "gnuplot.h"
 #include "summary.h"
 
@@ -141,10 +142,10 @@ parseEvalSettings (const std::vector<std::string>& args, EvalSettings& s, po::va
     ("format", po::value (&s.format)->default_value (s.format), "layout of --gt: auto, tum, redwood, 7scenes, scannet")
     ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
     ("labels", po::value (&s.labels_from)->default_value (s.labels_from), "per-frame IoU from the 'final' map seen from each estimated pose, or the run's 'per-frame' labels/ (run --save-every)")
-    ("every", po::value (&c.every)->default_value (c.every), "score every K-th frame")
-    ("min-pixels", po::value (&c.frame_iou.min_truth_pixels)->default_value (c.frame_iou.min_truth_pixels), "objects with fewer visible pixels in a frame are not scored there")
-    ("min-region", po::value (&c.instance_ap.min_region_size)->default_value (c.instance_ap.min_region_size), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
-    ("match-radius", po::value (&c.match_radius)->default_value (c.match_radius), "3D AP: ground-truth points take the label of the nearest map point within this (metres; 0 = two voxels)")
+    (boundOption ("RunEvaluationConfig::every"), po::value (&c.every)->default_value (c.every), "score every K-th frame")
+    (boundOption ("FrameIoUConfig::min_truth_pixels"), po::value (&c.frame_iou.min_truth_pixels)->default_value (c.frame_iou.min_truth_pixels), "objects with fewer visible pixels in a frame are not scored there")
+    (boundOption ("InstanceAPConfig::min_region_size"), po::value (&c.instance_ap.min_region_size)->default_value (c.instance_ap.min_region_size), "3D AP: instances with fewer points are skipped (ScanNet: 100)")
+    (boundOption ("RunEvaluationConfig::match_radius"), po::value (&c.match_radius)->default_value (c.match_radius), "3D AP: ground-truth points take the label of the nearest map point within this (metres; 0 = two voxels)")
     ("no-plots", po::bool_switch (&s.no_plots), "write report.json and CSV only");
   po::positional_options_description positional;
   return parseCommandLine ("eval", "--run [NAME=]DIR [--run ...] --gt SEQUENCE --out REPORT_DIR [options]\n"

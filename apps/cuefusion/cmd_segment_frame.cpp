@@ -3,6 +3,7 @@
 // clouds or depth images, as a PCL filter chain: SurfacePreprocessing →
 // GeometricSegmentation → (SupportPlaneRemoval).
 #include "cli.h"
+#include "option_fields.h"
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/label_colors.h>
@@ -327,40 +328,40 @@ parseSegmentFrameSettings (const std::vector<std::string>& args, SegmentFrameSet
     ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network by name, "
      "xyz_instances (found in the data directory from any folder), or the path of an .onnx file such as a YOLO-seg export run on the colour image")
     ("classes", po::value (&s.onnx.classes_path), "class names of --model, one per line (default data/classes/coco.names)")
-    ("input-size", po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
-    ("score-threshold", po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
-    ("boundary-threshold", po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
+    (boundOption ("OnnxInstanceSegmenterConfig::input_size"), po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
+    (boundOption ("OnnxInstanceSegmenterConfig::score_threshold"), po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
+    (boundOption ("OnnxInstanceSegmenterConfig::boundary_threshold"), po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
      "--model of the xyz layout: instances are cut where the boundary probability reaches this")
     ("mode", po::value (&s.mode), "geometry (L^G), masks (instance masks only) or fused (InstanceGuidedRegionMerge, the default with --masks/--model)")
-    ("min-overlap", po::value (&s.merge.min_overlap)->default_value (s.merge.min_overlap), "fused: share of a geometric segment inside one instance to join it")
-    ("color-split", po::value (&s.merge.color_split_distance)->default_value (s.merge.color_split_distance),
+    (boundOption ("InstanceGuidedRegionMergeConfig::min_overlap"), po::value (&s.merge.min_overlap)->default_value (s.merge.min_overlap), "fused: share of a geometric segment inside one instance to join it")
+    (boundOption ("InstanceGuidedRegionMergeConfig::color_split_distance"), po::value (&s.merge.color_split_distance)->default_value (s.merge.color_split_distance),
      "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
     ("drop-support-plane", po::bool_switch (&s.drop_plane), "label the dominant plane (table, floor) 0")
     ("verbose,v", po::bool_switch (&s.verbose), "print per-stage timings per frame")
     ("timings", po::value (&s.timings_path), "write per-frame stage timings (ms) to this JSON file")
     ("normals", po::value (&normals)->default_value (normals), "normal estimation: central (differences, §4.1.2) or integral (PCL integral image)")
-    ("range-sigma", po::value (&pre.bilateral.noise_range_sigma)->default_value (pre.bilateral.noise_range_sigma), "bilateral range sigma in units of the sensor noise sigma_z(z)")
-    ("sigma-space", po::value (&pre.bilateral.sigma_space)->default_value (pre.bilateral.sigma_space), "bilateral spatial sigma (px)")
-    ("bilateral-diameter", po::value (&pre.bilateral.diameter)->default_value (pre.bilateral.diameter), "bilateral window (px)")
+    (boundOption ("SurfacePreprocessingConfig::bilateral.noise_range_sigma"), po::value (&pre.bilateral.noise_range_sigma)->default_value (pre.bilateral.noise_range_sigma), "bilateral range sigma in units of the sensor noise sigma_z(z)")
+    (boundOption ("SurfacePreprocessingConfig::bilateral.sigma_space"), po::value (&pre.bilateral.sigma_space)->default_value (pre.bilateral.sigma_space), "bilateral spatial sigma (px)")
+    (boundOption ("SurfacePreprocessingConfig::bilateral.diameter"), po::value (&pre.bilateral.diameter)->default_value (pre.bilateral.diameter), "bilateral window (px)")
     ("no-bilateral", "switch the bilateral filter off")
-    ("normal-step", po::value (&pre.normals.step)->default_value (pre.normals.step), "central differences over +-N px")
-    ("normal-smoothing", po::value (&pre.integral_smoothing)->default_value (pre.integral_smoothing), "integral-image normal smoothing size (px)")
-    ("max-depth-jump", po::value (&pre.normals.max_depth_jump)->default_value (pre.normals.max_depth_jump), "relative depth step treated as an edge by normals and edge assignment")
-    ("concavity-threshold", po::value (&geo.concavity.threshold)->default_value (geo.concavity.threshold), "concave edge where Phi < this")
-    ("concavity-noise-slope", po::value (&geo.concavity.noise_slope)->default_value (geo.concavity.noise_slope),
+    (boundOption ("SurfacePreprocessingConfig::normals.step"), po::value (&pre.normals.step)->default_value (pre.normals.step), "central differences over +-N px")
+    (boundOption ("SurfacePreprocessingConfig::integral_smoothing"), po::value (&pre.integral_smoothing)->default_value (pre.integral_smoothing), "integral-image normal smoothing size (px)")
+    (boundOption ("EdgeLabelingConfig::max_depth_jump"), po::value (&pre.normals.max_depth_jump)->default_value (pre.normals.max_depth_jump), "relative depth step treated as an edge by normals and edge assignment")
+    (boundOption ("ConcavityEdgeEstimationConfig::threshold"), po::value (&geo.concavity.threshold)->default_value (geo.concavity.threshold), "concave edge where Phi < this")
+    (boundOption ("ConcavityEdgeEstimationConfig::noise_slope"), po::value (&geo.concavity.noise_slope)->default_value (geo.concavity.noise_slope),
      "the concavity threshold gives way to the normals' noise: cos of this x sigma_z(z)/z where lower (0 = off)")
     ("convexity-test", po::value (&convexity)->default_value (convexity), "when a neighbour is convex: divergence (normals turn apart) or tangent (thesis: below the tangent plane)")
-    ("concavity-step", po::value (&geo.concavity.neighbour_step)->default_value (geo.concavity.neighbour_step), "concavity neighbour distance (px)")
-    ("noise-scale", po::value (&geo.noise_scale)->default_value (geo.noise_scale),
+    (boundOption ("ConcavityEdgeEstimationConfig::neighbour_step"), po::value (&geo.concavity.neighbour_step)->default_value (geo.concavity.neighbour_step), "concavity neighbour distance (px)")
+    (boundOption ("GeometricSegmentationConfig::noise_scale"), po::value (&geo.noise_scale)->default_value (geo.noise_scale),
      "the depth's noise as a multiple of the Kinect model's, which scales every noise threshold (0 = measured per frame)")
-    ("noise-factor", po::value (&geo.discontinuity.noise_factor)->default_value (geo.discontinuity.noise_factor), "depth edge where Gamma > k * sigma_d")
-    ("depth-edge-step", po::value (&geo.discontinuity.neighbour_step)->default_value (geo.discontinuity.neighbour_step), "depth-edge neighbour distance (px)")
+    (boundOption ("DepthDiscontinuityEdgeEstimationConfig::noise_factor"), po::value (&geo.discontinuity.noise_factor)->default_value (geo.discontinuity.noise_factor), "depth edge where Gamma > k * sigma_d")
+    (boundOption ("DepthDiscontinuityEdgeEstimationConfig::neighbour_step"), po::value (&geo.discontinuity.neighbour_step)->default_value (geo.discontinuity.neighbour_step), "depth-edge neighbour distance (px)")
     ("no-concavity", setsWhenGiven (geo.use_concavity_edges, false), "ablation: no concavity edges")
     ("no-depth-edges", setsWhenGiven (geo.use_discontinuity_edges, false), "ablation: no depth-discontinuity edges")
-    ("closings", po::value (&geo.labeling.closing_iterations)->default_value (geo.labeling.closing_iterations), "closing iterations of the edge map (0 = off)")
-    ("min-segment-size", po::value (&geo.labeling.min_segment_size)->default_value (geo.labeling.min_segment_size), "smaller segments get label 0 (px)")
-    ("edge-radius", po::value (&geo.labeling.edge_assignment_radius)->default_value (geo.labeling.edge_assignment_radius), "give edge pixels to the adjacent segment up to N px out (0 = off)")
-    ("plane-distance", po::value (&s.plane.distance_threshold)->default_value (s.plane.distance_threshold), "support plane inlier band (m)");
+    (boundOption ("EdgeLabelingConfig::closing_iterations"), po::value (&geo.labeling.closing_iterations)->default_value (geo.labeling.closing_iterations), "closing iterations of the edge map (0 = off)")
+    (boundOption ("EdgeLabelingConfig::min_segment_size"), po::value (&geo.labeling.min_segment_size)->default_value (geo.labeling.min_segment_size), "smaller segments get label 0 (px)")
+    (boundOption ("EdgeLabelingConfig::edge_assignment_radius"), po::value (&geo.labeling.edge_assignment_radius)->default_value (geo.labeling.edge_assignment_radius), "give edge pixels to the adjacent segment up to N px out (0 = off)")
+    (boundOption ("SupportPlaneRemovalConfig::distance_threshold"), po::value (&s.plane.distance_threshold)->default_value (s.plane.distance_threshold), "support plane inlier band (m)");
   po::positional_options_description positional;
   positional.add ("input", 1);
   po::variables_map vm;

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "cli.h"
+#include "option_fields.h"
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/common/progress.h>
@@ -40,31 +41,31 @@ runSynth (const std::vector<std::string>& args)
     ("room", po::value (&room), "instead of --scene: a random room of this kind (kitchen, office, living) drawn from --seed, "
      "seen along a hand-held path from 1-4 m")
     ("print-scene", "print the scene file (of --scene or --room) and stop")
-    ("frames", po::value (&frames)->default_value (static_cast<long long> (config.frames)), "number of frames")
+    (boundOption ("SyntheticSequenceConfig::frames"), po::value (&frames)->default_value (static_cast<long long> (config.frames)), "number of frames")
     ("layout", po::value (&layout_name)->default_value ("tum"), "dataset layout: tum, scannet, redwood, 7scenes")
     ("out", po::value (&out), "output folder (must not exist or be empty)")
     ("seed", po::value (&config.seed)->default_value (config.seed), "seed of every random choice")
     ("size", po::value (&size), "image size WxH (default: the scene's camera), e.g. 320x240")
-    ("fps", po::value (&config.fps)->default_value (config.fps), "frame rate of the timestamps")
+    (boundOption ("SyntheticSequenceConfig::fps"), po::value (&config.fps)->default_value (config.fps), "frame rate of the timestamps")
     ("noise", po::bool_switch (&config.noise.enabled), "add the sensor's depth noise and dropout (--sensor)")
     ("sensor", po::value (&sensor)->default_value (sensor), "with --noise: kinect (structured light: Kinect v1, Asus Xtion) or "
      "realsense (active stereo, D400-like: noise growing with z^2, speckle, edge fattening, holes on dark surfaces)")
-    ("gt-spacing", po::value (&config.gt_cloud_spacing)->default_value (config.gt_cloud_spacing),
+    (boundOption ("SyntheticSequenceConfig::gt_cloud_spacing"), po::value (&config.gt_cloud_spacing)->default_value (config.gt_cloud_spacing),
      "point spacing of gt_cloud.pcd (m)")
     ("gt-all-surfaces", "gt_cloud.pcd holds every surface point, not only those some frame measured")
-    ("mask-boundary", po::value (&det.boundary_px)->default_value (det.boundary_px),
+    (boundOption ("DetectorErrorConfig::boundary_px"), po::value (&det.boundary_px)->default_value (det.boundary_px),
      "simulated detector: grow (>0, leaking) or shrink (<0) masks by this many pixels")
-    ("mask-jitter", po::value (&det.boundary_jitter_px)->default_value (det.boundary_jitter_px),
+    (boundOption ("DetectorErrorConfig::boundary_jitter_px"), po::value (&det.boundary_jitter_px)->default_value (det.boundary_jitter_px),
      "simulated detector: random extra boundary change per mask and frame, in [-J, J] pixels")
-    ("mask-merge", po::value (&det.merge_probability)->default_value (det.merge_probability),
+    (boundOption ("DetectorErrorConfig::merge_probability"), po::value (&det.merge_probability)->default_value (det.merge_probability),
      "simulated detector: probability per frame that two touching objects come out as one mask")
-    ("mask-split", po::value (&det.split_probability)->default_value (det.split_probability),
+    (boundOption ("DetectorErrorConfig::split_probability"), po::value (&det.split_probability)->default_value (det.split_probability),
      "simulated detector: probability per mask and frame that it comes out as two masks")
-    ("mask-miss", po::value (&det.miss_probability)->default_value (det.miss_probability),
+    (boundOption ("DetectorErrorConfig::miss_probability"), po::value (&det.miss_probability)->default_value (det.miss_probability),
      "simulated detector: probability per object and frame of missing it")
-    ("mask-false-positives", po::value (&det.false_positives)->default_value (det.false_positives),
+    (boundOption ("DetectorErrorConfig::false_positives"), po::value (&det.false_positives)->default_value (det.false_positives),
      "simulated detector: mean number of spurious masks per frame")
-    ("mask-min-pixels", po::value (&det.min_pixels)->default_value (det.min_pixels),
+    (boundOption ("DetectorErrorConfig::min_pixels"), po::value (&det.min_pixels)->default_value (det.min_pixels),
      "simulated detector: never report objects with fewer visible pixels")
     ("overwrite", "replace OUT if it exists");
   po::positional_options_description positional;
@@ -124,20 +125,20 @@ runSynthViews (const std::vector<std::string>& args)
     ("out", po::value (&out)->required (), "output folder (must not exist or be empty)")
     ("seed", po::value (&seed)->default_value (seed), "seed of every random choice (view i depends only on seed and i)")
     ("size", po::value (&size)->default_value (size), "image size WxH")
-    ("views-per-scene", po::value (&config.views_per_scene)->default_value (config.views_per_scene), "camera poses per random scene")
+    (boundOption ("RandomSceneConfig::views_per_scene"), po::value (&config.views_per_scene)->default_value (config.views_per_scene), "camera poses per random scene")
     ("min-objects", po::value (&config.min_objects)->default_value (config.min_objects), "fewest objects in a scene")
     ("max-objects", po::value (&config.max_objects)->default_value (config.max_objects), "most objects in a scene")
-    ("touching", po::value (&config.touching_probability)->default_value (config.touching_probability),
+    (boundOption ("RandomSceneConfig::touching_probability"), po::value (&config.touching_probability)->default_value (config.touching_probability),
      "probability that an object is placed against another")
-    ("stacking", po::value (&config.stacking_probability)->default_value (config.stacking_probability),
+    (boundOption ("RandomSceneConfig::stacking_probability"), po::value (&config.stacking_probability)->default_value (config.stacking_probability),
      "probability that a box, can or ball is put on a box")
-    ("multipart", po::value (&config.multipart_probability)->default_value (config.multipart_probability),
+    (boundOption ("RandomSceneConfig::multipart_probability"), po::value (&config.multipart_probability)->default_value (config.multipart_probability),
      "probability of a multi-part object (bottle, L-block, snowman, mug)")
-    ("figures", po::value (&config.figure_probability)->default_value (config.figure_probability),
+    (boundOption ("RandomSceneConfig::figure_probability"), po::value (&config.figure_probability)->default_value (config.figure_probability),
      "share of the multi-part objects drawn as figures (a soft toy: body, head, arms, ears, legs)")
-    ("aligned", po::value (&config.aligned_probability)->default_value (config.aligned_probability),
+    (boundOption ("RandomSceneConfig::aligned_probability"), po::value (&config.aligned_probability)->default_value (config.aligned_probability),
      "share of the boxes placed flush against a box that are lined up with it (one side face in one plane)")
-    ("table", po::value (&config.table_probability)->default_value (config.table_probability),
+    (boundOption ("RandomSceneConfig::table_probability"), po::value (&config.table_probability)->default_value (config.table_probability),
      "probability that the objects stand on a table (else on the floor)")
     ("overwrite", "replace OUT if it exists");
   po::positional_options_description positional;

@@ -3,6 +3,7 @@
 // Exit codes: 0 success, 1 failure (bad input, I/O), 2 bad usage.
 #include "cli.h"
 #include "commands.h"
+#include "option_fields.h"
 #include "plugin.h"
 
 #include <cuefusion/common/data_directory.h>
@@ -90,69 +91,9 @@ main (int argc, char** argv)
   catch (const cuefusion::ParameterError& e)
   {
     // The library names config fields; the user typed options.
-    static const std::map<std::string, std::string> options = {
-      {"InstanceGuidedRegionMergeConfig::min_overlap", "--min-overlap"},
-      {"InstanceGuidedRegionMergeConfig::color_split_distance", "--color-split"},
-      {"ConcavityEdgeEstimationConfig::noise_slope", "--concavity-noise-slope"},
-      {"ConcavityEdgeEstimationConfig::threshold", "--concavity-threshold"},
-      {"ConcavityEdgeEstimationConfig::neighbour_step", "--concavity-step"},
-      {"DepthDiscontinuityEdgeEstimationConfig::noise_factor", "--noise-factor"},
-      {"GeometricSegmentationConfig::noise_scale", "--noise-scale"},
-      {"DepthDiscontinuityEdgeEstimationConfig::neighbour_step", "--depth-edge-step"},
-      {"EdgeLabelingConfig::closing_iterations", "--closings"},
-      {"EdgeLabelingConfig::min_segment_size", "--min-segment-size"},
-      {"EdgeLabelingConfig::edge_assignment_radius", "--edge-radius"},
-      {"EdgeLabelingConfig::max_depth_jump", "--max-depth-jump"},
-      {"SurfacePreprocessingConfig::normals.step", "--normal-step"},
-      {"SurfacePreprocessingConfig::normals.max_depth_jump", "--max-depth-jump"},
-      {"SurfacePreprocessingConfig::integral_smoothing", "--normal-smoothing"},
-      {"SupportPlaneRemovalConfig::distance_threshold", "--plane-distance"},
-      {"SupportPlaneRemovalConfig::max_iterations", "--plane-iterations"},
-      {"SupportPlaneRemovalConfig::sample_step", "--plane-sample-step"},
-      {"SupportPlaneRemovalConfig::min_plane_fraction", "--min-plane-fraction"},
-      {"SupportPlaneRemovalConfig::min_segment_inlier_fraction", "--plane-segment-fraction"},
-      {"SupportPlaneRemovalConfig::max_normal_angle_deg", "--plane-normal-angle"},
-      {"SurfacePreprocessingConfig::bilateral.noise_range_sigma", "--range-sigma"},
-      {"SurfacePreprocessingConfig::bilateral.sigma_space", "--sigma-space"},
-      {"SurfacePreprocessingConfig::bilateral.diameter", "--bilateral-diameter"},
-      {"OnnxInstanceSegmenterConfig::input_size", "--input-size"},
-      {"OnnxInstanceSegmenterConfig::score_threshold", "--score-threshold"},
-      {"OnnxInstanceSegmenterConfig::boundary_threshold", "--boundary-threshold"},
-      {"RandomSceneConfig::min_objects", "--min-objects/--max-objects"},
-      {"RandomSceneConfig::touching_probability", "--touching"},
-      {"RandomSceneConfig::stacking_probability", "--stacking"},
-      {"RandomSceneConfig::multipart_probability", "--multipart"},
-      {"RandomSceneConfig::figure_probability", "--figures"},
-      {"RandomSceneConfig::aligned_probability", "--aligned"},
-      {"RandomSceneConfig::table_probability", "--table"},
-      {"RandomSceneConfig::views_per_scene", "--views-per-scene"},
-      {"DetectorErrorConfig::merge_probability", "--mask-merge"},
-      {"DetectorErrorConfig::miss_probability", "--mask-miss"},
-      {"DetectorErrorConfig::split_probability", "--mask-split"},
-      {"DetectorErrorConfig::false_positives", "--mask-false-positives"},
-      {"DetectorErrorConfig::boundary_px", "--mask-boundary"},
-      {"DetectorErrorConfig::boundary_jitter_px", "--mask-jitter"},
-      {"DetectorErrorConfig::min_pixels", "--mask-min-pixels"},
-      {"SyntheticSequenceConfig::frames", "--frames"},
-      {"SyntheticSequenceConfig::fps", "--fps"},
-      {"SyntheticSequenceConfig::width", "--size"},
-      {"SyntheticSequenceConfig::gt_cloud_spacing", "--gt-spacing"},
-      {"SequenceFormat", "--format"},
-      {"DatasetLayout", "--layout"},
-      {"SegmentationMode", "--mode"},
-      {"TSDFVolumeConfig::voxel_size", "--voxel"},
-      {"TSDFVolumeConfig::truncation_voxels", "--truncation"},
-      {"TSDFVolumeConfig::max_depth", "--max-depth"},
-      {"DepthPreprocessorConfig::max_depth", "--max-depth"},
-      {"DenseReconstructionConfig::hole_refresh_period", "--hole-refresh"},
-      {"RunEvaluationConfig::every", "--every"},
-      {"FrameIoUConfig::min_truth_pixels", "--min-pixels"},
-      {"InstanceAPConfig::min_region_size", "--min-region"},
-      {"RunEvaluationConfig::match_radius", "--match-radius"},
-    };
-    const auto option = options.find (e.parameter ());
+    const std::string option = cuefusion::cli::optionOfParameter (e.parameter ());
     std::cerr << "cuefusion " << command << ": "
-              << (option == options.end () ? std::string (e.what ()) : option->second + ": " + e.reason ()) << " (see 'cuefusion "
+              << (option.empty () ? std::string (e.what ()) : option + ": " + e.reason ()) << " (see 'cuefusion "
               << command << " --help')\n";
     return 2;
   }

@@ -2,6 +2,7 @@
 // `cuefusion run`'s settings (also `batch`'s, which forwards them): the options, the
 // settings file (--config), their checks and the pipeline's Config they make.
 #include "cli.h"
+#include "option_fields.h"
 
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/sequence.h>
@@ -53,32 +54,32 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("frames", po::value (&s.frames)->default_value (s.frames), "process at most N frames (0 = all)")
     ("format", po::value (&s.format)->default_value (s.format), "auto, tum, redwood, 7scenes, scannet, openni2")
     ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
-    ("voxel", po::value (&r.volume.voxel_size)->default_value (r.volume.voxel_size), "TSDF voxel size in metres")
-    ("truncation", po::value (&r.volume.truncation_voxels)->default_value (r.volume.truncation_voxels), "TSDF truncation distance in voxels")
-    ("max-depth", po::value<double> ()->notifier ([&r] (double d) { r.volume.max_depth = r.preprocessing.max_depth = d; }),
+    (boundOption ("TSDFVolumeConfig::voxel_size"), po::value (&r.volume.voxel_size)->default_value (r.volume.voxel_size), "TSDF voxel size in metres")
+    (boundOption ("TSDFVolumeConfig::truncation_voxels"), po::value (&r.volume.truncation_voxels)->default_value (r.volume.truncation_voxels), "TSDF truncation distance in voxels")
+    (boundOption ("TSDFVolumeConfig::max_depth"), po::value<double> ()->notifier ([&r] (double d) { r.volume.max_depth = r.preprocessing.max_depth = d; }),
      withDefault ("ignore depth beyond this (metres)", r.volume.max_depth).c_str ())
     ("use-gt-poses", setsWhenGiven (r.use_reference_poses, true), "integrate with the sequence's own poses instead of tracking")
     ("no-motion-model", setsWhenGiven (r.motion_model, false), "tracking: start ICP at the last pose instead of the constant-velocity prediction")
     ("no-features", setsWhenGiven (r.feature_relocalisation, false), "relocalisation: no colour features (keyframes and the motion model only)")
     ("no-noise-weighting", setsWhenGiven (r.tracking.icp.noise_weighting, false), "tracking: every ICP term counts the same, instead of by the inverse depth-noise variance")
-    ("hole-refresh", po::value (&r.hole_refresh_period)->default_value (r.hole_refresh_period), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
+    (boundOption ("DenseReconstructionConfig::hole_refresh_period"), po::value (&r.hole_refresh_period)->default_value (r.hole_refresh_period), "raycast: rays behind depth holes that found no surface are searched again every N frames (1 = every frame)")
     ("colors", po::value (&s.colors), "colour map.pcd and mesh.ply alike: segments (each segment its label's colour, none grey) or "
      "surface (the fused colour); without it map.pcd has the surface colour and mesh.ply the segments'")
     ("export-objects", po::bool_switch (&s.export_objects), "also write each object's part of the mesh as objects/ID.ply (ID as in segments.json, which gives every segment's centroid and oriented box)")
     ("save-volume", po::bool_switch (&s.save_volume), "also write the TSDF volume (volume.tsdf), its voxels' labels as map.pcd's (volume.labels) and the relocalisation keyframes (volume.keyframes)")
     ("load-volume", po::value (&s.load_volume), "continue a saved volume.tsdf (with the volume.labels and volume.keyframes beside it): the first frame is relocalised in it, its objects are kept")
     ("mode", po::value (&s.mode), "fused (geometry grouped by instance masks; the default with --masks/--model), geometry, or masks")
-    ("noise-scale", po::value (&s.pipeline.geometry.noise_scale)->default_value (s.pipeline.geometry.noise_scale),
+    (boundOption ("GeometricSegmentationConfig::noise_scale"), po::value (&s.pipeline.geometry.noise_scale)->default_value (s.pipeline.geometry.noise_scale),
      "the depth's noise as a multiple of the Kinect model's, which scales every noise threshold (0 = measured on the first frames)")
-    ("color-split", po::value (&s.pipeline.instance_merge.color_split_distance)->default_value (s.pipeline.instance_merge.color_split_distance),
+    (boundOption ("InstanceGuidedRegionMergeConfig::color_split_distance"), po::value (&s.pipeline.instance_merge.color_split_distance)->default_value (s.pipeline.instance_merge.color_split_distance),
      "fused: a mask is cut between the segments it claims whose colours lie this far apart (rg chromaticity; 0 = never)")
     ("masks", po::value (&s.masks), "folder of per-frame 16-bit instance-id PNGs (+ JSON), matched by frame name or index")
     ("model", po::value (&s.onnx.model_path), "instance masks from an ONNX model (OpenCV DNN, CPU): cuefusion's depth network by name, "
      "xyz_instances (found in the data directory from any folder), or the path of an .onnx file such as a YOLO-seg export run on the colour image")
     ("classes", po::value (&s.onnx.classes_path), "class names of --model (default data/classes/coco.names)")
-    ("input-size", po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
-    ("score-threshold", po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
-    ("boundary-threshold", po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
+    (boundOption ("OnnxInstanceSegmenterConfig::input_size"), po::value (&s.onnx.input_size)->default_value (s.onnx.input_size), "network input size of --model (px)")
+    (boundOption ("OnnxInstanceSegmenterConfig::score_threshold"), po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
+    (boundOption ("OnnxInstanceSegmenterConfig::boundary_threshold"), po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
      "--model of the xyz layout: instances are cut where the boundary probability reaches this")
     ("async-masks", po::bool_switch (&s.async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
     ("sequential", po::bool_switch (&s.sequential), "a recorded sequence: read, mask and process each frame in turn instead of reading and masking the next frames while the loop runs (the same outputs; slower, for profiling)")

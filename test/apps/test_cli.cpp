@@ -12,6 +12,8 @@
 
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
+
+#include <regex>
 #include <pcl/io/pcd_io.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/io/ply_io.h>
@@ -100,6 +102,32 @@ TEST_F (Cli, HelpForEveryCommand)
   EXPECT_EQ (printed.code, 0);
   EXPECT_EQ (printed.out, "cuefusion " + expected + "\n");
   EXPECT_EQ (std::count (expected.begin (), expected.end (), '.'), 2) << expected;
+}
+
+// The options bound to library fields (apps/cuefusion/option_fields.cpp), which the error
+// translation names, are options some command has: a binding left behind by a removed
+// option would send the user to an option that does not exist.
+TEST_F (Cli, EveryOptionBoundToAFieldIsACommandsOption)
+{
+  std::string help;
+  for (const char* command : {"synth --help", "synth-views --help", "info --help", "run --help", "segment-frame --help", "eval --help",
+                              "render --help", "batch --help"})
+    help += run (command).out;
+  const std::string table = io::readTextFile (std::string (CUEFUSION_TEST_SOURCE_DIR) + "/../apps/cuefusion/option_fields.cpp");
+  const std::regex row ("\\{\"([A-Za-z:_.]+)\", \"([a-z/-]+)\"\\}");
+  std::size_t rows = 0;
+  for (std::sregex_iterator it (table.begin (), table.end (), row), end; it != end; ++it, ++rows)
+  {
+    std::string options = (*it)[2].str ();
+    for (std::size_t start = 0; start < options.size ();)  // "min-objects/--max-objects": each
+    {
+      std::size_t stop = options.find ("/--", start);
+      const std::string option = options.substr (start, stop == std::string::npos ? std::string::npos : stop - start);
+      EXPECT_NE (help.find ("--" + option + " "), std::string::npos) << (*it)[1] << " is bound to --" << option << ", which no command has";
+      start = stop == std::string::npos ? options.size () : stop + 3;
+    }
+  }
+  EXPECT_GT (rows, 40u);
 }
 
 TEST_F (Cli, BadInputIsOneLineAndExit1)
