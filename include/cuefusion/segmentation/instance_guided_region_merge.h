@@ -33,7 +33,9 @@ struct InstanceGuidedRegionMergeConfig
     * depth jump (one in front of the other) are kept apart when both hold at least this
     * share of the mask's pieces — two objects the network reported as one; a small part
     * hanging on a larger one (an ear, a bottle's neck) and pieces meeting at a crease are
-    * still united. Above 0.5 it never applies.
+    * still united. Above 0.5 it never applies. merge() only (segment-frame's fused mode):
+    * the pipeline calls split(), which leaves the grouping to the map over frames, so this
+    * has no effect there.
     */
   float occlusion_split_share = 0.25f;
   /** How far (pixels) a mask's boundary may be off: a piece the masks cover only in part
