@@ -4,6 +4,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/instance_guided_region_merge.h>
 
+#include "disjoint_sets.h"
 #include "instance_merge_detail.h"
 
 #include <opencv2/imgproc.hpp>
@@ -57,22 +58,13 @@ colorClaim (std::size_t segment, int pixels, const cv::Vec3d& sum)
 std::vector<std::size_t>
 colorGroups (const std::vector<ColorClaim>& claims, float distance)
 {
-  std::vector<std::size_t> group (claims.size ());
-  for (std::size_t i = 0; i < claims.size (); ++i)
-    group[i] = i;
-  const auto find = [&] (std::size_t i) {
-    while (group[i] != i)
-      i = group[i] = group[group[i]];
-    return i;
-  };
+  detail::DisjointSets groups (claims.size ());
   for (std::size_t i = 0; i < claims.size (); ++i)
     for (std::size_t j = i + 1; j < claims.size (); ++j)
       if (claims[i].known && claims[j].known &&
           std::hypot (claims[i].r - claims[j].r, claims[i].g - claims[j].g) < distance)
-        group[find (j)] = find (i);
-  for (std::size_t i = 0; i < claims.size (); ++i)
-    group[i] = find (i);
-  return group;
+        groups.join (i, j);
+  return groups.roots ();
 }
 
 /** The pixels instance \a k owns (id k + 1 in \a ids) go to the instance of the nearest

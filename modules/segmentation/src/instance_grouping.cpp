@@ -4,6 +4,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/instance_guided_region_merge.h>
 
+#include "disjoint_sets.h"
 #include "instance_merge_detail.h"
 
 #include <opencv2/imgproc.hpp>
@@ -35,7 +36,6 @@ groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& i
                     float max_depth_jump)
 {
   const std::size_t n = info.size ();
-  std::vector<std::size_t> group (n);
   std::vector<int> size (n, 0);
   std::map<std::pair<std::size_t, std::size_t>, std::pair<int, int>> contacts;  // (p, q) → (contacts, jumps)
   const int rows = pieces.rows, cols = pieces.cols;
@@ -80,23 +80,18 @@ groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& i
     if (apart (pair.first, pair.second, c))
       divided.insert (info[pair.first].instance);
   // Union–find over the pieces: whole instances, or crease-connected parts of divided ones.
-  for (std::size_t l = 0; l < n; ++l)
-    group[l] = l;
-  const auto find = [&] (std::size_t l) {
-    while (group[l] != l)
-      l = group[l] = group[group[l]];
-    return l;
-  };
+  detail::DisjointSets groups (n);
+  const auto find = [&groups] (std::size_t l) { return groups.find (l); };
   std::map<int, std::size_t> first_piece;
   for (std::size_t l = 1; l < n; ++l)
     if (info[l].instance >= 0 && !divided.count (info[l].instance))
     {
       const auto it = first_piece.emplace (info[l].instance, l).first;
-      group[find (l)] = find (it->second);
+      groups.join (it->second, l);
     }
   for (const auto& [pair, c] : contacts)
     if (divided.count (info[pair.first].instance) && !apart (pair.first, pair.second, c) && 2 * c.second < c.first)
-      group[find (pair.second)] = find (pair.first);
+      groups.join (pair.first, pair.second);
   // Only sizeable pieces are told apart: a part of a divided instance too small to be
   // apart (a key raised on a keyboard, a knob) that no crease joins to a sizeable piece
   // joins the group it touches most among those holding one. Without this every raised
@@ -121,10 +116,8 @@ groupsAlongCreases (const cv::Mat& pieces, const std::vector<SegmentInstance>& i
     }
   }
   for (const auto& [from, best] : attach)
-    group[from] = best.second;
-  for (std::size_t l = 0; l < n; ++l)
-    group[l] = find (l);
-  return group;
+    groups.join (best.second, from);
+  return groups.roots ();
 }
 }  // namespace
 
