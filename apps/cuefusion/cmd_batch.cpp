@@ -121,7 +121,7 @@ runComplete (const fs::path& result)
 {
   try
   {
-    const pipeline::RunFilesSummary files = pipeline::readRunFiles (result.string ());
+    const pipeline::RunFilesSummary files = pipeline::readRunFiles (result.string (), pipeline::kManifestFile);
     return files.has_manifest && !files.stopped_early;
   }
   catch (const std::exception&)

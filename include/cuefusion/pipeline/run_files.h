@@ -106,7 +106,18 @@ struct RunFilesSummary
   std::optional<double> loop_ms;          ///< timings.json: the whole loop's median
 };
 
+/** \brief Which of a run folder's record files readRunFiles reads (or-ed). */
+enum RunFile : unsigned
+{
+  kManifestFile = 1,  ///< outputs.json
+  kTrackingFile = 2,  ///< tracking.json
+  kTimingsFile = 4,   ///< timings.json
+  kAllRunFiles = 7
+};
+
+/** \brief Reads \a files of the run folder \a dir (the others' figures stay absent, and
+  * a broken file that was not asked for is no error). */
 RunFilesSummary
-readRunFiles (const std::string& dir);
+readRunFiles (const std::string& dir, unsigned files = kAllRunFiles);
 }  // namespace pipeline
 }  // namespace cuefusion

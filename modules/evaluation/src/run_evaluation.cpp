@@ -208,7 +208,7 @@ readRunOutputs (const std::string& dir, bool with_mesh, const std::string& name)
     run.segments[entry.id] = p;
   }
   // Older or hand-made folders (and Pipeline.save's) have no voxel size: keep the default.
-  if (const std::optional<double> voxel_size = pipeline::readRunFiles (dir).voxel_size)
+  if (const std::optional<double> voxel_size = pipeline::readRunFiles (dir, pipeline::kTrackingFile).voxel_size)
     run.voxel_size = *voxel_size;
   return run;
 }

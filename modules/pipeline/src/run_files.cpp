@@ -194,26 +194,35 @@ outputsJson (const RunManifest& manifest)
 }
 
 RunFilesSummary
-readRunFiles (const std::string& dir)
+readRunFiles (const std::string& dir, unsigned files)
 {
   const fs::path folder (dir);
   RunFilesSummary summary;
-  const nlohmann::json outputs = jsonIfPresent (folder / "outputs.json");
-  summary.has_manifest = outputs.is_object ();
-  summary.stopped_early = outputs.is_object () && outputs.value ("stopped_early", false);
-  summary.frames = numberAt (outputs, "frames");
-  summary.seconds = numberAt (outputs, "seconds");
-  const nlohmann::json tracking = jsonIfPresent (folder / "tracking.json");
-  summary.tracked = numberAt (tracking, "tracked");
-  if (tracking.is_object () && tracking.contains ("lost") && tracking["lost"].is_array ())
-    summary.lost = static_cast<double> (tracking["lost"].size ());
-  if (tracking.is_object () && tracking.contains ("ate"))
-    summary.ate_rmse = numberAt (tracking["ate"], "rmse");
-  if (tracking.is_object () && tracking.contains ("volume"))
-    summary.voxel_size = numberAt (tracking["volume"], "voxel_size");
-  const nlohmann::json timings = jsonIfPresent (folder / "timings.json");
-  if (timings.is_object () && timings.contains ("stages") && timings["stages"].is_object () && timings["stages"].contains ("whole loop"))
-    summary.loop_ms = numberAt (timings["stages"]["whole loop"], "median");
+  if (files & kManifestFile)
+  {
+    const nlohmann::json outputs = jsonIfPresent (folder / "outputs.json");
+    summary.has_manifest = outputs.is_object ();
+    summary.stopped_early = outputs.is_object () && outputs.value ("stopped_early", false);
+    summary.frames = numberAt (outputs, "frames");
+    summary.seconds = numberAt (outputs, "seconds");
+  }
+  if (files & kTrackingFile)
+  {
+    const nlohmann::json tracking = jsonIfPresent (folder / "tracking.json");
+    summary.tracked = numberAt (tracking, "tracked");
+    if (tracking.is_object () && tracking.contains ("lost") && tracking["lost"].is_array ())
+      summary.lost = static_cast<double> (tracking["lost"].size ());
+    if (tracking.is_object () && tracking.contains ("ate"))
+      summary.ate_rmse = numberAt (tracking["ate"], "rmse");
+    if (tracking.is_object () && tracking.contains ("volume"))
+      summary.voxel_size = numberAt (tracking["volume"], "voxel_size");
+  }
+  if (files & kTimingsFile)
+  {
+    const nlohmann::json timings = jsonIfPresent (folder / "timings.json");
+    if (timings.is_object () && timings.contains ("stages") && timings["stages"].is_object () && timings["stages"].contains ("whole loop"))
+      summary.loop_ms = numberAt (timings["stages"]["whole loop"], "median");
+  }
   return summary;
 }
 }  // namespace pipeline
