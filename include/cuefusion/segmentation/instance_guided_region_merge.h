@@ -70,6 +70,23 @@ struct InstanceGuidedRegionMergeConfig
     * not on one surface (the mask's rim is grown only across one surface; a mask divided
     * along jumps is two objects): the same 2 % as EdgeLabelingConfig::max_depth_jump. */
   float max_depth_jump = kSurfaceDepthJump;
+  /** Where the normals are noisier than the concavity test's threshold (beyond about
+    * 1.25 m at the Kinect model's noise; see noise_ratio), the rim grows from a pixel to
+    * its neighbour only where their normals lie within this angle, in degrees (a pixel
+    * without a normal joins the rim, which stops there; 180 = normals not looked at, the
+    * rim of before 2026-11-27): on one surface, not across the edge band where an object
+    * stands on a table. A network's mask is a few pixels too large, the band at an
+    * object's base continues in depth on both sides, and far away it is wide: the rim
+    * took a ring of table into every far object's segment (generated clutter at 2.4-3.2
+    * m, median mean object IoU 0.65 -> 0.78). 16 was chosen among 11, 16 and 26 on seeds
+    * 1-3 of those draws and checked on seeds 4-6 (docs/benchmarks.md, 2026-11-27
+    * evening); nearer views are not touched. */
+  float rim_max_normal_angle_deg = 16.f;
+  /** The depth noise over the Kinect model's (reconstruction::estimateDepthNoise): 1 =
+    * Kinect-class, 0 = exact depth. It says where the normals are noisy enough for the
+    * rim's normal test (rim_max_normal_angle_deg). FusionPipeline sets the ratio it
+    * measures when GeometricSegmentationConfig::noise_scale is 0 (measured, the default). */
+  float noise_ratio = 1.f;
   void validate () const;
 };
 /// The name before 0.2 (one config per class, named after it).
@@ -173,9 +190,11 @@ public:
     * With the frame's points (\a planes), pixels L^G leaves 0 although they have a point
     * (the edge band that edge assignment did not give back) join a piece its instance
     * claims when they lie inside that instance's mask and connect to the piece through
-    * such pixels without a depth jump (> 2 % of the depth, the rule the normals use),
-    * breadth-first: the masks complete an object's rim on the side it continues in depth;
-    * they still draw no boundary through a segment of L^G.
+    * such pixels without a depth jump (> 2 % of the depth, the rule the normals use) and,
+    * where the planes hold normals, with neighbouring normals within
+    * rim_max_normal_angle_deg, breadth-first: the masks complete an object's rim on the
+    * side it continues in depth and in orientation; they still draw no boundary through a
+    * segment of L^G.
     */
   void split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
               std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr,

@@ -179,6 +179,9 @@ FusionPipeline::followNoise (const RGBDFrame& frame)
   const auto middle = ratios.begin () + static_cast<std::ptrdiff_t> (ratios.size () / 2);
   std::nth_element (ratios.begin (), middle, ratios.end ());
   applyNoiseScale (config_.geometry.scaleFor (*middle));
+  segmentation::InstanceGuidedRegionMergeConfig merge = config_.instance_merge;
+  merge.noise_ratio = *middle;  // where the rim's normal test applies
+  instance_merge_ = segmentation::InstanceGuidedRegionMerge (merge);
 }
 
 PipelineFrameReport

@@ -206,6 +206,8 @@ fields (V& v, InstanceGuidedRegionMergeConfig& c)
   v ("color_split_distance", c.color_split_distance);
   v ("color_split_share", c.color_split_share);
   v ("max_depth_jump", c.max_depth_jump);
+  v ("rim_max_normal_angle_deg", c.rim_max_normal_angle_deg);
+  v ("noise_ratio", c.noise_ratio);
 }
 
 template <class V>
