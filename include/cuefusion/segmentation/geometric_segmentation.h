@@ -86,18 +86,30 @@ struct GeometricSegmentationConfig
 float
 resolveNoiseScale (const GeometricSegmentationConfig& config, const cv::Mat& raw_depth);
 
-/** \brief The same on an organized cloud as the sensor gave it (its z). */
+/** \brief A raw depth image's noise over the Kinect model's (CV_32F metres;
+  * reconstruction::estimateDepthNoise's ratio). */
+float
+measureNoiseRatio (const cv::Mat& raw_depth);
+
+/** \brief The depth noise of an organized cloud as the sensor gave it (its z) over the
+  * Kinect model's (reconstruction::estimateDepthNoise's ratio; 0 for exact depth). */
 template <typename PointT>
 float
-resolveNoiseScale (const GeometricSegmentationConfig& config, const pcl::PointCloud<PointT>& cloud)
+measureNoiseRatio (const pcl::PointCloud<PointT>& cloud)
 {
-  if (!config.measuresNoise ())
-    return config.scaleFor (0.f);
   cv::Mat raw_depth (static_cast<int> (cloud.height), static_cast<int> (cloud.width), CV_32F);
   float* z = raw_depth.ptr<float> ();
   for (std::size_t i = 0; i < cloud.size (); ++i)
     z[i] = cloud[i].z;
-  return resolveNoiseScale (config, raw_depth);
+  return measureNoiseRatio (raw_depth);
+}
+
+/** \brief resolveNoiseScale on an organized cloud as the sensor gave it (its z). */
+template <typename PointT>
+float
+resolveNoiseScale (const GeometricSegmentationConfig& config, const pcl::PointCloud<PointT>& cloud)
+{
+  return config.measuresNoise () ? config.scaleFor (measureNoiseRatio (cloud)) : config.scaleFor (0.f);
 }
 
 /** \brief Milliseconds spent per stage by the last GeometricSegmentation::segment. */

@@ -30,7 +30,17 @@ FrameSegmentation::segmentGeometry (const Cloud::ConstPtr& cloud)
   // The frame's noise sets the thresholds written in sensor-noise units
   // (GeometricSegmentationConfig::noise_scale), as GeometricSegmentation::segment does.
   segmentation::GeometricSegmentationConfig geo = config_.geometry;
-  geo.noise_scale = segmentation::resolveNoiseScale (config_.geometry, *cloud);
+  if (config_.geometry.measuresNoise ())
+  {
+    // The measured ratio also says where the masks' rim follows the normals, as in FusionPipeline.
+    const float ratio = segmentation::measureNoiseRatio (*cloud);
+    geo.noise_scale = config_.geometry.scaleFor (ratio);
+    segmentation::InstanceGuidedRegionMergeConfig merge = config_.instance_merge;
+    merge.noise_ratio = ratio;
+    merger_ = segmentation::InstanceGuidedRegionMerge (merge);
+  }
+  else
+    geo.noise_scale = config_.geometry.scaleFor (0.f);
   preprocessor_.setConfig (geo.noiseScaled (geo.noise_scale).preprocessing);
   segmenter_.setConfig (geo);
   preprocessor_.setInputCloud (cloud);

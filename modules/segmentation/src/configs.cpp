@@ -80,7 +80,13 @@ GeometricSegmentationConfig::noiseScaled (float scale) const
 float
 resolveNoiseScale (const GeometricSegmentationConfig& config, const cv::Mat& raw_depth)
 {
-  return config.measuresNoise () ? config.scaleFor (reconstruction::estimateDepthNoise (raw_depth).ratio) : config.scaleFor (0.f);
+  return config.measuresNoise () ? config.scaleFor (measureNoiseRatio (raw_depth)) : config.scaleFor (0.f);
+}
+
+float
+measureNoiseRatio (const cv::Mat& raw_depth)
+{
+  return reconstruction::estimateDepthNoise (raw_depth).ratio;
 }
 
 void
