@@ -286,9 +286,11 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
       }
   }
 
-  // Pieces numbered in raster order of their first pixel.
+  // Pieces numbered in raster order of their first pixel: per segment, its (part, piece
+  // number) pairs, a handful at most (a map keyed by the pair cost a node per pixel).
   pieces.create (geometric.size (), CV_32S);
-  std::map<std::pair<int, int>, std::int32_t> numbering;
+  std::vector<std::vector<std::pair<int, std::int32_t>>> numbering (labels);
+  std::int32_t numbered = 0;
   for (int y = 0; y < geometric.rows; ++y)
   {
     const std::int32_t* g = geometric.ptr<std::int32_t> (y);
@@ -301,13 +303,24 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
         out[x] = 0;
         continue;
       }
-      out[x] = numbering.emplace (std::make_pair (g[x], p[x]), static_cast<std::int32_t> (numbering.size () + 1)).first->second;
+      const auto segment = static_cast<std::size_t> (g[x]);
+      if (segment >= numbering.size ())
+        numbering.resize (segment + 1);
+      auto& list = numbering[segment];
+      const auto it = std::find_if (list.begin (), list.end (), [&] (const auto& e) { return e.first == p[x]; });
+      if (it != list.end ())
+        out[x] = it->second;
+      else
+      {
+        list.emplace_back (p[x], ++numbered);
+        out[x] = numbered;
+      }
     }
   }
   if (!segments && !planes)
     return instances;
   const OverlapTable<int> covered = countOverlaps (pieces, ids);
-  std::vector<SegmentInstance> info (numbering.size () + 1);
+  std::vector<SegmentInstance> info (static_cast<std::size_t> (numbered) + 1);
   for (std::size_t l = 1; l < covered.labels (); ++l)
   {
     const auto [id, count] = covered.best (l);
