@@ -151,6 +151,48 @@ normalsAreNoisyAt (float z, float noise_ratio)
 }
 
 
+/** \brief splitAlongMasks(): 0-pixels of \a pieces with a point join the piece their
+  * instance claims when inside that mask and connected to it on one surface (see split()). */
+void
+completeRims (const InstanceGuidedRegionMergeConfig& config, const SurfacePlanes& planes, const cv::Mat& ids,
+              const std::vector<SegmentInstance>& info, cv::Mat& pieces)
+{
+  // The rim: 0-pixels with a point inside the mask of the instance claiming a piece
+  // they continue in depth and in surface orientation (rim_max_normal_angle_deg).
+  auto* out = pieces.ptr<std::int32_t> ();
+  const auto* id = ids.ptr<std::uint16_t> ();
+  const float* z = planes.z.data ();
+  const float* nx = planes.nx.data ();
+  const float* ny = planes.ny.data ();
+  const float* nz = planes.nz.data ();
+  // Planes given with points only (assignPoints) have no normals: the rim then follows depth alone.
+  const bool check_normals = config.rim_max_normal_angle_deg < 180.f && config.noise_ratio > 0.f &&
+                             std::any_of (planes.nz.begin (), planes.nz.end (), [] (float v) { return std::isfinite (v) && v != 0.f; });
+  const float min_cos = std::cos (config.rim_max_normal_angle_deg * static_cast<float> (M_PI) / 180.f);
+  const int rows = pieces.rows, cols = pieces.cols, total = rows * cols;
+  std::vector<int> queue;
+  for (int i = 0; i < total; ++i)
+    if (out[i] > 0 && info[static_cast<std::size_t> (out[i])].instance >= 0)
+      queue.push_back (i);
+  growFourConnected (queue, rows, cols, [&] (int i, int j) {
+    const int claimed = info[static_cast<std::size_t> (out[i])].instance + 1;
+    if (out[j] != 0 || id[j] != claimed || !std::isfinite (z[j]) ||
+        !(std::abs (z[j] - z[i]) <= config.max_depth_jump * std::min (z[i], z[j])))
+      return false;
+    if (!check_normals || !normalsAreNoisyAt (z[j], config.noise_ratio))
+    {
+      out[j] = out[i];
+      return true;
+    }
+    const float turn = nx[i] * nx[j] + ny[i] * ny[j] + nz[i] * nz[j];
+    if (turn < min_cos)
+      return false;  // a turn beyond the angle
+    out[j] = out[i];
+    return std::isfinite (turn);  // a pixel without a normal ends the rim there
+  });
+}
+
+
 /** \brief splitAlongMasks(): pieces the masks cover only in part are claimed when more
   * than min_overlap of them lies inside their best instance's mask or within
   * mask_boundary_tolerance pixels of it (a mask's boundary is that uncertain).
@@ -332,41 +374,7 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
   }
   claimWithinBoundaryTolerance (config_, pieces, ids, covered, instances, info);
   if (planes)
-  {
-    // The rim: 0-pixels with a point inside the mask of the instance claiming a piece
-    // they continue in depth and in surface orientation (rim_max_normal_angle_deg).
-    auto* out = pieces.ptr<std::int32_t> ();
-    const auto* id = ids.ptr<std::uint16_t> ();
-    const float* z = planes->z.data ();
-    const float* nx = planes->nx.data ();
-    const float* ny = planes->ny.data ();
-    const float* nz = planes->nz.data ();
-    // Planes given with points only (assignPoints) have no normals: the rim then follows depth alone.
-    const bool check_normals = config_.rim_max_normal_angle_deg < 180.f && config_.noise_ratio > 0.f &&
-                               std::any_of (planes->nz.begin (), planes->nz.end (), [] (float v) { return std::isfinite (v) && v != 0.f; });
-    const float min_cos = std::cos (config_.rim_max_normal_angle_deg * static_cast<float> (M_PI) / 180.f);
-    const int rows = geometric.rows, total = rows * cols;
-    std::vector<int> queue;
-    for (int i = 0; i < total; ++i)
-      if (out[i] > 0 && info[static_cast<std::size_t> (out[i])].instance >= 0)
-        queue.push_back (i);
-    growFourConnected (queue, rows, cols, [&] (int i, int j) {
-      const int claimed = info[static_cast<std::size_t> (out[i])].instance + 1;
-      if (out[j] != 0 || id[j] != claimed || !std::isfinite (z[j]) ||
-          !(std::abs (z[j] - z[i]) <= config_.max_depth_jump * std::min (z[i], z[j])))
-        return false;
-      if (!check_normals || !normalsAreNoisyAt (z[j], config_.noise_ratio))
-      {
-        out[j] = out[i];
-        return true;
-      }
-      const float turn = nx[i] * nx[j] + ny[i] * ny[j] + nz[i] * nz[j];
-      if (turn < min_cos)
-        return false;  // a turn beyond the angle
-      out[j] = out[i];
-      return std::isfinite (turn);  // a pixel without a normal ends the rim there
-    });
-  }
+    completeRims (config_, *planes, ids, info, pieces);
   if (segments)
     segments->swap (info);
   return instances;
