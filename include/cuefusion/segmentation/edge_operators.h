@@ -70,6 +70,16 @@ axialNoiseLowerBound (float z)
   return KinectNoiseModel::atNormalIncidence (z);
 }
 
+/** \brief The angle (radians) by which depth noise turns the normals at depth \a z:
+  * θ(z) = \a slope · σ_z(z) / z, σ_z at normal incidence. The one home of the formula
+  * behind ConcavityEdgeEstimationConfig's noise_slope and wide_noise_slope.
+  */
+inline float
+normalNoiseAngle (float z, float slope)
+{
+  return slope * axialNoiseLowerBound (z) / z;
+}
+
 /** \brief The depth-discontinuity decision of §4.2.1.1: Γ(u) > k·σ_d(u). */
 inline bool
 isDepthDiscontinuity (float gamma, float k, const Eigen::Vector3f& v, const Eigen::Vector3f& n)

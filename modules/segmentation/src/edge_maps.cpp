@@ -154,7 +154,7 @@ wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float max_jum
     // u ∓ 3s·d agree with those at u ∓ s·d within the noise): walls, floors, furniture.
     // A small far object's faces are a few pixels; its creases are Φ's and the masks' to
     // find, and the wide pairs across it cut it into pieces the masks no longer unite.
-    const float theta = wide_slope * axialNoiseLowerBound (Zu[x]) / Zu[x], t = 1.f - 0.5f * theta * theta;
+    const float theta = normalNoiseAngle (Zu[x], wide_slope), t = 1.f - 0.5f * theta * theta;
     const float side_a = NX[x] * p.nx[static_cast<std::size_t> (a2 + x)] + NY[x] * p.ny[static_cast<std::size_t> (a2 + x)] +
                          NZ[x] * p.nz[static_cast<std::size_t> (a2 + x)];
     const float side_b = NXi[x] * p.nx[static_cast<std::size_t> (b2 + x)] + NYi[x] * p.ny[static_cast<std::size_t> (b2 + x)] +
@@ -196,7 +196,7 @@ wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& con
   // near view computes none.
   constexpr float kRightAngle = 1.57079633f;
   const float blend = kRightAngle / (2.f * static_cast<float> (s));
-  const auto applies = [&] (float z) { return config.noise_slope * axialNoiseLowerBound (z) / z > blend; };
+  const auto applies = [&] (float z) { return normalNoiseAngle (z, config.noise_slope) > blend; };
   std::vector<char> needed (static_cast<std::size_t> (h), 0), computed (needed.size (), 0);
   parallelFor (h, [&] (int y) {
     const float* z = planes.z.data () + static_cast<std::size_t> (y) * w;
@@ -231,7 +231,7 @@ wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& con
     {
       if (!applies (z[x]))
         continue;
-      const float theta = config.wide_noise_slope * axialNoiseLowerBound (z[x]) / z[x], t = 1.f - 0.5f * theta * theta;
+      const float theta = normalNoiseAngle (z[x], config.wide_noise_slope), t = 1.f - 0.5f * theta * theta;
       for (std::size_t k = 0; k < kWideDirections.size () && !out[x]; ++k)
       {
         const int dx = kWideDirections[k][0], dy = kWideDirections[k][1];
@@ -255,7 +255,7 @@ concavityEdgeRow (const float* __restrict phi, const std::uint8_t* __restrict wi
 {
   for (int x = 0; x < w; ++x)
   {
-    const float theta = noise_slope * axialNoiseLowerBound (z[x]) / z[x];  // σ_z at normal incidence
+    const float theta = normalNoiseAngle (z[x], noise_slope);
     const float t = std::min (threshold, 1.f - 0.5f * theta * theta);
     out[x] = phi[x] < t || (wide && wide[x]) ? 1 : 0;  // NaN compares false: no edge
   }

@@ -147,7 +147,7 @@ normalsAreNoisyAt (float z, float noise_ratio)
 {
   static const ConcavityEdgeEstimationConfig concavity;
   static const float floor_angle = std::acos (concavity.threshold);
-  return concavity.noise_slope * noise_ratio * axialNoiseLowerBound (z) / z > floor_angle;
+  return normalNoiseAngle (z, concavity.noise_slope * noise_ratio) > floor_angle;
 }
 
 
