@@ -116,7 +116,9 @@ struct SegmentInstance
   * the same l_s with α > min_overlap become one segment of L_t carrying that instance's
   * class and score; the others stay as they are (geometry still separates what the network
   * does not know, §2.1.3). Where masks overlap, the higher score owns the pixel. Pixels
-  * that are 0 in L^G stay 0: the masks group segments, they do not draw new boundaries.
+  * that are 0 in L^G stay 0, except where a mask completes a rim or gives back an object
+  * geometry lost whole (split()): the masks group segments, they do not draw new
+  * boundaries through them.
   * Output labels are 1..M in raster order of each segment's first pixel, so the result
   * depends only on the inputs.
   *
@@ -194,7 +196,13 @@ public:
     * where the planes hold normals, with neighbouring normals within
     * rim_max_normal_angle_deg, breadth-first: the masks complete an object's rim on the
     * side it continues in depth and in orientation; they still draw no boundary through a
-    * segment of L^G.
+    * segment of L^G. An instance that then claims no piece although more than
+    * min_overlap of its mask's pixels with a point (and split_min_pixels) are 0-pixels
+    * marks an object geometry lost whole (a small or far one whose interior fell under
+    * min_segment_size or inside the edge band): a piece of its own grows by the same step
+    * from the mask's innermost such pixel and is kept when it reaches split_min_pixels
+    * (appended after the numbered pieces). Labels are then 1..N in raster order followed
+    * by these.
     */
   void split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
               std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr,
