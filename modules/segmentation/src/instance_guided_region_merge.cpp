@@ -234,6 +234,8 @@ recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const Surface
   for (const SegmentInstance& s : info)
     if (s.instance >= 0 && static_cast<std::size_t> (s.instance) + 1 < n)
       claimed[static_cast<std::size_t> (s.instance) + 1] = 1;
+  if (std::all_of (claimed.begin () + 1, claimed.end (), [] (char c) { return c != 0; }))
+    return;  // the common case: every instance claims a piece
   std::vector<int> with_point (n, 0), unsegmented (n, 0);
   std::vector<cv::Rect> box (n);
   const int rows = pieces.rows, cols = pieces.cols;
