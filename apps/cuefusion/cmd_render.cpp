@@ -7,12 +7,14 @@
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
+#include <cuefusion/segmentation/segments_file.h>
 #include <cuefusion/visualization/mesh_rasterizer.h>
 
 #include <boost/filesystem.hpp>
 
 #include <iomanip>
 #include <iostream>
+#include <set>
 #include <sstream>
 
 namespace fs = boost::filesystem;
@@ -24,7 +26,7 @@ namespace cli
 int
 runRender (const std::vector<std::string>& args)
 {
-  std::string run_dir, out, size = "1280x960", color = "segments";
+  std::string run_dir, out, size = "1280x960", color = "segments", frame = "objects";
   int views = 8;
   po::options_description options ("options");
   options.add_options ()
@@ -32,7 +34,8 @@ runRender (const std::vector<std::string>& args)
     ("views", po::value (&views)->default_value (views), "number of viewpoints on a circle around the map, 30° above it")
     ("out", po::value (&out), "folder for view_NN.png (default RUN/renders)")
     ("size", po::value (&size)->default_value (size), "image size WxH")
-    ("color", po::value (&color)->default_value (color), "'segments' (fixed palette per label) or 'rgb' (fused colour)");
+    ("color", po::value (&color)->default_value (color), "'segments' (fixed palette per label) or 'rgb' (fused colour)")
+    ("frame", po::value (&frame)->default_value (frame), "what the views frame: 'objects' (the segments segments.json gives a class; the whole map when none has one) or 'map' (every labelled surface, a room's floor and walls too)");
   po::positional_options_description positional;
   po::variables_map vm;
   if (!parseCommandLine ("render", "--run DIR [--views N] [options]", args, options, positional, vm))
@@ -46,6 +49,8 @@ runRender (const std::vector<std::string>& args)
     throw ParameterError ("--size", "must be WxH with sides in [16, 8192], not '" + size + "'");
   if (color != "segments" && color != "rgb")
     throw ParameterError ("--color", "must be 'segments' or 'rgb', not '" + color + "'");
+  if (frame != "objects" && frame != "map")
+    throw ParameterError ("--frame", "must be 'objects' or 'map', not '" + frame + "'");
   if (out.empty ())
     out = (fs::path (run_dir) / "renders").string ();
 
@@ -70,7 +75,14 @@ runRender (const std::vector<std::string>& args)
   if (fs::exists (trajectory))
     for (const io::StampedPose& p : io::readTumTrajectory (trajectory.string ()))
       cameras.push_back (p.pose);
-  const auto poses = visualization::orbitViews (mesh, camera, views, visualization::upFromCameras (cameras));
+  // The objects, not a room's floor and walls, set the framing: the segments the masks gave a class.
+  std::set<std::uint32_t> objects;
+  const fs::path segments = fs::path (run_dir) / "segments.json";
+  if (frame == "objects" && fs::exists (segments))
+    for (const segmentation::SegmentEntry& entry : segmentation::readSegmentsJson (segments.string ()))
+      if (!entry.class_name.empty ())
+        objects.insert (entry.id);
+  const auto poses = visualization::orbitViews (mesh, camera, views, visualization::upFromCameras (cameras), objects);
   for (int k = 0; k < views; ++k)
   {
     std::ostringstream name;
@@ -79,7 +91,8 @@ runRender (const std::vector<std::string>& args)
     io::writeImageAtomic ((fs::path (out) / name.str ()).string (), view.image);
   }
   std::cout << "rendered " << views << " view(s) of " << (fs::path (run_dir) / "mesh.ply").string () << " (" << mesh.triangles.size ()
-            << " triangles) to " << out << "\n";
+            << " triangles; framing " << (objects.empty () ? std::string ("the map") : std::to_string (objects.size ()) + " object(s)") << ") to "
+            << out << "\n";
   return 0;
 }
 }  // namespace cli

@@ -223,6 +223,9 @@ TEST_F (EvalCli, RunRendersPanelsAndVideoAndRenderDrawsTheMesh)
   }
   EXPECT_EQ (run ("render --run " + (dir / "run") + " --views 0").code, 2);
   EXPECT_EQ (run ("render --run " + (dir / "run") + " --size 10").code, 2);
+  r = run ("render --run " + (dir / "run") + " --frame floor");
+  EXPECT_EQ (r.code, 2);
+  EXPECT_NE (r.err.find ("--frame"), std::string::npos) << r.err;
   r = run ("render --run " + (dir / "nope"));
   EXPECT_EQ (r.code, 1);
   EXPECT_EQ (lineCount (r.err), 1) << r.err;

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <random>
 #include <set>
 #include <tuple>
 
@@ -122,6 +123,74 @@ TEST (MeshRasterizer, OrbitViewsLookAtTheMesh)
   with_speck.triangles.emplace_back (400, 401, 402);
   for (const auto& pose : visualization::orbitViews (with_speck, camera, 4))
     EXPECT_GT (cv::countNonZero (rasterizer.render (with_speck, camera, pose).labels == 7), camera.width * camera.height / 20);
+}
+
+TEST (MeshRasterizer, OrbitViewsFrameTheObjectsNotTheRoom)
+{
+  // A 10 m floor (label 1) with a 20 cm object on it (label 2). Framed by every labelled
+  // surface the object is a speck; framed by the object (a run's segments with a class)
+  // it fills a good part of every view. Labels not in the mesh fall back to the whole map.
+  io::TriangleMesh mesh;
+  addSquare (mesh, 5.f, 0.f, 1);
+  addSquare (mesh, 0.1f, 0.2f, 2);
+  const PinholeCamera camera (300.0, 300.0, 159.5, 119.5, 320, 240);
+  const visualization::MeshRasterizer rasterizer;
+  const auto object_pixels = [&] (const Eigen::Isometry3d& pose) { return cv::countNonZero (rasterizer.render (mesh, camera, pose).labels == 2); };
+  const auto whole = visualization::orbitViews (mesh, camera, 4);
+  const auto objects = visualization::orbitViews (mesh, camera, 4, Eigen::Vector3d::UnitZ (), {2});
+  const auto absent = visualization::orbitViews (mesh, camera, 4, Eigen::Vector3d::UnitZ (), {9});
+  for (std::size_t k = 0; k < 4; ++k)
+  {
+    EXPECT_LT (object_pixels (whole[k]), camera.width * camera.height / 100) << k;
+    EXPECT_GT (object_pixels (objects[k]), camera.width * camera.height / 10) << k;
+    EXPECT_TRUE (absent[k].isApprox (whole[k])) << k;
+  }
+}
+
+TEST (MeshRasterizer, ANoisySurfaceIsShadedByItsVertexNormalsNotAsGrain)
+{
+  // A 60 cm square facing the camera 1 m away, triangulated at 1 cm with every vertex 0–3 mm
+  // off the plane (a TSDF mesh of a noisy wall), its vertex normals the plane's (the TSDF's
+  // gradient). Shaded by the vertex normals neighbouring pixels differ by under a grey
+  // level on average; by the face normals (a mesh without normals) by several.
+  io::TriangleMesh mesh;
+  std::mt19937 random (7);
+  std::uniform_real_distribution<float> jitter (0.f, 0.003f);
+  const int n = 61;
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c)
+    {
+      mesh.vertices.emplace_back (-0.3f + 0.01f * static_cast<float> (c), -0.3f + 0.01f * static_cast<float> (r), 1.f + jitter (random));
+      mesh.normals.emplace_back (0.f, 0.f, -1.f);
+      mesh.labels.push_back (5);
+      mesh.colors.push_back ({200, 200, 200});
+    }
+  for (int r = 0; r + 1 < n; ++r)
+    for (int c = 0; c + 1 < n; ++c)
+    {
+      const int i = r * n + c;
+      mesh.triangles.emplace_back (i, i + n, i + 1);
+      mesh.triangles.emplace_back (i + 1, i + n, i + n + 1);
+    }
+  const PinholeCamera camera (150.0, 150.0, 79.5, 59.5, 160, 120);
+  const auto grain = [&] (const io::TriangleMesh& m) {
+    const visualization::MeshView view = visualization::MeshRasterizer ().render (m, camera, Eigen::Isometry3d::Identity ());
+    double sum = 0.0;
+    int pairs = 0;
+    for (int v = 20; v < 100; ++v)
+      for (int u = 40; u < 120; ++u)
+        if (view.labels.at<std::int32_t> (v, u) == 5 && view.labels.at<std::int32_t> (v, u + 1) == 5)
+        {
+          sum += std::abs (static_cast<int> (view.image.at<cv::Vec3b> (v, u)[1]) - static_cast<int> (view.image.at<cv::Vec3b> (v, u + 1)[1]));
+          ++pairs;
+        }
+    EXPECT_GT (pairs, 80 * 80 * 95 / 100);  // the square covers the window
+    return sum / std::max (1, pairs);
+  };
+  EXPECT_LT (grain (mesh), 1.0);
+  io::TriangleMesh faces_only = mesh;
+  faces_only.normals.clear ();
+  EXPECT_GT (grain (faces_only), 3.0);
 }
 
 TEST (MeshRasterizer, RenderedMapMatchesARaycastOfTheSameMap)

@@ -7,6 +7,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include <set>
+
 namespace cuefusion
 {
 namespace visualization
@@ -23,9 +25,10 @@ struct MeshRasterizerConfig
 {
   float near_plane = 0.05f;               ///< metres; triangles crossing it are dropped
   bool color_by_label = true;             ///< else the mesh's vertex colours
-  /** Skip triangles seen from behind (marching-cubes faces wind counter-clockwise around
-    * the normal that points into free space): walls between an outside viewpoint and a
-    * room's contents disappear, as in a dollhouse view. */
+  /** Skip triangles seen from behind (by their vertex normals where the mesh has them,
+    * else by winding: marching-cubes faces wind counter-clockwise around the normal that
+    * points into free space): walls between an outside viewpoint and a room's contents
+    * disappear, and the far walls are seen from inside, as in a dollhouse view. */
   bool cull_back_faces = false;
   cv::Vec3b background{255, 255, 255};    ///< BGR
   void validate () const;
@@ -38,7 +41,10 @@ struct MeshRasterizerConfig
   *
   * The project renders itself rather than through VTK: this works with no display, no
   * OpenGL and no Xvfb, and gives exact label ids per pixel (an OpenGL colour buffer would
-  * need colour→id decoding and no anti-aliasing). Shading is Lambertian with a headlight.
+  * need colour→id decoding and no anti-aliasing). Shading is Lambertian with a headlight,
+  * from the mean of each triangle's vertex normals where the mesh has them (a TSDF
+  * mesh's gradient normals; a noisy surface's face normals shade it as grain), else from
+  * its face normal; back faces are culled by the same normal.
   */
 class MeshRasterizer
 {
@@ -54,13 +60,16 @@ private:
 
 /** \brief Camera poses on a circle around \a mesh looking at its centre from 30° above
   * the plane orthogonal to \a up, for overview renders; \a views ≥ 1. The circle's
-  * radius fits the sphere around the box of the mesh's labelled vertices (all vertices
-  * when none is labelled), from the 2nd to the 98th percentile on each axis so that a few
-  * stray surfaces far off do not set the framing, into \a camera's narrower field of view.
+  * radius fits the sphere around the box of the vertices labelled with one of \a focus
+  * (a run's objects, so that a room's floor and walls do not set the framing; when \a
+  * focus is empty or none of its labels is in the mesh, every labelled vertex; all
+  * vertices when none is labelled), from the 2nd to the 98th percentile on each axis so
+  * that a few stray surfaces far off do not set it either, into \a camera's narrower
+  * field of view.
   */
 std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
 orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views,
-            const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ ());
+            const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ (), const std::set<std::uint32_t>& focus = {});
 
 /** \brief The world's up direction as a hand-held or robot camera sees it: the mean of
   * the cameras' image-up axes (−y of each camera-to-world pose), normalised; world z

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 namespace cuefusion
 {
@@ -39,6 +40,8 @@ MeshRasterizer::render (const io::TriangleMesh& mesh, const PinholeCamera& camer
     pc[i] = world_to_camera * mesh.vertices[i];
   const bool have_labels = !mesh.labels.empty () && config_.color_by_label;
   const bool have_colors = !mesh.colors.empty ();
+  const bool have_normals = mesh.normals.size () == mesh.vertices.size ();
+  const Eigen::Matrix3f rotation = world_to_camera.linear ();
   const auto fx = static_cast<float> (camera.fx), fy = static_cast<float> (camera.fy);
   const auto cx = static_cast<float> (camera.cx), cy = static_cast<float> (camera.cy);
 
@@ -61,8 +64,18 @@ MeshRasterizer::render (const io::TriangleMesh& mesh, const PinholeCamera& camer
     const int v1 = std::min (camera.height - 1, static_cast<int> (std::floor (std::max ({pa.y (), pb.y (), pcc.y ()}))));
     if (u0 > u1 || v0 > v1)
       continue;
-    // Headlight Lambert shading from the face normal (two-sided unless culled).
-    const Eigen::Vector3f normal = (b - a).cross (c - a).normalized ();
+    // Headlight Lambert shading (two-sided unless culled) and culling from the surface's
+    // normal: the mean of the corners' normals where the mesh has them, else the face's.
+    // A TSDF mesh's vertex normals are the field's gradient, smooth where the faces of a
+    // noisy far wall are not: shaded by its face normals such a wall came out as grain.
+    Eigen::Vector3f normal = (b - a).cross (c - a).normalized ();
+    if (have_normals)
+    {
+      const Eigen::Vector3f mean = rotation * (mesh.normals[static_cast<std::size_t> (t[0])] + mesh.normals[static_cast<std::size_t> (t[1])] +
+                                               mesh.normals[static_cast<std::size_t> (t[2])]);
+      if (mean.squaredNorm () > 1e-12f)
+        normal = mean.normalized ();
+    }
     if (config_.cull_back_faces && normal.dot (a) > 0.f)
       continue;
     const Eigen::Vector3f centre = ((a + b + c) / 3.f).normalized ();
@@ -113,7 +126,8 @@ MeshRasterizer::render (const io::TriangleMesh& mesh, const PinholeCamera& camer
 }
 
 std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
-orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views, const Eigen::Vector3d& up_direction)
+orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views, const Eigen::Vector3d& up_direction,
+            const std::set<std::uint32_t>& focus)
 {
   if (views < 1)
     throw ParameterError ("orbitViews views", "must be at least 1");
@@ -124,10 +138,16 @@ orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views
   // window, a noise patch metres away) would otherwise set the framing and leave the map
   // a small blot in the middle of the render.
   std::vector<float> coordinates[3];
-  for (std::size_t i = 0; i < mesh.vertices.size (); ++i)
-    if (i < mesh.labels.size () && mesh.labels[i] != 0)
-      for (int axis = 0; axis < 3; ++axis)
-        coordinates[axis].push_back (mesh.vertices[i][axis]);
+  const auto gather = [&] (const std::function<bool (std::uint32_t)>& chosen) {
+    for (std::size_t i = 0; i < mesh.vertices.size () && i < mesh.labels.size (); ++i)
+      if (mesh.labels[i] != 0 && chosen (mesh.labels[i]))
+        for (int axis = 0; axis < 3; ++axis)
+          coordinates[axis].push_back (mesh.vertices[i][axis]);
+  };
+  if (!focus.empty ())
+    gather ([&focus] (std::uint32_t label) { return focus.count (label) > 0; });
+  if (coordinates[0].empty ())
+    gather ([] (std::uint32_t) { return true; });
   if (coordinates[0].empty ())
     for (const Eigen::Vector3f& v : mesh.vertices)
       for (int axis = 0; axis < 3; ++axis)
