@@ -201,7 +201,9 @@ public:
     * marks an object geometry lost whole (a small or far one whose interior fell under
     * min_segment_size or inside the edge band): a piece of its own grows by the same step
     * from the mask's innermost such pixel and is kept when it reaches split_min_pixels
-    * (appended after the numbered pieces). Labels are then 1..N in raster order followed
+    * and does not continue a piece another instance claims (more than half of the pixel
+    * pairs along their shared boundary continue one surface: a second mask over part of
+    * that object) (appended after the numbered pieces). Labels are then 1..N in raster order followed
     * by these.
     */
   void split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
