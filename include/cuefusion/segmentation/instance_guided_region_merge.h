@@ -200,11 +200,11 @@ public:
     * min_overlap of its mask's pixels with a point (and split_min_pixels) are 0-pixels
     * marks an object geometry lost whole (a small or far one whose interior fell under
     * min_segment_size or inside the edge band): a piece of its own grows by the same step
-    * from the mask's innermost such pixel and is kept when it reaches split_min_pixels
-    * and does not continue a piece another instance claims (more than half of the pixel
-    * pairs along their shared boundary continue one surface: a second mask over part of
-    * that object) (appended after the numbered pieces). Labels are then 1..N in raster order followed
-    * by these.
+    * from the mask's innermost such pixel and is kept, after the numbered pieces, when it
+    * reaches split_min_pixels and does not continue a piece another instance claims
+    * (continuing: more than half of the pixel pairs along their shared boundary step on
+    * one surface — a second mask over part of that object). Labels are then 1..N in
+    * raster order followed by these.
     */
   void split (const cv::Mat& geometric, const std::vector<Instance>& instances, cv::Mat& pieces,
               std::vector<SegmentInstance>* segments = nullptr, const SurfacePlanes* planes = nullptr,
