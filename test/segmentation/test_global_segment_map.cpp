@@ -74,6 +74,19 @@ TEST (PairEvidence, UnitesAfterFiveFramesTogetherWhileTheyAreTheMajority)
   GlobalSegmentMapConfig bad;
   bad.together_share = 1.f;
   EXPECT_THROW (PairEvidence {bad}, ParameterError);
+  // The flat-surface fields name themselves (0 switches the rule off).
+  for (const auto& [field, set] : std::vector<std::pair<std::string, std::function<void (GlobalSegmentMapConfig&)>>>{
+           {"surface_min_extent", [] (GlobalSegmentMapConfig& c) { c.surface_min_extent = -1.f; }},
+           {"surface_tolerance", [] (GlobalSegmentMapConfig& c) { c.surface_tolerance = 0.f; }},
+           {"surface_max_angle_deg", [] (GlobalSegmentMapConfig& c) { c.surface_max_angle_deg = 90.f; }}})
+  {
+    GlobalSegmentMapConfig c;
+    set (c);
+    test::expectError ([&] { c.validate (); }, "GlobalSegmentMapConfig::" + field, "must lie in");
+  }
+  GlobalSegmentMapConfig off;
+  off.surface_min_extent = 0.f;
+  EXPECT_NO_THROW (off.validate ());
 }
 
 TEST (GlobalSegmentMap, AClassNeedsVotesInAQuarterOfTheFramesSeen)

@@ -72,6 +72,22 @@ struct GlobalSegmentMapConfig
     * object it touches. 0 = confirm_confidence alone (before 0.4).
     */
   float confirm_share = 0.2f;
+  /** One flat surface that furniture or objects part in every view (a floor around a
+    * kitchen island, a wall beside a bookshelf, a table top between the things on it)
+    * shows as one object in outputs (settledLabels): two objects no mask gave a class,
+    * each flat and at least this wide (m) in both directions of its plane, on one plane,
+    * that the evidence did not set apart (confirm_confidence frames apart), with no free
+    * space and no third surface on the plane between them (where a camera looked
+    * through: two tables at one height; a third door between two). 0 = off (before 0.5).
+    */
+  float surface_min_extent = 0.3f;
+  /** A flat surface has 90 % of its voxels within this distance (m) of its plane; two are
+    * on one plane when each centroid is within it of the other's plane; free space is
+    * further than it from every surface.
+    */
+  float surface_tolerance = 0.02f;
+  /** Two flat surfaces are on one plane only when their normals are within this angle. */
+  float surface_max_angle_deg = 5.f;
   void validate () const;
 };
 /// The name before 0.2 (one config per class, named after it).

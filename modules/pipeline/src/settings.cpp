@@ -238,6 +238,9 @@ fields (V& v, GlobalSegmentMapConfig& c)
   v ("confirm_confidence", c.confirm_confidence);
   v ("together_share", c.together_share);
   v ("confirm_share", c.confirm_share);
+  v ("surface_min_extent", c.surface_min_extent);
+  v ("surface_tolerance", c.surface_tolerance);
+  v ("surface_max_angle_deg", c.surface_max_angle_deg);
 }
 
 template <class V>

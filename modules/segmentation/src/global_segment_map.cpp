@@ -3,7 +3,10 @@
 #include <cuefusion/reconstruction/tsdf_volume.h>
 #include <cuefusion/segmentation/global_segment_map.h>
 
+#include "coplanar_surfaces.h"
+
 #include <algorithm>
+#include <set>
 
 namespace cuefusion
 {
@@ -49,6 +52,12 @@ GlobalSegmentMapConfig::validate () const
     throw ParameterError ("GlobalSegmentMapConfig::together_share", "must lie in [0, 1)");
   if (!(confirm_share >= 0.f && confirm_share < 1.f))
     throw ParameterError ("GlobalSegmentMapConfig::confirm_share", "must lie in [0, 1)");
+  if (!(surface_min_extent >= 0.f && surface_min_extent <= 100.f))
+    throw ParameterError ("GlobalSegmentMapConfig::surface_min_extent", "must lie in [0, 100] (metres; 0 = off)");
+  if (!(surface_tolerance > 0.f && surface_tolerance <= 1.f))
+    throw ParameterError ("GlobalSegmentMapConfig::surface_tolerance", "must lie in (0, 1] (metres)");
+  if (!(surface_max_angle_deg >= 0.f && surface_max_angle_deg < 90.f))
+    throw ParameterError ("GlobalSegmentMapConfig::surface_max_angle_deg", "must lie in [0, 90)");
 }
 
 PairEvidence::PairEvidence (const GlobalSegmentMapConfig& config) : config_ (config) { config_.validate (); }
@@ -400,13 +409,34 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
   for (const auto& [object, keep] : kept)
     if (!keep && recent[object] && !target.count (object))
       target[object] = object;
-  std::unordered_map<std::uint32_t, std::uint32_t> out;
+  // One flat surface parted in every view shows as one object (coplanar_surfaces.h).
+  std::vector<std::uint32_t> shown (next_label_, 0);
+  std::set<std::uint32_t> stuff;
   for (const auto& [label, record] : records_)
   {
     const auto it = target.find (resolve (label));
-    if (it != target.end () && it->second != 0)
-      out[label] = it->second;
+    shown[label] = it == target.end () ? 0 : it->second;
+    if (shown[label] != 0)
+      stuff.insert (shown[label]);
   }
+  for (const auto& [label, record] : records_)  // the object's own labels (not fragments settled into it)
+    if (shown[label] != 0 && resolve (label) == shown[label] && !record.bestClass ().empty ())
+      stuff.erase (shown[label]);
+  std::set<std::pair<std::uint32_t, std::uint32_t>> judged;
+  for (const auto& [pair, counts] : evidence_.pairs ())
+  {
+    const std::uint32_t a = pair.first < shown.size () ? shown[pair.first] : 0, b = pair.second < shown.size () ? shown[pair.second] : 0;
+    if (a != 0 && b != 0 && a != b && counts.apart >= config.confirm_confidence && !evidence_.united (counts))
+      judged.emplace (std::min (a, b), std::max (a, b));
+  }
+  const auto joined = detail::coplanarSurfaces (volume, labels, shown, stuff, judged, config);
+  std::unordered_map<std::uint32_t, std::uint32_t> out;
+  for (const auto& [label, record] : records_)
+    if (shown[label] != 0)
+    {
+      const auto it = joined.find (shown[label]);
+      out[label] = it == joined.end () ? shown[label] : it->second;
+    }
   return out;
 }
 
