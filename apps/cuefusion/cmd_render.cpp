@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// cuefusion render: the labelled mesh of a run from N viewpoints around it, as PNGs,
-// with no display (the project's own rasterizer).
+// cuefusion render: the labelled mesh of a run from N viewpoints around it or from its own
+// camera poses, as PNGs, with no display (the project's own rasterizer).
 #include "cli.h"
 
 #include <cuefusion/common/exceptions.h>
@@ -26,16 +26,17 @@ namespace cli
 int
 runRender (const std::vector<std::string>& args)
 {
-  std::string run_dir, out, size = "1280x960", color = "segments", frame = "objects";
+  std::string run_dir, out, size = "1280x960", color = "segments", frame = "objects", from = "orbit";
   int views = 8;
   po::options_description options ("options");
   options.add_options ()
     ("run", po::value (&run_dir)->required (), "output folder of `cuefusion run` (reads mesh.ply)")
-    ("views", po::value (&views)->default_value (views), "number of viewpoints on a circle around the map, 30° above it")
+    ("views", po::value (&views)->default_value (views), "number of viewpoints")
+    ("from", po::value (&from)->default_value (from), "where the views are: 'orbit' (on a circle around the map, 30° above it, looking in) or 'cameras' (the run's own camera poses from trajectory.txt, evenly spaced along it: a room from inside)")
     ("out", po::value (&out), "folder for view_NN.png (default RUN/renders)")
     ("size", po::value (&size)->default_value (size), "image size WxH")
     ("color", po::value (&color)->default_value (color), "'segments' (fixed palette per label) or 'rgb' (fused colour)")
-    ("frame", po::value (&frame)->default_value (frame), "what the views frame: 'objects' (the segments segments.json gives a class; the whole map when none has one) or 'map' (every labelled surface, a room's floor and walls too)");
+    ("frame", po::value (&frame)->default_value (frame), "what the orbit's views frame: 'objects' (the segments segments.json gives a class; the whole map when none has one) or 'map' (every labelled surface, a room's floor and walls too)");
   po::positional_options_description positional;
   po::variables_map vm;
   if (!parseCommandLine ("render", "--run DIR [--views N] [options]", args, options, positional, vm))
@@ -51,6 +52,8 @@ runRender (const std::vector<std::string>& args)
     throw ParameterError ("--color", "must be 'segments' or 'rgb', not '" + color + "'");
   if (frame != "objects" && frame != "map")
     throw ParameterError ("--frame", "must be 'objects' or 'map', not '" + frame + "'");
+  if (from != "orbit" && from != "cameras")
+    throw ParameterError ("--from", "must be 'orbit' or 'cameras', not '" + from + "'");
   if (out.empty ())
     out = (fs::path (run_dir) / "renders").string ();
 
@@ -72,17 +75,22 @@ runRender (const std::vector<std::string>& args)
   // Up is where the run's cameras had it (datasets differ: z-up, y-up).
   std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> cameras;
   const fs::path trajectory = fs::path (run_dir) / "trajectory.txt";
+  if (from == "cameras" && !fs::exists (trajectory))
+    throw Error (trajectory.string (), "not found: --from cameras renders from the run's camera poses");
   if (fs::exists (trajectory))
     for (const io::StampedPose& p : io::readTumTrajectory (trajectory.string ()))
       cameras.push_back (p.pose);
-  // The objects, not a room's floor and walls, set the framing: the segments the masks gave a class.
+  if (from == "cameras" && cameras.empty ())
+    throw Error (trajectory.string (), "holds no pose: --from cameras renders from the run's camera poses");
+  // The objects, not a room's floor and walls, set the orbit's framing: the segments the masks gave a class.
   std::set<std::uint32_t> objects;
   const fs::path segments = fs::path (run_dir) / "segments.json";
-  if (frame == "objects" && fs::exists (segments))
+  if (from == "orbit" && frame == "objects" && fs::exists (segments))
     for (const segmentation::SegmentEntry& entry : segmentation::readSegmentsJson (segments.string ()))
       if (!entry.class_name.empty ())
         objects.insert (entry.id);
-  const auto poses = visualization::orbitViews (mesh, camera, views, visualization::upFromCameras (cameras), objects);
+  const auto poses = from == "cameras" ? visualization::cameraViews (cameras, views)
+                                       : visualization::orbitViews (mesh, camera, views, visualization::upFromCameras (cameras), objects);
   for (int k = 0; k < views; ++k)
   {
     std::ostringstream name;
@@ -91,7 +99,10 @@ runRender (const std::vector<std::string>& args)
     io::writeImageAtomic ((fs::path (out) / name.str ()).string (), view.image);
   }
   std::cout << "rendered " << views << " view(s) of " << (fs::path (run_dir) / "mesh.ply").string () << " (" << mesh.triangles.size ()
-            << " triangles; framing " << (objects.empty () ? std::string ("the map") : std::to_string (objects.size ()) + " object(s)") << ") to "
+            << " triangles; "
+            << (from == "cameras" ? std::string ("from the run's cameras")
+                                  : "framing " + (objects.empty () ? std::string ("the map") : std::to_string (objects.size ()) + " object(s)"))
+            << ") to "
             << out << "\n";
   return 0;
 }

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
 #include <algorithm>
@@ -226,6 +227,20 @@ TEST_F (EvalCli, RunRendersPanelsAndVideoAndRenderDrawsTheMesh)
   r = run ("render --run " + (dir / "run") + " --frame floor");
   EXPECT_EQ (r.code, 2);
   EXPECT_NE (r.err.find ("--frame"), std::string::npos) << r.err;
+  // From the run's own cameras: the scene as the camera saw it, its objects in view.
+  r = run ("render --run " + (dir / "run") + " --from cameras --views 2 --size 320x240 --out " + (dir / "inside"));
+  ASSERT_EQ (r.code, 0) << r.err;
+  for (int k = 0; k < 2; ++k)
+  {
+    const cv::Mat view = cv::imread (dir / ("inside/view_0" + std::to_string (k) + ".png"));
+    ASSERT_FALSE (view.empty ());
+    cv::Mat grey;
+    cv::cvtColor (view, grey, cv::COLOR_BGR2GRAY);
+    EXPECT_GT (cv::countNonZero (grey < 250), view.total () / 2) << k;  // mostly mesh, not the white background
+  }
+  r = run ("render --run " + (dir / "run") + " --from above");
+  EXPECT_EQ (r.code, 2);
+  EXPECT_NE (r.err.find ("--from"), std::string::npos) << r.err;
   r = run ("render --run " + (dir / "nope"));
   EXPECT_EQ (r.code, 1);
   EXPECT_EQ (lineCount (r.err), 1) << r.err;

@@ -147,6 +147,38 @@ TEST (MeshRasterizer, OrbitViewsFrameTheObjectsNotTheRoom)
   }
 }
 
+TEST (MeshRasterizer, CameraViewsAreTheRunsOwnPosesEvenlySpaced)
+{
+  // Eleven poses along x, each turned a little about y: three views are the first, the
+  // middle and the last; one view the middle; more views than poses repeat poses in order.
+  std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> poses;
+  for (int i = 0; i <= 10; ++i)
+    poses.push_back (Eigen::Translation3d (i, 0, 0) * Eigen::AngleAxisd (0.01 * i, Eigen::Vector3d::UnitY ()));
+  const auto three = visualization::cameraViews (poses, 3);
+  ASSERT_EQ (three.size (), 3u);
+  EXPECT_TRUE (three[0].isApprox (poses[0]));
+  EXPECT_TRUE (three[1].isApprox (poses[5]));
+  EXPECT_TRUE (three[2].isApprox (poses[10]));
+  ASSERT_EQ (visualization::cameraViews (poses, 1).size (), 1u);
+  EXPECT_TRUE (visualization::cameraViews (poses, 1)[0].isApprox (poses[5]));
+  const auto many = visualization::cameraViews (poses, 25);
+  ASSERT_EQ (many.size (), 25u);
+  for (std::size_t k = 1; k < many.size (); ++k)
+    EXPECT_LE (many[k - 1].translation ().x (), many[k].translation ().x ()) << k;
+  EXPECT_TRUE (many.back ().isApprox (poses.back ()));
+  test::expectError ([&] { visualization::cameraViews (poses, 0); }, "cameraViews views", "at least 1");
+  test::expectError ([&] { visualization::cameraViews ({}, 3); }, "cameraViews poses", "at least one");
+  // From a pose inside a room (a wall 2 m ahead, one behind the camera), the view sees
+  // the wall ahead from wall to wall.
+  io::TriangleMesh room;
+  addSquare (room, 3.f, 2.f, 4);
+  addSquare (room, 3.f, -2.f, 5);
+  const visualization::MeshRasterizer rasterizer;
+  const PinholeCamera camera (300.0, 300.0, 159.5, 119.5, 320, 240);
+  const auto inside = visualization::cameraViews ({Eigen::Isometry3d::Identity ()}, 1);
+  EXPECT_EQ (cv::countNonZero (rasterizer.render (room, camera, inside[0]).labels == 4), camera.width * camera.height);
+}
+
 TEST (MeshRasterizer, ANoisySurfaceIsShadedByItsVertexNormalsNotAsGrain)
 {
   // A 60 cm square facing the camera 1 m away, triangulated at 1 cm with every vertex 0–3 mm

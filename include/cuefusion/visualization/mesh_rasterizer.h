@@ -71,6 +71,14 @@ std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
 orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views,
             const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ (), const std::set<std::uint32_t>& focus = {});
 
+/** \brief \a views of a run's own camera poses (camera-to-world), evenly spaced along
+  * them: the first, the last and between (the middle one for a single view). A room
+  * seen from where the camera stood, from inside, as a user knows it; orbitViews looks at
+  * it from outside. Throws ParameterError when \a views < 1 or \a poses is empty.
+  */
+std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
+cameraViews (const std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>& poses, int views);
+
 /** \brief The world's up direction as a hand-held or robot camera sees it: the mean of
   * the cameras' image-up axes (−y of each camera-to-world pose), normalised; world z
   * when \a poses is empty or the mean vanishes. Datasets differ (ICL-NUIM and ScanNet

@@ -183,6 +183,23 @@ orbitViews (const io::TriangleMesh& mesh, const PinholeCamera& camera, int views
   }
   return poses;
 }
+std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>
+cameraViews (const std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>& poses, int views)
+{
+  if (views < 1)
+    throw ParameterError ("cameraViews views", "must be at least 1");
+  if (poses.empty ())
+    throw ParameterError ("cameraViews poses", "must hold at least one camera pose");
+  std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> out;
+  const double last = static_cast<double> (poses.size () - 1);
+  for (int k = 0; k < views; ++k)
+  {
+    const double at = views == 1 ? 0.5 * last : last * k / (views - 1);
+    out.push_back (poses[static_cast<std::size_t> (std::lround (at))]);
+  }
+  return out;
+}
+
 Eigen::Vector3d
 upFromCameras (const std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>& poses)
 {
