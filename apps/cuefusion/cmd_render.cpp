@@ -8,6 +8,7 @@
 #include <cuefusion/io/mesh_io.h>
 #include <cuefusion/io/pose_io.h>
 #include <cuefusion/segmentation/segments_file.h>
+#include <cuefusion/visualization/mesh_pieces.h>
 #include <cuefusion/visualization/mesh_rasterizer.h>
 
 #include <boost/filesystem.hpp>
@@ -27,7 +28,7 @@ int
 runRender (const std::vector<std::string>& args)
 {
   std::string run_dir, out, size = "1280x960", color = "segments", frame = "objects", from = "orbit";
-  int views = 8;
+  int views = 8, min_piece = 100;
   po::options_description options ("options");
   options.add_options ()
     ("run", po::value (&run_dir)->required (), "output folder of `cuefusion run` (reads mesh.ply)")
@@ -36,6 +37,7 @@ runRender (const std::vector<std::string>& args)
     ("out", po::value (&out), "folder for view_NN.png (default RUN/renders)")
     ("size", po::value (&size)->default_value (size), "image size WxH")
     ("color", po::value (&color)->default_value (color), "'segments' (fixed palette per label) or 'rgb' (fused colour)")
+    ("min-piece", po::value (&min_piece)->default_value (min_piece), "leave out connected pieces of the mesh with fewer triangles than this: the specks of surfaces seen a few times from far away (0 draws every piece)")
     ("frame", po::value (&frame)->default_value (frame), "what the orbit's views frame: 'objects' (the segments segments.json gives a class; the whole map when none has one) or 'map' (every labelled surface, a room's floor and walls too)");
   po::positional_options_description positional;
   po::variables_map vm;
@@ -43,6 +45,8 @@ runRender (const std::vector<std::string>& args)
     return 0;
   if (views < 1 || views > 360)
     throw ParameterError ("--views", "must lie in [1, 360]");
+  if (min_piece < 0)
+    throw ParameterError ("--min-piece", "must be at least 0");
   int width = 0, height = 0;
   char x = 0;
   std::istringstream dims (size);
@@ -57,9 +61,10 @@ runRender (const std::vector<std::string>& args)
   if (out.empty ())
     out = (fs::path (run_dir) / "renders").string ();
 
-  const io::TriangleMesh mesh = io::readMeshPLY ((fs::path (run_dir) / "mesh.ply").string ());
-  if (mesh.triangles.empty ())
+  const io::TriangleMesh read = io::readMeshPLY ((fs::path (run_dir) / "mesh.ply").string ());
+  if (read.triangles.empty ())
     throw Error ((fs::path (run_dir) / "mesh.ply").string (), "mesh has no triangles");
+  const io::TriangleMesh mesh = visualization::withoutSmallPieces (read, static_cast<std::size_t> (min_piece));
   boost::system::error_code ec;
   fs::create_directories (out, ec);
   if (ec || !fs::is_directory (out))

@@ -11,6 +11,7 @@
 #include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/pipeline/fusion_pipeline.h>
 #include <cuefusion/visualization/frame_view.h>
+#include <cuefusion/visualization/mesh_pieces.h>
 #include <cuefusion/visualization/mesh_rasterizer.h>
 
 #include <gtest/gtest.h>
@@ -177,6 +178,40 @@ TEST (MeshRasterizer, CameraViewsAreTheRunsOwnPosesEvenlySpaced)
   const PinholeCamera camera (300.0, 300.0, 159.5, 119.5, 320, 240);
   const auto inside = visualization::cameraViews ({Eigen::Isometry3d::Identity ()}, 1);
   EXPECT_EQ (cv::countNonZero (rasterizer.render (room, camera, inside[0]).labels == 4), camera.width * camera.height);
+}
+
+TEST (MeshRasterizer, SmallPiecesOfAMeshAreLeftOutWholeAndLargeOnesKept)
+{
+  // A 20 × 20 grid of quads (800 triangles, one piece through shared vertices), two
+  // squares of two triangles each apart from it, and one of them sharing a vertex with
+  // the grid: with 100 the lone square goes, the grid and the square joined to it stay.
+  io::TriangleMesh mesh;
+  const int n = 21;
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c)
+    {
+      mesh.vertices.emplace_back (0.05f * c, 0.05f * r, 2.f);
+      mesh.labels.push_back (1);
+    }
+  for (int r = 0; r + 1 < n; ++r)
+    for (int c = 0; c + 1 < n; ++c)
+    {
+      const int i = r * n + c;
+      mesh.triangles.emplace_back (i, i + 1, i + n + 1);
+      mesh.triangles.emplace_back (i, i + n + 1, i + n);
+    }
+  addSquare (mesh, 0.1f, 3.f, 2);  // alone
+  addSquare (mesh, 0.1f, 4.f, 3);
+  mesh.triangles.emplace_back (0, static_cast<int> (mesh.vertices.size ()) - 1, static_cast<int> (mesh.vertices.size ()) - 2);  // joins the last square to the grid
+  const io::TriangleMesh kept = visualization::withoutSmallPieces (mesh, 100);
+  EXPECT_EQ (kept.triangles.size (), 800u + 2u + 1u);
+  std::set<std::uint32_t> labels;
+  for (const Eigen::Vector3i& t : kept.triangles)
+    labels.insert (kept.labels[static_cast<std::size_t> (t[0])]);
+  EXPECT_EQ (labels, (std::set<std::uint32_t>{1, 3}));
+  EXPECT_EQ (kept.vertices.size (), mesh.vertices.size ());
+  EXPECT_EQ (visualization::withoutSmallPieces (mesh, 0).triangles.size (), mesh.triangles.size ());
+  EXPECT_EQ (visualization::withoutSmallPieces (mesh, 804).triangles.size (), 0u);
 }
 
 TEST (MeshRasterizer, ANoisySurfaceIsShadedByItsVertexNormalsNotAsGrain)
