@@ -65,10 +65,6 @@ runRender (const std::vector<std::string>& args)
   if (read.triangles.empty ())
     throw Error ((fs::path (run_dir) / "mesh.ply").string (), "mesh has no triangles");
   const io::TriangleMesh mesh = visualization::withoutSmallPieces (read, static_cast<std::size_t> (min_piece));
-  boost::system::error_code ec;
-  fs::create_directories (out, ec);
-  if (ec || !fs::is_directory (out))
-    throw Error (out, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
 
   // A virtual camera with a 60° horizontal field of view.
   const double f = 0.5 * width / std::tan (30.0 * M_PI / 180.0);
@@ -96,6 +92,11 @@ runRender (const std::vector<std::string>& args)
         objects.insert (entry.id);
   const auto poses = from == "cameras" ? visualization::cameraViews (cameras, views)
                                        : visualization::orbitViews (mesh, camera, views, visualization::upFromCameras (cameras), objects);
+  // Every input read and checked before anything is written.
+  boost::system::error_code ec;
+  fs::create_directories (out, ec);
+  if (ec || !fs::is_directory (out))
+    throw Error (out, "cannot create folder" + (ec ? ": " + ec.message () : std::string ()));
   for (int k = 0; k < views; ++k)
   {
     std::ostringstream name;

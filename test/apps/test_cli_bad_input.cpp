@@ -335,6 +335,13 @@ TEST_F (BadInputCli, EveryCaseIsOneLineNamingTheCulpritAndWritesNothing)
     {"render --run missing", nothing, "render --run {D}/norun", 1, "norun"},
     {"render --size 0x0", nothing, "render --run {R} --size 0x0", 2, "--size"},
     {"render --views 0", nothing, "render --run {R} --views 0", 2, "--views"},
+    {"render --min-piece -1", nothing, "render --run {R} --min-piece -1 --out {D}/r", 2, "--min-piece"},
+    {"render --from cameras without trajectory.txt", [&] (const std::string& d) {
+       copyTree (R, d + "/run");
+       fs::remove (d + "/run/trajectory.txt");
+     },
+     "render --run {D}/run --from cameras --views 1 --size 32x24", 1, "trajectory.txt"},
+    {"render --from cameras with an empty trajectory.txt", runCopy ("trajectory.txt", ""), "render --run {D}/run --from cameras --views 1 --size 32x24", 1, "trajectory.txt"},
     {"synth scene missing", nothing, "synth --scene {D}/none.scene --out {D}/o", 1, "none.scene"},
     {"synth scene syntax error", file ("bad.scene", "object thing\n  pyramid center=0,0,0\n"), "synth --scene {D}/bad.scene --out {D}/o", 1, "bad.scene"},
     {"synth --layout nope", nothing, "synth --scene tabletop --out {D}/o --layout nope", 2, "--layout"},
