@@ -76,9 +76,10 @@ struct GlobalSegmentMapConfig
     * kitchen island, a wall beside a bookshelf, a table top between the things on it)
     * shows as one object in outputs (settledLabels): two objects no mask gave a class,
     * each flat and at least this wide (m) in both directions of its plane, on one plane,
-    * that the evidence did not set apart (confirm_confidence frames apart), with no free
-    * space and no third surface on the plane between them (where a camera looked
-    * through: two tables at one height; a third door between two). 0 = off (before 0.5).
+    * that the evidence has not judged (fewer than confirm_confidence votes on them: no
+    * frame saw them touch, or hardly any), with no free space and no third surface on
+    * the plane between them (where a camera looked through: two tables at one height; a
+    * third door between two). 0 = off (before 0.5).
     */
   float surface_min_extent = 0.3f;
   /** A flat surface has 90 % of its voxels within this distance (m) of its plane; two are

@@ -163,7 +163,7 @@ coplanarSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLaye
   const double tolerance = config.surface_tolerance / volume.getConfig ().voxel_size;
   const double extent = config.surface_min_extent / volume.getConfig ().voxel_size;
   const double min_cos = std::cos (config.surface_max_angle_deg * M_PI / 180.0);
-  // Groups never hold a pair the evidence set apart, not even through a third surface.
+  // Groups never hold a pair the evidence judged, not even through a third surface.
   DisjointSets sets (planes.size ());
   std::vector<std::vector<std::size_t>> members (planes.size ());  // by root
   for (std::size_t i = 0; i < planes.size (); ++i)

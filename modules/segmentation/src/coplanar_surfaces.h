@@ -27,16 +27,17 @@ namespace detail
   * GlobalSegmentMapConfig::surface_tolerance of the plane fitted to those within it, at
   * least surface_min_extent across in both directions of the plane — is a flat surface.
   * Two flat surfaces are one when their normals are within surface_max_angle_deg, each
-  * centroid lies within surface_tolerance of the other's plane, the evidence did not set
-  * them apart (\a judged: pairs of objects, the smaller first, that confirm_confidence
-  * frames or more voted apart and the evidence did not unite), and the volume shows no free space on their
+  * centroid lies within surface_tolerance of the other's plane, the evidence has not had
+  * its say on them (\a judged: pairs of objects, the smaller first, whose labels' pairs
+  * have votes for or against in confirm_confidence frames or more: pieces that frames
+  * saw touching, such as two cabinets side by side, are the evidence's to decide), and the volume shows no free space on their
   * plane between them: along the line between the centroids, more than surface_tolerance
   * of observed voxels whose surface is further than surface_tolerance away (a gap a
   * camera looked through: two tables at one height with the floor between). Where the
   * plane runs behind or under furniture the volume has no observation or is inside it,
   * which is no gap. Nor may another object's surface lie on the plane between them for
   * more than surface_min_extent along that line (a third door between two), and no
-  * group holds two objects the evidence set apart, even through a third.
+  * group holds two objects of a judged pair, even through a third.
   *
   * Returns object → the object it joins (the smallest of its group), only for objects
   * that join another.

@@ -422,13 +422,19 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
   for (const auto& [label, record] : records_)  // the object's own labels (not fragments settled into it)
     if (shown[label] != 0 && resolve (label) == shown[label] && !record.bestClass ().empty ())
       stuff.erase (shown[label]);
-  std::set<std::pair<std::uint32_t, std::uint32_t>> judged;
+  // Pairs of objects the evidence has had its say on: votes on their labels' pairs, for
+  // or against, in confirm_confidence frames or more (the frames it needs to decide).
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> votes;
   for (const auto& [pair, counts] : evidence_.pairs ())
   {
     const std::uint32_t a = pair.first < shown.size () ? shown[pair.first] : 0, b = pair.second < shown.size () ? shown[pair.second] : 0;
-    if (a != 0 && b != 0 && a != b && counts.apart >= config.confirm_confidence && !evidence_.united (counts))
-      judged.emplace (std::min (a, b), std::max (a, b));
+    if (a != 0 && b != 0 && a != b)
+      votes[{std::min (a, b), std::max (a, b)}] += counts.together + counts.apart;
   }
+  std::set<std::pair<std::uint32_t, std::uint32_t>> judged;
+  for (const auto& [pair, n] : votes)
+    if (n >= config.confirm_confidence)
+      judged.insert (pair);
   const auto joined = detail::coplanarSurfaces (volume, labels, shown, stuff, judged, config);
   std::unordered_map<std::uint32_t, std::uint32_t> out;
   for (const auto& [label, record] : records_)
