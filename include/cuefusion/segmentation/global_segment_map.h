@@ -233,9 +233,11 @@ public:
     * born in the last frames of a run) the confirmed object whose voxels its voxels touch
     * most (6-neighbourhood in \a volume, followed through other fragments); where it
     * touches none, itself while it is still being seen (its last frame less than
-    * confirm_confidence frames before the latest), else 0. Labels not in the result are
-    * 0. Reads the volume; nothing is written, so a fragment confirmed later shows as
-    * itself. (Before 0.4 a fragment still being seen showed as itself whatever it
+    * confirm_confidence frames before the latest), else 0. Last, objects that are one
+    * flat surface parted in every view (a floor around an island, a wall beside a
+    * shelf) show as one (GlobalSegmentMapConfig::surface_min_extent). Labels not in the
+    * result are 0. Reads the volume; nothing is written, so a fragment confirmed later
+    * shows as itself. (Before 0.4 a fragment still being seen showed as itself whatever it
     * touched: the 7-Scenes kitchen's map kept 72 such splinters of ≥ 100 voxels born in
     * its last frames.)
     */
