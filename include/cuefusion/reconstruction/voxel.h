@@ -79,6 +79,13 @@ localVoxelIndex (int x, int y, int z)
   return x + kBlockSide * (y + kBlockSide * z);
 }
 
+/** \brief Local voxel (x, y, z) of linear index \a i inside its block (localVoxelIndex's inverse). */
+inline Eigen::Vector3i
+localVoxelPosition (int i)
+{
+  return {i % kBlockSide, (i / kBlockSide) % kBlockSide, i / (kBlockSide * kBlockSide)};
+}
+
 /** \brief Side of a block's distance layer: its 8 voxels plus a one-voxel apron that
   * mirrors the neighbouring blocks' first layer on the positive side.
   */

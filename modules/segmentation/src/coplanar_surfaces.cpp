@@ -80,8 +80,7 @@ flatSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& l
       const std::uint32_t object = shown[label];
       if (object != 0 && stuff.count (object))
         surfaces[object].push_back ((block.index * reconstruction::kBlockSide +
-                                     Eigen::Vector3i (i % reconstruction::kBlockSide, (i / reconstruction::kBlockSide) % reconstruction::kBlockSide,
-                                                      i / (reconstruction::kBlockSide * reconstruction::kBlockSide)))
+                                     reconstruction::localVoxelPosition (i))
                                         .cast<float> ());
     }
   }
@@ -134,7 +133,7 @@ somethingBetween (const reconstruction::TSDFVolume& volume, const VoxelLabelLaye
   for (int s = 1; s < samples; ++s)
   {
     const Eigen::Vector3d p = a.centroid + step * (static_cast<double> (s) / samples);
-    const reconstruction::VoxelNumber n = blocks.findVoxelNumber (p.array ().round ().cast<int> ().matrix ());
+    const reconstruction::VoxelNumber n = blocks.findVoxelNumber (reconstruction::nearestVoxel (p.cast<float> ()));
     if (n == reconstruction::kNoVoxel)
       continue;
     const reconstruction::TsdfVoxel& v = blocks.block (n / reconstruction::kBlockVoxels).voxels[n % reconstruction::kBlockVoxels];

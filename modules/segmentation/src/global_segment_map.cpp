@@ -368,8 +368,7 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
       const std::uint32_t object = resolve (label);
       if (!target.count (object))
         fragment_voxels.emplace_back (blocks.block (id).index * reconstruction::kBlockSide +
-                                        Eigen::Vector3i (i % reconstruction::kBlockSide, (i / reconstruction::kBlockSide) % reconstruction::kBlockSide,
-                                                         i / (reconstruction::kBlockSide * reconstruction::kBlockSide)),
+                                        reconstruction::localVoxelPosition (i),
                                       object);
     }
   // Fragments take the settled object their voxels touch most; rounds follow chains of
