@@ -385,6 +385,31 @@ claimWithinBoundaryTolerance (const InstanceGuidedRegionMergeConfig& config, con
       info[l].geometric_segments = 1;
     }
 }
+
+/** \brief splitAlongMasks(): whether more than half of instance \a i's mask lies inside
+  * one other instance's mask — a part of an object a second mask also covers whole (a
+  * network's mask over a handle or a label beside the one over the object), not an
+  * object of its own. */
+bool
+nestedInAnother (const std::vector<Instance>& instances, std::size_t i)
+{
+  const cv::Mat& mask = instances[i].mask;
+  const cv::Rect frame (0, 0, mask.cols, mask.rows);
+  const auto boxOf = [&] (const Instance& instance) { return instance.box.area () > 0 ? instance.box & frame : frame; };
+  const cv::Rect box = boxOf (instances[i]);
+  const int pixels = cv::countNonZero (mask (box));
+  for (std::size_t j = 0; j < instances.size (); ++j)
+  {
+    const cv::Rect shared = box & boxOf (instances[j]);
+    if (j == i || shared.area () == 0)
+      continue;
+    cv::Mat both;
+    cv::bitwise_and (mask (shared), instances[j].mask (shared), both);
+    if (2 * cv::countNonZero (both) > pixels)
+      return true;
+  }
+  return false;
+}
 }  // namespace
 
 std::vector<Instance>
@@ -412,13 +437,37 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
   const std::size_t labels = overlaps.labels ();
 
   // The instances that each hold a substantial part of a segment; two or more cut it.
+  // Substantial: split_share of the segment and split_min_pixels, or more than
+  // min_overlap of the mask's own pixels on segments (the object lies within this
+  // segment), however few, unless the mask lies mostly inside another mask (a part of
+  // an object another mask covers whole: on ycb-real such a mask cut a can in two).
+  // Without the second, a segment holding many small objects — a
+  // row of books flush on a shelf, things on a tray — was never cut, as none of them is
+  // a fifth of it, and a far book whose spine kept fewer than split_min_pixels pixels
+  // outside the edge bands went to its neighbour's piece, which then wrote its label on
+  // the book's voxels (a piece too small for the propagation writes none): a generated
+  // office's books kept 0.45 mean IoU with perfect masks, against 0.76 for the masks
+  // alone.
+  std::vector<int> mask_pixels (instances.size () + 1, 0);
+  for (std::size_t g = 1; g < labels; ++g)
+    for (const auto& [id, count] : overlaps.overlap[g])
+      mask_pixels[static_cast<std::size_t> (id)] += count;
+  std::vector<signed char> nested (instances.size () + 1, -1);  // by id: −1 not yet known
+  const auto within = [&] (int id, int count) {
+    if (!(static_cast<float> (count) > config_.min_overlap * static_cast<float> (mask_pixels[static_cast<std::size_t> (id)])))
+      return false;
+    signed char& known = nested[static_cast<std::size_t> (id)];
+    if (known < 0)
+      known = nestedInAnother (instances, static_cast<std::size_t> (id - 1)) ? 1 : 0;
+    return known == 0;
+  };
   std::vector<std::vector<std::pair<int, int>>> parts (labels);
   bool any_split = false;
   for (std::size_t g = 1; g < labels; ++g)
   {
-    const float needed = std::max (static_cast<float> (config_.split_min_pixels), config_.split_share * static_cast<float> (overlaps.size[g]));
+    const float share = config_.split_share * static_cast<float> (overlaps.size[g]);
     for (const auto& [id, count] : overlaps.overlap[g])
-      if (static_cast<float> (count) >= needed)
+      if ((count >= config_.split_min_pixels && static_cast<float> (count) >= share) || within (id, count))
         parts[g].emplace_back (id, count);
     if (parts[g].size () < 2)
       parts[g].clear ();
@@ -447,18 +496,50 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
           queue.push_back (y * cols + x);
       }
     }
-    // Pixels of a cut segment that no qualifying mask holds join the nearest piece
-    // (breadth-first, 4-connected, inside the segment); any left unreached join the
-    // largest piece.
+    // Pixels of a cut segment that no qualifying mask holds: where more than twice
+    // mask_boundary_tolerance pixels from every piece (breadth-first, 4-connected, inside
+    // the segment) they are themselves substantial (split_share of the segment and
+    // split_min_pixels), they are a surface no qualifying mask holds — the shelf behind
+    // the books, the desk under sheets of paper — and all the segment's pixels outside the
+    // masks stay one piece of its own (before, they went to the nearest piece, and a desk
+    // under two sheets was halved between them). Otherwise they join the nearest piece
+    // as before (a boundary the masks missed by a pixel or two), and any left unreached
+    // join the largest piece.
     auto* p = part.ptr<std::int32_t> ();
     const auto* g = geometric.ptr<std::int32_t> ();
+    const int total = geometric.rows * cols;
+    const int reach = 2 * config_.mask_boundary_tolerance;
+    std::vector<std::uint8_t> steps (static_cast<std::size_t> (total), 0);
     growFourConnected (queue, geometric.rows, cols, [&] (int i, int j) {
+      if (p[j] != -1 || g[j] != g[i] || steps[static_cast<std::size_t> (i)] >= reach)
+        return false;
+      p[j] = p[i];
+      steps[static_cast<std::size_t> (j)] = static_cast<std::uint8_t> (steps[static_cast<std::size_t> (i)] + 1);
+      return true;
+    });
+    std::vector<int> left (labels, 0);
+    for (int i = 0; i < total; ++i)
+      if (p[i] == -1)
+        ++left[static_cast<std::size_t> (g[i])];
+    std::vector<char> rest_apart (labels, 0);
+    for (std::size_t l = 1; l < labels; ++l)
+      rest_apart[l] = left[l] >= config_.split_min_pixels &&
+                      static_cast<float> (left[l]) >= config_.split_share * static_cast<float> (overlaps.size[l]);
+    for (int i = 0; i < total; ++i)
+      if (g[i] > 0 && rest_apart[static_cast<std::size_t> (g[i])] && (p[i] == -1 || steps[static_cast<std::size_t> (i)] > 0))
+        p[i] = 0;  // the segment's rest, up to the masks' boundaries: a piece of its own
+    // The growth goes on from where it stopped, in the same order: where no rest is
+    // apart, every pixel joins the piece it joined before the limit existed.
+    std::vector<int> frontier;
+    for (const int i : queue)
+      if (steps[static_cast<std::size_t> (i)] == reach && !rest_apart[static_cast<std::size_t> (g[i])])
+        frontier.push_back (i);
+    growFourConnected (frontier, geometric.rows, cols, [&] (int i, int j) {
       if (p[j] != -1 || g[j] != g[i])
         return false;
       p[j] = p[i];
       return true;
     });
-    const int total = geometric.rows * cols;
     for (int i = 0; i < total; ++i)
       if (p[i] == -1)
       {
