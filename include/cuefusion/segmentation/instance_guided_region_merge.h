@@ -24,12 +24,13 @@ struct InstanceGuidedRegionMergeConfig
 {
   float min_overlap = 0.70f;  ///< α(l_s, l_g) must exceed this for l_g to join instance l_s
   /** A geometric segment is cut along the masks where two or more instances each cover at
-    * least this share of it (and split_min_pixels), or hold more than min_overlap of
-    * their own masks' pixels on segments (however few: small objects within it): the
-    * masks see two objects where geometry saw no edge (touching boxes with coplanar
-    * faces, books flush on a shelf). Its pixels no such mask holds go to the nearest
-    * piece unless those beyond twice mask_boundary_tolerance of every piece are this
-    * share of it too (and split_min_pixels): then they stay one piece of their own.
+    * least this share of it (and split_min_pixels), or — where the masks tile it — hold
+    * more than min_overlap of their own masks' pixels on segments (however few: books
+    * flush on a shelf): the masks see objects where geometry saw no edge (touching boxes
+    * with coplanar faces). The masks do not tile it where its pixels beyond twice
+    * mask_boundary_tolerance of every mask are this share of it too (and
+    * split_min_pixels); those pixels, up to the masks, then stay one piece of their own
+    * (split() says more).
     */
   float split_share = 0.2f;
   int split_min_pixels = 50;  ///< and at least this many pixels
@@ -185,12 +186,15 @@ public:
   }
 
   /** \brief The first half of merge(): L^G with every segment that two or more instances
-    * each cover substantially (split_share and split_min_pixels, or more than
-    * min_overlap of the mask's own pixels on segments) cut along the masks, no segments
-    * united. Each qualifying instance takes its pixels of the segment; the segment's
-    * other pixels go to the nearest part (4-connected, inside the segment), or, where
-    * those beyond twice mask_boundary_tolerance of every part are substantial
-    * themselves (split_share, split_min_pixels), stay one piece of their own.
+    * each cover substantially cut along the masks, no segments united. Substantially:
+    * split_share of it and split_min_pixels; or, where the masks tile the segment, more
+    * than min_overlap of the mask's own pixels on segments, unless more than half of
+    * the mask lies inside one other mask. Tiling: the segment's pixels more than twice
+    * mask_boundary_tolerance from every qualifying mask (4-connected, inside the
+    * segment) are fewer than split_share of it or split_min_pixels; where they are not,
+    * those pixels, up to the masks, are one piece of their own. Each qualifying
+    * instance takes its pixels of the segment; the segment's other pixels go to the
+    * nearest part (4-connected, inside the segment).
     * Labels 1..N in raster order; \a segments, when given, says for each which instance
     * covers it (instance ≥ 0 when its coverage exceeds min_overlap) and how much. These
     * are the pieces FusionPipeline carries into the map, where the masks' grouping is

@@ -410,6 +410,171 @@ nestedInAnother (const std::vector<Instance>& instances, std::size_t i)
   }
   return false;
 }
+
+using SegmentParts = std::vector<std::vector<std::pair<int, int>>>;  ///< by segment: (instance id, pixels)
+
+/** \brief splitAlongMasks(): for the segments with \a parts, \a part (CV_32S, zeroed
+  * first) is the part's id where its mask holds the pixel, then the nearest part's
+  * breadth-first (4-connected, inside the segment) up to \a reach pixels from it
+  * (\a steps: how far), −1 beyond; 0 in other segments. \a queue holds the pixels in
+  * the order they were reached. Returns per segment the pixels left at −1.
+  */
+std::vector<int>
+markParts (const cv::Mat& geometric, const cv::Mat& ids, const SegmentParts& parts, int reach, cv::Mat& part,
+           std::vector<std::uint8_t>& steps, std::vector<int>& queue)
+{
+  const int cols = geometric.cols, total = geometric.rows * cols;
+  part = cv::Mat (geometric.size (), CV_32S, cv::Scalar (0));
+  steps.assign (static_cast<std::size_t> (total), 0);
+  queue.clear ();
+  auto* p = part.ptr<std::int32_t> ();
+  const auto* g = geometric.ptr<std::int32_t> ();
+  const auto* s = ids.ptr<std::uint16_t> ();
+  for (int i = 0; i < total; ++i)
+  {
+    if (g[i] <= 0 || parts[static_cast<std::size_t> (g[i])].empty ())
+      continue;
+    const auto& list = parts[static_cast<std::size_t> (g[i])];
+    const bool owned = s[i] && std::any_of (list.begin (), list.end (), [&] (const std::pair<int, int>& e) { return e.first == s[i]; });
+    p[i] = owned ? s[i] : -1;
+    if (owned)
+      queue.push_back (i);
+  }
+  growFourConnected (queue, geometric.rows, cols, [&] (int i, int j) {
+    if (p[j] != -1 || g[j] != g[i] || steps[static_cast<std::size_t> (i)] >= reach)
+      return false;
+    p[j] = p[i];
+    steps[static_cast<std::size_t> (j)] = static_cast<std::uint8_t> (steps[static_cast<std::size_t> (i)] + 1);
+    return true;
+  });
+  std::vector<int> left (parts.size (), 0);
+  for (int i = 0; i < total; ++i)
+    if (p[i] == -1)
+      ++left[static_cast<std::size_t> (g[i])];
+  return left;
+}
+
+/** \brief splitAlongMasks(): the masks that cut each segment. */
+struct MaskParts
+{
+  SegmentParts parts;              ///< by segment: every qualifying instance (two or more, else none)
+  SegmentParts by_share;           ///< the same by split_share alone
+  std::vector<char> with_within;   ///< whether an instance qualifies only by lying within it
+};
+
+/** \brief splitAlongMasks(): per segment of \a overlaps, the instances that hold a
+  * substantial part of it (two or more, else none) — all, and those by split_share
+  * alone — and whether any holds it only by lying within it. */
+MaskParts
+maskParts (const InstanceGuidedRegionMergeConfig& config, const std::vector<Instance>& instances, const OverlapTable<int>& overlaps)
+{
+  const std::size_t labels = overlaps.labels ();
+  std::vector<int> mask_pixels (instances.size () + 1, 0);
+  for (std::size_t g = 1; g < labels; ++g)
+    for (const auto& [id, count] : overlaps.overlap[g])
+      mask_pixels[static_cast<std::size_t> (id)] += count;
+  std::vector<signed char> nested (instances.size () + 1, -1);  // by id: −1 not yet known
+  const auto within = [&] (int id, int count) {
+    if (!(static_cast<float> (count) > config.min_overlap * static_cast<float> (mask_pixels[static_cast<std::size_t> (id)])))
+      return false;
+    signed char& known = nested[static_cast<std::size_t> (id)];
+    if (known < 0)
+      known = nestedInAnother (instances, static_cast<std::size_t> (id - 1)) ? 1 : 0;
+    return known == 0;
+  };
+  MaskParts out;
+  out.parts.resize (labels);
+  out.by_share.resize (labels);
+  out.with_within.assign (labels, 0);
+  SegmentParts& parts = out.parts;
+  SegmentParts& by_share = out.by_share;
+  std::vector<char>& with_within = out.with_within;
+  for (std::size_t g = 1; g < labels; ++g)
+  {
+    const float share = config.split_share * static_cast<float> (overlaps.size[g]);
+    for (const auto& [id, count] : overlaps.overlap[g])
+    {
+      const bool substantial = count >= config.split_min_pixels && static_cast<float> (count) >= share;
+      if (substantial)
+        by_share[g].emplace_back (id, count);
+      if (substantial || within (id, count))
+      {
+        parts[g].emplace_back (id, count);
+        with_within[g] |= substantial ? 0 : 1;
+      }
+    }
+    for (SegmentParts* list : {&parts, &by_share})
+      if ((*list)[g].size () < 2)
+        (*list)[g].clear ();
+  }
+  return out;
+}
+
+/** \brief splitAlongMasks(): \a part (CV_32S) for the segments \a masks cuts: the
+  * instance id whose piece each pixel joins, 0 for a segment's own rest (0 in segments
+  * not cut). \a sizes: the segments' pixels. */
+void
+cutAlongParts (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const cv::Mat& ids, const std::vector<int>& sizes,
+               const MaskParts& masks, cv::Mat& part)
+{
+  const int cols = geometric.cols;
+  const std::size_t labels = masks.parts.size ();
+  // Pixels of a cut segment that no qualifying mask holds: where more than twice
+  // mask_boundary_tolerance pixels from every piece (breadth-first, 4-connected, inside
+  // the segment) they are themselves substantial (split_share of the segment and
+  // split_min_pixels), the masks do not tile the segment: there is a surface no
+  // qualifying mask holds. Masks within the segment then do not cut it — they may be
+  // parts of that surface as a network saw them (a door of a counter's front) as well
+  // as objects on it — and the others cut it as before, except that its pixels
+  // outside their masks stay one piece of their own — the desk under two large sheets
+  // (before, they went to the nearest piece, and the desk was halved between the
+  // sheets). Otherwise they join the nearest piece as before (a boundary the masks
+  // missed by a pixel or two), and any left unreached join the largest piece.
+  const int reach = 2 * config.mask_boundary_tolerance;
+  const auto restApart = [&] (std::size_t l, int left) {
+    return left >= config.split_min_pixels && static_cast<float> (left) >= config.split_share * static_cast<float> (sizes[l]);
+  };
+  std::vector<std::uint8_t> steps;
+  std::vector<int> queue;
+  SegmentParts parts = masks.parts;
+  std::vector<int> left = markParts (geometric, ids, parts, reach, part, steps, queue);
+  bool untiled = false;
+  for (std::size_t l = 1; l < labels; ++l)
+    if (masks.with_within[l] && restApart (l, left[l]))
+    {
+      parts[l] = masks.by_share[l];
+      untiled = true;
+    }
+  if (untiled)
+    left = markParts (geometric, ids, parts, reach, part, steps, queue);
+  auto* p = part.ptr<std::int32_t> ();
+  const auto* g = geometric.ptr<std::int32_t> ();
+  const int total = geometric.rows * cols;
+  std::vector<char> rest_apart (labels, 0);
+  for (std::size_t l = 1; l < labels; ++l)
+    rest_apart[l] = !parts[l].empty () && restApart (l, left[l]);
+  for (int i = 0; i < total; ++i)
+    if (g[i] > 0 && rest_apart[static_cast<std::size_t> (g[i])] && (p[i] == -1 || steps[static_cast<std::size_t> (i)] > 0))
+      p[i] = 0;  // the segment's rest, up to the masks' boundaries: a piece of its own
+  // The growth goes on from where it stopped, in the same order: where no rest is
+  // apart, every pixel joins the piece it joined before the limit existed.
+  std::vector<int> frontier;
+  for (const int i : queue)
+    if (steps[static_cast<std::size_t> (i)] == reach && !rest_apart[static_cast<std::size_t> (g[i])])
+      frontier.push_back (i);
+  growFourConnected (frontier, geometric.rows, cols, [&] (int i, int j) {
+    if (p[j] != -1 || g[j] != g[i])
+      return false;
+    p[j] = p[i];
+    return true;
+  });
+  for (int i = 0; i < total; ++i)
+    if (p[i] == -1)
+    {
+      const auto& list = parts[static_cast<std::size_t> (g[i])];
+      p[i] = std::max_element (list.begin (), list.end (), [] (const auto& a, const auto& b) { return a.second < b.second; })->first;
+    }
+}
 }  // namespace
 
 std::vector<Instance>
@@ -437,116 +602,24 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
   const std::size_t labels = overlaps.labels ();
 
   // The instances that each hold a substantial part of a segment; two or more cut it.
-  // Substantial: split_share of the segment and split_min_pixels, or more than
-  // min_overlap of the mask's own pixels on segments (the object lies within this
-  // segment), however few, unless the mask lies mostly inside another mask (a part of
-  // an object another mask covers whole: on ycb-real such a mask cut a can in two).
-  // Without the second, a segment holding many small objects — a
-  // row of books flush on a shelf, things on a tray — was never cut, as none of them is
+  // Substantial: split_share of the segment and split_min_pixels; or, where the masks
+  // tile the segment (below), more than min_overlap of the mask's own pixels on segments
+  // lie in it, however few, unless the mask lies mostly inside another mask (a part of
+  // an object another mask covers whole). Without the second, a segment made of many
+  // small objects — a row of books flush on a shelf — was never cut, as none of them is
   // a fifth of it, and a far book whose spine kept fewer than split_min_pixels pixels
   // outside the edge bands went to its neighbour's piece, which then wrote its label on
   // the book's voxels (a piece too small for the propagation writes none): a generated
   // office's books kept 0.45 mean IoU with perfect masks, against 0.76 for the masks
   // alone.
-  std::vector<int> mask_pixels (instances.size () + 1, 0);
-  for (std::size_t g = 1; g < labels; ++g)
-    for (const auto& [id, count] : overlaps.overlap[g])
-      mask_pixels[static_cast<std::size_t> (id)] += count;
-  std::vector<signed char> nested (instances.size () + 1, -1);  // by id: −1 not yet known
-  const auto within = [&] (int id, int count) {
-    if (!(static_cast<float> (count) > config_.min_overlap * static_cast<float> (mask_pixels[static_cast<std::size_t> (id)])))
-      return false;
-    signed char& known = nested[static_cast<std::size_t> (id)];
-    if (known < 0)
-      known = nestedInAnother (instances, static_cast<std::size_t> (id - 1)) ? 1 : 0;
-    return known == 0;
-  };
-  std::vector<std::vector<std::pair<int, int>>> parts (labels);
-  bool any_split = false;
-  for (std::size_t g = 1; g < labels; ++g)
-  {
-    const float share = config_.split_share * static_cast<float> (overlaps.size[g]);
-    for (const auto& [id, count] : overlaps.overlap[g])
-      if ((count >= config_.split_min_pixels && static_cast<float> (count) >= share) || within (id, count))
-        parts[g].emplace_back (id, count);
-    if (parts[g].size () < 2)
-      parts[g].clear ();
-    any_split = any_split || !parts[g].empty ();
-  }
+  const MaskParts masks = maskParts (config_, instances, overlaps);
+  const bool any_split = std::any_of (masks.parts.begin (), masks.parts.end (), [] (const auto& list) { return !list.empty (); });
 
   // part: the instance id whose piece a pixel of a cut segment joins (0: segment whole).
   const int cols = geometric.cols;
   cv::Mat part (geometric.size (), CV_32S, cv::Scalar (0));
   if (any_split)
-  {
-    std::vector<int> queue;
-    for (int y = 0; y < geometric.rows; ++y)
-    {
-      const std::int32_t* g = geometric.ptr<std::int32_t> (y);
-      const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
-      std::int32_t* p = part.ptr<std::int32_t> (y);
-      for (int x = 0; x < cols; ++x)
-      {
-        if (g[x] <= 0 || parts[static_cast<std::size_t> (g[x])].empty ())
-          continue;
-        const auto& list = parts[static_cast<std::size_t> (g[x])];
-        const bool owned = s[x] && std::any_of (list.begin (), list.end (), [&] (const std::pair<int, int>& e) { return e.first == s[x]; });
-        p[x] = owned ? s[x] : -1;
-        if (owned)
-          queue.push_back (y * cols + x);
-      }
-    }
-    // Pixels of a cut segment that no qualifying mask holds: where more than twice
-    // mask_boundary_tolerance pixels from every piece (breadth-first, 4-connected, inside
-    // the segment) they are themselves substantial (split_share of the segment and
-    // split_min_pixels), they are a surface no qualifying mask holds — the shelf behind
-    // the books, the desk under sheets of paper — and all the segment's pixels outside the
-    // masks stay one piece of its own (before, they went to the nearest piece, and a desk
-    // under two sheets was halved between them). Otherwise they join the nearest piece
-    // as before (a boundary the masks missed by a pixel or two), and any left unreached
-    // join the largest piece.
-    auto* p = part.ptr<std::int32_t> ();
-    const auto* g = geometric.ptr<std::int32_t> ();
-    const int total = geometric.rows * cols;
-    const int reach = 2 * config_.mask_boundary_tolerance;
-    std::vector<std::uint8_t> steps (static_cast<std::size_t> (total), 0);
-    growFourConnected (queue, geometric.rows, cols, [&] (int i, int j) {
-      if (p[j] != -1 || g[j] != g[i] || steps[static_cast<std::size_t> (i)] >= reach)
-        return false;
-      p[j] = p[i];
-      steps[static_cast<std::size_t> (j)] = static_cast<std::uint8_t> (steps[static_cast<std::size_t> (i)] + 1);
-      return true;
-    });
-    std::vector<int> left (labels, 0);
-    for (int i = 0; i < total; ++i)
-      if (p[i] == -1)
-        ++left[static_cast<std::size_t> (g[i])];
-    std::vector<char> rest_apart (labels, 0);
-    for (std::size_t l = 1; l < labels; ++l)
-      rest_apart[l] = left[l] >= config_.split_min_pixels &&
-                      static_cast<float> (left[l]) >= config_.split_share * static_cast<float> (overlaps.size[l]);
-    for (int i = 0; i < total; ++i)
-      if (g[i] > 0 && rest_apart[static_cast<std::size_t> (g[i])] && (p[i] == -1 || steps[static_cast<std::size_t> (i)] > 0))
-        p[i] = 0;  // the segment's rest, up to the masks' boundaries: a piece of its own
-    // The growth goes on from where it stopped, in the same order: where no rest is
-    // apart, every pixel joins the piece it joined before the limit existed.
-    std::vector<int> frontier;
-    for (const int i : queue)
-      if (steps[static_cast<std::size_t> (i)] == reach && !rest_apart[static_cast<std::size_t> (g[i])])
-        frontier.push_back (i);
-    growFourConnected (frontier, geometric.rows, cols, [&] (int i, int j) {
-      if (p[j] != -1 || g[j] != g[i])
-        return false;
-      p[j] = p[i];
-      return true;
-    });
-    for (int i = 0; i < total; ++i)
-      if (p[i] == -1)
-      {
-        const auto& list = parts[static_cast<std::size_t> (g[i])];
-        p[i] = std::max_element (list.begin (), list.end (), [] (const auto& a, const auto& b) { return a.second < b.second; })->first;
-      }
-  }
+    cutAlongParts (config_, geometric, ids, overlaps.size, masks, part);
 
   // Pieces numbered in raster order of their first pixel: per segment, its (part, piece
   // number) pairs, a handful at most (a map keyed by the pair cost a node per pixel).
