@@ -413,6 +413,15 @@ nestedInAnother (const std::vector<Instance>& instances, std::size_t i)
 
 using SegmentParts = std::vector<std::vector<std::pair<int, int>>>;  ///< by segment: (instance id, pixels)
 
+/** \brief splitAlongMasks(): whether \a count pixels are a substantial part of a segment
+  * of \a size pixels: split_share of it and split_min_pixels (a mask's part, or the
+  * pixels no mask holds). */
+bool
+substantialPart (const InstanceGuidedRegionMergeConfig& config, int count, int size)
+{
+  return count >= config.split_min_pixels && static_cast<float> (count) >= config.split_share * static_cast<float> (size);
+}
+
 /** \brief splitAlongMasks(): for the segments with \a parts, \a part (CV_32S, zeroed
   * first) is the part's id where its mask holds the pixel, then the nearest part's
   * breadth-first (4-connected, inside the segment) up to \a reach pixels from it
@@ -424,7 +433,8 @@ markParts (const cv::Mat& geometric, const cv::Mat& ids, const SegmentParts& par
            std::vector<std::uint8_t>& steps, std::vector<int>& queue)
 {
   const int cols = geometric.cols, total = geometric.rows * cols;
-  part = cv::Mat (geometric.size (), CV_32S, cv::Scalar (0));
+  part.create (geometric.size (), CV_32S);  // the caller's buffer, reused
+  part.setTo (0);
   steps.assign (static_cast<std::size_t> (total), 0);
   queue.clear ();
   auto* p = part.ptr<std::int32_t> ();
@@ -491,10 +501,9 @@ maskParts (const InstanceGuidedRegionMergeConfig& config, const std::vector<Inst
   std::vector<char>& with_within = out.with_within;
   for (std::size_t g = 1; g < labels; ++g)
   {
-    const float share = config.split_share * static_cast<float> (overlaps.size[g]);
     for (const auto& [id, count] : overlaps.overlap[g])
     {
-      const bool substantial = count >= config.split_min_pixels && static_cast<float> (count) >= share;
+      const bool substantial = substantialPart (config, count, overlaps.size[g]);
       if (substantial)
         by_share[g].emplace_back (id, count);
       if (substantial || within (id, count))
@@ -531,16 +540,13 @@ cutAlongParts (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geo
   // sheets). Otherwise they join the nearest piece as before (a boundary the masks
   // missed by a pixel or two), and any left unreached join the largest piece.
   const int reach = 2 * config.mask_boundary_tolerance;
-  const auto restApart = [&] (std::size_t l, int left) {
-    return left >= config.split_min_pixels && static_cast<float> (left) >= config.split_share * static_cast<float> (sizes[l]);
-  };
   std::vector<std::uint8_t> steps;
   std::vector<int> queue;
   SegmentParts parts = masks.parts;
   std::vector<int> left = markParts (geometric, ids, parts, reach, part, steps, queue);
   bool untiled = false;
   for (std::size_t l = 1; l < labels; ++l)
-    if (masks.with_within[l] && restApart (l, left[l]))
+    if (masks.with_within[l] && substantialPart (config, left[l], sizes[l]))
     {
       parts[l] = masks.by_share[l];
       untiled = true;
@@ -552,7 +558,7 @@ cutAlongParts (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geo
   const int total = geometric.rows * cols;
   std::vector<char> rest_apart (labels, 0);
   for (std::size_t l = 1; l < labels; ++l)
-    rest_apart[l] = !parts[l].empty () && restApart (l, left[l]);
+    rest_apart[l] = !parts[l].empty () && substantialPart (config, left[l], sizes[l]);
   for (int i = 0; i < total; ++i)
     if (g[i] > 0 && rest_apart[static_cast<std::size_t> (g[i])] && (p[i] == -1 || steps[static_cast<std::size_t> (i)] > 0))
       p[i] = 0;  // the segment's rest, up to the masks' boundaries: a piece of its own
