@@ -197,7 +197,7 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
 {
   // The colour statistics look at most kSample pixels of a segment, evenly spaced in
   // raster order: a segment of one colour (nearly all of them) costs one pass over them.
-  std::vector<std::size_t> stride (owned.labels (), 0), seen (owned.labels (), 0);  // stride 0: not claimed
+  std::vector<std::size_t> stride (owned.labels (), 0), skip (owned.labels (), 0);  // stride 0: not claimed
   for (std::size_t l = 1; l < owned.labels (); ++l)
     if (owned.size[l] >= 2 * config.split_min_pixels && 2 * owned.best (l).second > owned.size[l])
       stride[l] = (static_cast<std::size_t> (owned.size[l]) + kSample - 1) / kSample;
@@ -210,20 +210,32 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
     rg = cv::Point2f (bgr[2] / total, bgr[1] / total);
     return true;
   };
+  // By runs of one label along a row: the run's ends widen the box, and the samples are
+  // every stride[l]-th pixel of the segment in raster order (skip[l]: pixels before its
+  // next sample), with no division per pixel.
   for (int y = 0; y < geometric.rows; ++y)
   {
     const std::int32_t* g = geometric.ptr<std::int32_t> (y);
     const cv::Vec3b* bgr = color.ptr<cv::Vec3b> (y);
-    for (int x = 0; x < geometric.cols; ++x)
+    for (int x = 0; x < geometric.cols;)
     {
-      if (g[x] <= 0 || !stride[static_cast<std::size_t> (g[x])])
-        continue;
-      const auto l = static_cast<std::size_t> (g[x]);
-      cv::Vec4i& b = bounds[l];
-      b = cv::Vec4i (std::min (b[0], x), std::min (b[1], y), std::max (b[2], x), std::max (b[3], y));
-      cv::Point2f rg;
-      if (seen[l]++ % stride[l] == 0 && chroma (bgr[x], rg))
-        sample[l].push_back (rg);
+      const std::int32_t label = g[x];
+      int end = x + 1;
+      while (end < geometric.cols && g[end] == label)
+        ++end;
+      const auto l = static_cast<std::size_t> (std::max (label, 0));
+      if (label > 0 && stride[l])
+      {
+        cv::Vec4i& b = bounds[l];
+        b = cv::Vec4i (std::min (b[0], x), std::min (b[1], y), std::max (b[2], end - 1), std::max (b[3], y));
+        const auto run = static_cast<std::size_t> (end - x);
+        std::size_t k = skip[l];
+        for (cv::Point2f rg; k < run; k += stride[l])
+          if (chroma (bgr[x + static_cast<int> (k)], rg))
+            sample[l].push_back (rg);
+        skip[l] = k - run;
+      }
+      x = end;
     }
   }
   bool any = false;

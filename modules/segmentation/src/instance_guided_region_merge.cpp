@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstdint>
 #include <iterator>
 #include <map>
 #include <set>
@@ -69,26 +70,46 @@ countOverlaps (const cv::Mat& labels, const cv::Mat& ids, const cv::Mat& color, 
   const bool with_color = sums && !color.empty ();
   if (with_color)
     sums->assign (out.labels (), {});
+  // Counted by runs of one (label, id) along a row: one table lookup per run, not per
+  // pixel (segments and masks are wide). The colour sums are integers, exact in a double
+  // either way, so the figures are those of a count pixel by pixel.
   for (int y = 0; y < labels.rows; ++y)
   {
     const std::int32_t* g = labels.ptr<std::int32_t> (y);
     const std::uint16_t* s = ids.ptr<std::uint16_t> (y);
     const cv::Vec3b* bgr = with_color ? color.ptr<cv::Vec3b> (y) : nullptr;
-    for (int x = 0; x < labels.cols; ++x)
+    for (int x = 0; x < labels.cols;)
     {
-      if (g[x] <= 0)
-        continue;
-      const auto l = static_cast<std::size_t> (g[x]);
-      ++out.size[l];
-      if (s[x] == 0)
-        continue;
-      const std::size_t e = out.add (l, s[x], 1);
-      if (!with_color)
-        continue;
-      auto& sum = (*sums)[l];
-      if (e == sum.size ())
-        sum.emplace_back (0.0, 0.0, 0.0);
-      sum[e] += cv::Vec3d (bgr[x][0], bgr[x][1], bgr[x][2]);
+      const std::int32_t label = g[x];
+      const std::uint16_t id = s[x];
+      int end = x + 1;
+      while (end < labels.cols && g[end] == label && s[end] == id)
+        ++end;
+      const int run = end - x;
+      if (label > 0)
+      {
+        const auto l = static_cast<std::size_t> (label);
+        out.size[l] += run;
+        if (id != 0)
+        {
+          const std::size_t e = out.add (l, id, run);
+          if (with_color)
+          {
+            auto& sum = (*sums)[l];
+            if (e == sum.size ())
+              sum.emplace_back (0.0, 0.0, 0.0);
+            std::int64_t b = 0, gr = 0, r = 0;
+            for (int k = x; k < end; ++k)
+            {
+              b += bgr[k][0];
+              gr += bgr[k][1];
+              r += bgr[k][2];
+            }
+            sum[e] += cv::Vec3d (static_cast<double> (b), static_cast<double> (gr), static_cast<double> (r));
+          }
+        }
+      }
+      x = end;
     }
   }
   return out;
@@ -606,7 +627,6 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
     overlaps = countOverlaps (geometric, ids);
   }
   const std::size_t labels = overlaps.labels ();
-
   // The instances that each hold a substantial part of a segment; two or more cut it.
   // Substantial: split_share of the segment and split_min_pixels; or, where the masks
   // tile the segment (below), more than min_overlap of the mask's own pixels on segments
@@ -642,6 +662,11 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
       if (g[x] <= 0)
       {
         out[x] = 0;
+        continue;
+      }
+      if (x > 0 && g[x] == g[x - 1] && p[x] == p[x - 1])
+      {
+        out[x] = out[x - 1];  // the run goes on: the same piece
         continue;
       }
       const auto segment = static_cast<std::size_t> (g[x]);
