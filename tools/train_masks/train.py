@@ -20,6 +20,9 @@ import numpy as np
 import onnx
 import onnx.numpy_helper
 import torch
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import subpixel_decoder  # noqa: E402
 import torch.nn.functional as F
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -237,9 +240,7 @@ def load_onnx_weights(net, path):
     BatchNorm becomes the identity plus the folded bias (mean 0, variance 1 - eps, scale 1),
     so the network computes exactly the exported function as long as BatchNorm stays in
     eval mode (train with the network in eval mode: main() does)."""
-    model = onnx.load(path)
-    inits = {t.name: onnx.numpy_helper.to_array(t) for t in model.graph.initializer}
-    convs = [n for n in model.graph.node if n.op_type == "Conv"]
+    convs = subpixel_decoder.conv_weights(onnx.load(path))  # decoder steps as one 3x3 conv each
     modules = [m for m in net.modules() if isinstance(m, torch.nn.Conv2d)]
     norms = {}
     for seq in [m for m in net.modules() if isinstance(m, torch.nn.Sequential)]:
@@ -250,16 +251,16 @@ def load_onnx_weights(net, path):
     if len(convs) != len(modules):
         raise SystemExit("%s: %d Conv nodes, the network has %d convolutions" % (path, len(convs), len(modules)))
     with torch.no_grad():
-        for node, conv in zip(convs, modules):
-            weight = torch.from_numpy(inits[node.input[1]].copy())
-            bias = torch.from_numpy(inits[node.input[2]].copy()) if len(node.input) > 2 else torch.zeros(weight.shape[0])
+        for (name, weight, bias), conv in zip(convs, modules):
+            weight = torch.from_numpy(weight.copy())
+            bias = torch.from_numpy(bias.copy()) if bias is not None else torch.zeros(weight.shape[0])
             if conv is modules[0] and weight.shape[1] == 3 and conv.weight.shape[1] == 6:
                 # An xyz model starts an xyz-and-colour one: colour enters with zero weights,
                 # so training starts from exactly the xyz model's function.
                 weight = torch.cat([weight, torch.zeros_like(weight)], 1)
             if weight.shape != conv.weight.shape:
                 raise SystemExit("%s: Conv %s has weights %s, the network %s"
-                                 % (path, node.name, tuple(weight.shape), tuple(conv.weight.shape)))
+                                 % (path, name, tuple(weight.shape), tuple(conv.weight.shape)))
             conv.weight.copy_(weight)
             if conv in norms:
                 bn = norms[conv]
@@ -281,6 +282,7 @@ def export(net, path, h, w):
     torch.onnx.export(net.cpu(), torch.zeros(1, net.in_channels, h, w), tmp, opset_version=11, input_names=[name],
                       output_names=["foreground_boundary"], do_constant_folding=True)
     model = inline_identities(onnx.load(tmp))
+    subpixel_decoder.rewrite(model)  # the same function, a third less arithmetic in the decoder
     onnx.checker.check_model(model)
     onnx.save(model, tmp)
     os.replace(tmp, path)
