@@ -627,6 +627,7 @@ InstanceGuidedRegionMerge::splitAlongMasks (const cv::Mat& geometric_given, cons
     overlaps = countOverlaps (geometric, ids);
   }
   const std::size_t labels = overlaps.labels ();
+
   // The instances that each hold a substantial part of a segment; two or more cut it.
   // Substantial: split_share of the segment and split_min_pixels; or, where the masks
   // tile the segment (below), more than min_overlap of the mask's own pixels on segments
