@@ -190,7 +190,8 @@ private:
   InterruptHandlers interrupts_;
   const RunSettings& s_;
   const pipeline::FusionPipelineConfig pipeline_config_;
-  std::shared_ptr<recognition::InstanceSegmenter> mask_source_;
+  std::shared_ptr<recognition::InstanceSegmenter> mask_source_;  ///< released when the frames are done
+  std::string mask_source_name_;                                  ///< its name, for tracking.json
   io::RGBDGrabber::Ptr grabber_;
   io::DatasetGrabber::Ptr dataset_;  ///< the grabber when it reads a recorded sequence
   bool asynchronous_masks_ = false;
@@ -526,6 +527,10 @@ RunSession::run ()
     grabFrames ();
   connection.disconnect ();
   progress_.finish ();
+  // The network's buffers are not needed for the outputs: freed before the mesh, which is
+  // what the run peaks at.
+  mask_source_name_ = mask_source_ ? mask_source_->name () : std::string ();
+  mask_source_.reset ();
   if (!callback_error_.empty ())
     throw callback_error_named_ ? Error (callback_error_) : Error (s_.source, callback_error_);
   if (!grabber_->lastError ().empty ())
@@ -550,7 +555,7 @@ nlohmann::json
 RunSession::trackingJson ()
 {
   pipeline::TrackingFileContext context;
-  context.mask_source = mask_source_ ? mask_source_->name () : std::string ();
+  context.mask_source = mask_source_name_;
   context.continued_from = s_.load_volume;
   if (!s_.pipeline.reconstruction.use_reference_poses && result_.reference.size () >= 3 && result_.trajectory.size () >= 3)
   {
