@@ -40,10 +40,25 @@ def constant_value(graph, name):
     return None
 
 
+# Output row 2i + di of the upsampled convolution takes coarse rows i - 1 and i (di = 0)
+# or i and i + 1 (di = 1): (phase, tap of merge_taps) -> row of the stride-2 transposed 4x4
+# kernel (padding 1) that holds it; columns likewise. Along an axis the four kernel rows
+# are then (w2, w1 + w2, w0 + w1, w0) of the original 3x3 kernel's (w0, w1, w2).
+TAP_ROWS = {(0, 0): 3, (0, 1): 1, (1, 0): 2, (1, 1): 0}
+
+
 def merge_taps(kernel, phase, axis):
     """The 3 taps of `kernel` along `axis` as the 2 taps of one upsampling phase."""
     k0, k1, k2 = (np.take(kernel, t, axis) for t in range(3))
     return np.stack([k0, k1 + k2] if phase == 0 else [k0 + k1, k2], axis)
+
+
+def unmerge_taps(kernel, axis):
+    """The 3 taps (w0, w1, w2) along `axis` back from the transposed kernel's 4 (TAP_ROWS)."""
+    def take(phase, tap):
+        return np.take(kernel, TAP_ROWS[(phase, tap)], axis)
+    w0, w2 = take(0, 0), take(1, 1)
+    return np.stack([w0, take(0, 1) - w2, w2], axis)
 
 
 def rewrite(model):
@@ -54,6 +69,9 @@ def rewrite(model):
         for name in node.input:
             consumers.setdefault(name, []).append(node)
     producer = {o: n for n in graph.node for o in n.output}
+    inferred = onnx.shape_inference.infer_shapes(model).graph
+    channels = {v.name: v.type.tensor_type.shape.dim[1].dim_value for v in list(inferred.value_info) + list(inferred.input)
+                if len(v.type.tensor_type.shape.dim) > 1}
     drop, new_nodes, rewritten = set(), {}, 0
     for conv in graph.node:
         if conv.op_type != "Conv":
@@ -77,20 +95,19 @@ def rewrite(model):
         weight = numpy_helper.to_array(inits[conv.input[1]])
         bias = numpy_helper.to_array(inits[conv.input[2]]) if len(conv.input) > 2 else None
         coarse = resize.input[0]
-        up_channels = weight.shape[1] - skip_channels(graph, concat.input[1], weight.shape[1], model)
+        if not channels.get(concat.input[1]):
+            raise SystemExit(f"subpixel_decoder: cannot tell the channels of {concat.input[1]}")
+        up_channels = weight.shape[1] - channels[concat.input[1]]
         w_up, w_skip = weight[:, :up_channels], weight[:, up_channels:]
         base = conv.output[0] + "/subpixel"
-        # One transposed convolution (stride 2, 4x4, padding 1) holds the four phases: output
-        # row 2i + di takes coarse rows i - 1 and i (di = 0: kernel rows 3 and 1) or i and
-        # i + 1 (di = 1: kernel rows 2 and 0), columns likewise.
+        # One transposed convolution (stride 2, 4x4, padding 1) holds the four phases (TAP_ROWS).
         taps = np.zeros((weight.shape[0], up_channels, 4, 4), np.float64)
-        rows = {(0, 0): 3, (0, 1): 1, (1, 0): 2, (1, 1): 0}  # (phase, tap of merge_taps) -> kernel row
         for di in (0, 1):
             for dj in (0, 1):
                 k = merge_taps(merge_taps(w_up.astype(np.float64), di, 2), dj, 3)
                 for ty in (0, 1):
                     for tx in (0, 1):
-                        taps[:, :, rows[(di, ty)], rows[(dj, tx)]] = k[:, :, ty, tx]
+                        taps[:, :, TAP_ROWS[(di, ty)], TAP_ROWS[(dj, tx)]] = k[:, :, ty, tx]
         wname = base + "/w_up"
         graph.initializer.append(numpy_helper.from_array(taps.transpose(1, 0, 2, 3).astype(np.float32), wname))
         nodes = [helper.make_node("ConvTranspose", [coarse, wname], [base + "/up"], kernel_shape=[4, 4],
@@ -125,7 +142,8 @@ def rewrite(model):
 def conv_weights(model):
     """The network's convolutions in graph order as (name, weight, bias or None), with each
     rewritten decoder step as the one 3x3 convolution over [upsampled, skip] it replaced
-    (its weight recovered from the transposed convolution's taps, to float rounding): what train.py's --init-onnx loads, whichever form a model has."""
+    (its weight recovered from the transposed convolution's taps, to float rounding): what
+    train.py's --init-onnx loads, whichever form a model has."""
     inits = {t.name: numpy_helper.to_array(t) for t in model.graph.initializer}
     up = {n.output[0][: -len("/up")]: n for n in model.graph.node
           if n.op_type == "ConvTranspose" and n.output[0].endswith("/subpixel/up")}
@@ -137,25 +155,10 @@ def conv_weights(model):
         bias = inits[node.input[2]] if len(node.input) > 2 else None
         if node.output[0].endswith("/subpixel/skip"):
             taps = inits[up[node.output[0][: -len("/skip")]].input[1]].transpose(1, 0, 2, 3).astype(np.float64)
-            w = np.zeros(taps.shape[:2] + (3, 3))
-            # Along each axis the 4 taps are (w2, w1 + w2, w0 + w1, w0): rows first, then columns.
-            rows = np.zeros(taps.shape[:2] + (3, 4))
-            rows[:, :, 0], rows[:, :, 2] = taps[:, :, 3], taps[:, :, 0]
-            rows[:, :, 1] = taps[:, :, 1] - taps[:, :, 0]
-            w[:, :, :, 0], w[:, :, :, 2] = rows[:, :, :, 3], rows[:, :, :, 0]
-            w[:, :, :, 1] = rows[:, :, :, 1] - rows[:, :, :, 0]
+            w = unmerge_taps(unmerge_taps(taps, 2), 3)
             weight = np.concatenate([w.astype(np.float32), weight], 1)
         out.append((node.name or node.output[0], weight, bias))
     return out
-
-
-def skip_channels(graph, name, total, model):
-    """Channels of tensor `name` (from shape inference)."""
-    inferred = onnx.shape_inference.infer_shapes(model)
-    for v in list(inferred.graph.value_info) + list(inferred.graph.input):
-        if v.name == name:
-            return v.type.tensor_type.shape.dim[1].dim_value
-    raise SystemExit(f"subpixel_decoder: cannot tell the channels of {name}")
 
 
 def check(original, rewritten, inputs):

@@ -20,14 +20,12 @@ import numpy as np
 import onnx
 import onnx.numpy_helper
 import torch
-
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import subpixel_decoder  # noqa: E402
 import torch.nn.functional as F
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from model import XyzInstanceNet  # noqa: E402
 from decode import decode, match_iou  # noqa: E402
+import subpixel_decoder  # noqa: E402
 
 
 def load_views(folder, limit=0, color=False):
