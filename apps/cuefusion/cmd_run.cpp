@@ -389,8 +389,7 @@ RunSession::processFrame (const RGBDFrame::ConstPtr& frame, std::optional<double
     if (full.segmented)
     {
       result_.segmentation.push_back (full.segmentation);
-      const reconstruction::StageTimings& t = full.reconstruction.timings;
-      result_.loop_ms.push_back (t.preprocess_ms + t.track_ms + t.integrate_ms + t.raycast_ms + full.segmentation.total ());
+      result_.loop_ms.push_back (full.loop_ms);
       result_.merges += full.merges;
       writeFrameViews (*frame);
     }

@@ -292,7 +292,7 @@ private:
                      "pose"_a = arrayFromPose (r.pose), "lost_reason"_a = r.failure, "relocalised"_a = r.relocalised,
                      "relocalised_from"_a = r.relocalised_from, "segmented"_a = report.segmented,
                      "had_masks"_a = report.had_masks, "segments"_a = report.frame_segments,
-                     "noise_scale"_a = report.noise_scale, "timings_ms"_a = timings);
+                     "noise_scale"_a = report.noise_scale, "timings_ms"_a = timings, "loop_ms"_a = report.loop_ms);
   }
 
   /// The GIL is released while the library works, so two Python threads may call one

@@ -8,9 +8,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <iterator>
 #include <random>
+#include <stdexcept>
 #include <tuple>
 
 using namespace cuefusion;
@@ -140,6 +142,66 @@ TEST (DenseReconstruction, DetectsAGarbageFrameAndRecovers)
     reference.push_back ({frame->timestamp, *frame->pose});
   }
   EXPECT_LT (evaluation::absoluteTrajectoryError (estimate, reference).rmse, 0.005);
+}
+
+namespace
+{
+/** Bytes of \a m equal to \a n's (NaN normals compare equal to NaN). */
+bool
+sameBytes (const cv::Mat& m, const cv::Mat& n)
+{
+  if (m.size () != n.size () || m.type () != n.type () || !m.isContinuous () || !n.isContinuous ())
+    return false;
+  return std::equal (m.datastart, m.dataend, n.datastart);
+}
+}  // namespace
+
+TEST (DenseReconstruction, WorkAlongsideSeesTheFramesPyramidAndChangesNothing)
+{
+  // Frame 6 is garbage (lost): the work alongside runs for it too, and is joined.
+  const simulation::SyntheticSequence sequence = tabletopSequence (12, true);
+  DenseReconstruction plain, with_work;
+  std::mt19937 rng (11);
+  std::uniform_real_distribution<float> garbage (0.5f, 4.0f);
+  for (std::size_t i = 0; i < sequence.size (); ++i)
+  {
+    const RGBDFrame::Ptr frame = sequence.frame (i);
+    if (i == 6)
+      for (auto it = frame->depth.begin<float> (); it != frame->depth.end<float> (); ++it)
+        *it = garbage (rng);
+    int calls = 0;
+    cv::Mat depth, normals;
+    const FrameReport a = plain.process (*frame);
+    const FrameReport b = with_work.process (*frame, [&] {
+      ++calls;
+      const PyramidLevel& level = with_work.sharedMaps ().frame;
+      depth = level.depth.clone ();
+      normals = level.normals.clone ();
+    });
+    EXPECT_EQ (calls, 1) << "frame " << i;
+    EXPECT_EQ (a.tracked, i != 6) << "frame " << i;
+    EXPECT_EQ (b.tracked, a.tracked) << "frame " << i;
+    EXPECT_TRUE (b.pose.isApprox (a.pose, 0.0)) << "frame " << i;  // bit for bit
+    EXPECT_TRUE (sameBytes (depth, with_work.framePyramid ().front ().depth)) << "frame " << i;
+    EXPECT_TRUE (sameBytes (normals, with_work.framePyramid ().front ().normals)) << "frame " << i;
+    if (b.tracked)
+    {
+      EXPECT_TRUE (sameBytes (with_work.model ().depth (), plain.model ().depth ())) << "frame " << i;
+    }
+  }
+  EXPECT_EQ (with_work.volume ().blockCount (), plain.volume ().blockCount ());
+}
+
+TEST (DenseReconstruction, AnErrorOfTheWorkAlongsideComesOutOfProcess)
+{
+  const simulation::SyntheticSequence sequence = tabletopSequence (30, false);  // steps a hand-held camera makes
+  DenseReconstruction fusion;
+  fusion.process (*sequence.frame (0));
+  EXPECT_THROW (fusion.process (*sequence.frame (1), [] { throw std::runtime_error ("alongside"); }), std::runtime_error);
+  // The frame itself was processed; the next one is tracked as usual.
+  const FrameReport next = fusion.process (*sequence.frame (2), [] {});
+  EXPECT_TRUE (next.tracked) << next.failure;
+  EXPECT_LT ((next.pose.translation () - sequence.frame (2)->pose->translation ()).norm (), 0.005);
 }
 
 TEST (DenseReconstruction, ReferencePosesModeFusesWithTheFramesPoses)

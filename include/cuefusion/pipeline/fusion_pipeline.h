@@ -99,6 +99,10 @@ struct PipelineFrameReport
   std::size_t merges = 0;        ///< labels whose object changed this frame (merges made or undone)
   std::size_t voxel_writes = 0;
   SegmentationTimings segmentation;
+  /** process() from call to return, wall clock: the whole loop of the frame. Not the sum
+    * of the stages: the frame's segmentation (geometry_ms, instances_ms) runs beside its
+    * tracking, integration and raycast. */
+  double loop_ms = 0.0;
 };
 
 /** \brief The incremental pipeline of the thesis (chapter 3, §4.1–4.2), one frame at a
@@ -189,6 +193,14 @@ private:
     * as their object.
     */
   std::uint32_t settledLabel (std::uint32_t label, bool exact) const;
+  /** \brief L^G (§4.2.1.1) and L_t (§4.2.1.3) of \a frame into \a frame_segments and
+    * \a info, timed into \a timings: the work on the frame alone, which process() runs
+    * beside tracking, integration and the raycast (DenseReconstruction::process). Reads
+    * the frame's pyramid level 0 (sharedMaps().frame) and writes only planes_, geometry_
+    * and instance_merge_ of this object.
+    */
+  void segmentFrame (const RGBDFrame& frame, const std::vector<Instance>* instances, cv::Mat& frame_segments,
+                     std::vector<segmentation::SegmentInstance>& info, SegmentationTimings& timings);
   void refreshSettled (bool exact) const;
   /** \brief Measures the noise of \a frame while the estimate is open and, when the scale
     * changes, gives the stages their thresholds at the new scale.

@@ -25,7 +25,7 @@ struct RunRecord
   std::vector<reconstruction::FrameReport> reports;
   std::vector<SegmentationTimings> segmentation;  ///< per segmented frame
   std::vector<std::size_t> volume_bytes;  ///< after each frame: memory growth over the run
-  std::vector<double> loop_ms;            ///< per segmented frame: every stage, the mask source excluded
+  std::vector<double> loop_ms;            ///< per segmented frame: PipelineFrameReport::loop_ms (the mask source excluded)
   std::vector<double> read_ms;            ///< per frame: reading and decoding its files (recorded sequences)
   std::vector<double> masks_ms;           ///< per frame: the mask source (the network) on it; 0 without one
   std::vector<SegmenterTimings> masks_stages;  ///< per frame: the network's input, forward pass, decoding

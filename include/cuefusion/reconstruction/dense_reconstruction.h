@@ -8,6 +8,7 @@
 #include <cuefusion/reconstruction/preprocessing.h>
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -133,6 +134,15 @@ public:
 
   FrameReport
   process (const RGBDFrame& frame);
+  /** \brief process(), with \a alongside run on a second thread from the moment the
+    * frame's pyramid is built (sharedMaps().frame: level 0's filtered depth, vertices and
+    * normals) while tracking, integration and the raycast run: work on the frame alone,
+    * such as its segmentation, overlaps them. \a alongside may read sharedMaps().frame and
+    * nothing else of this object. It is joined before process returns, also when the
+    * frame is lost; an exception it throws is rethrown then.
+    */
+  FrameReport
+  process (const RGBDFrame& frame, const std::function<void ()>& alongside);
 
   const TSDFVolume& volume () const { return volume_; }
   TSDFVolume& volume () { return volume_; }
@@ -206,6 +216,11 @@ private:
     * has nothing to be placed with (reference poses, and it has none): it ends there. */
   bool
   estimatePose (const RGBDFrame& frame, FrameReport& report, KeyframeDatabase::Code& code);
+
+  /** process() after the pyramid: the pose (estimatePose), then, when tracked, its
+    * bookkeeping (acceptPose) and fuseAndRender. */
+  void
+  placeAndFuse (const RGBDFrame& frame, FrameReport& report);
 
   /** An accepted pose's bookkeeping: the motion model, the recent agreement shares,
     * keyframes and the features' memory of the last tracked frame. */

@@ -184,19 +184,11 @@ FusionPipeline::followNoise (const RGBDFrame& frame)
   instance_merge_ = segmentation::InstanceGuidedRegionMerge (merge);
 }
 
-PipelineFrameReport
-FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* instances)
+void
+FusionPipeline::segmentFrame (const RGBDFrame& frame, const std::vector<Instance>* instances, cv::Mat& frame_segments,
+                              std::vector<segmentation::SegmentInstance>& info, SegmentationTimings& timings)
 {
-  PipelineFrameReport report;
-  ++processed_;
-  followNoise (frame);
-  report.noise_scale = noise_scale_;
-  report.reconstruction = reconstruction_.process (frame);
-  if (!report.reconstruction.tracked)
-    return report;
-  report.segmented = true;
   pcl::StopWatch watch;
-
   // L^G from the frame's depth (§4.2.1.1).
   const PinholeCamera& camera = frame.camera;
   const reconstruction::DenseReconstruction::SharedMaps shared = reconstruction_.sharedMaps ();
@@ -229,13 +221,10 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
     segmentation::preprocessPlanes (planes_, config_.geometry.noiseScaled (noise_scale_).preprocessing);
   }
   geometry_.segment (planes_);
-  report.segmentation.geometry_ms = watch.getTime ();
+  timings.geometry_ms = watch.getTime ();
 
   // L_t: geometry, grouped by the masks, or the masks alone (§4.2.1.3).
   watch.reset ();
-  report.had_masks = instances != nullptr;
-  cv::Mat frame_segments;
-  std::vector<segmentation::SegmentInstance> info;
   if (config_.mode == SegmentationMode::Geometry || (config_.mode == SegmentationMode::Fused && !instances))
     frame_segments = geometry_.getLabelImage ();
   else if (config_.mode == SegmentationMode::Fused)
@@ -244,10 +233,38 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
     instance_merge_.split (geometry_.getLabelImage (), *instances, frame_segments, &info, &planes_, frame.color);
   else
     segmentation::masksAsSegments (instances ? *instances : std::vector<Instance> (), planes_, frame_segments, &info);
-  report.segmentation.instances_ms = watch.getTime ();
+  timings.instances_ms = watch.getTime ();
+}
+
+PipelineFrameReport
+FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* instances)
+{
+  pcl::StopWatch loop;
+  PipelineFrameReport report;
+  ++processed_;
+  followNoise (frame);
+  report.noise_scale = noise_scale_;
+  report.had_masks = instances != nullptr;
+  // L^G and L_t need the frame alone (its filtered depth and normals), not its pose: they
+  // run beside tracking, integration and the raycast, on the second core that those
+  // leave idle in their serial parts. The same computations on the same inputs: outputs
+  // are those of one after the other. A lost frame's segmentation is not used.
+  cv::Mat frame_segments;
+  std::vector<segmentation::SegmentInstance> info;
+  report.reconstruction = reconstruction_.process (
+      frame, [&] { segmentFrame (frame, instances, frame_segments, info, report.segmentation); });
+  if (!report.reconstruction.tracked)
+  {
+    report.segmentation = SegmentationTimings ();
+    report.loop_ms = loop.getTime ();
+    return report;
+  }
+  report.segmented = true;
+  const reconstruction::DenseReconstruction::SharedMaps shared = reconstruction_.sharedMaps ();
+  const reconstruction::PyramidLevel& level = shared.frame;
+  pcl::StopWatch watch;
 
   // L^p against the model seen from the fused pose (§4.2.2).
-  watch.reset ();
   const reconstruction::RaycastResult& model = shared.model;
   segmentation::PropagationResult propagated;
   propagation_.propagate (level.vertices, level.normals, frame_segments, model.vertices, model.normals, model.values, map_,
@@ -265,6 +282,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   report.voxel_writes =
       segmentation::updateVoxelLabels (reconstruction_.volume (), *labels_, propagated.labels, map_, config_.update);
   report.segmentation.update_ms = watch.getTime ();
+  report.loop_ms = loop.getTime ();
   return report;
 }
 

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <future>
 #include <sstream>
 
 namespace cuefusion
@@ -112,16 +113,35 @@ DenseReconstruction::continueFrom (TSDFVolume volume, KeyframeDatabase keyframes
 FrameReport
 DenseReconstruction::process (const RGBDFrame& frame)
 {
+  return process (frame, std::function<void ()> ());
+}
+
+FrameReport
+DenseReconstruction::process (const RGBDFrame& frame, const std::function<void ()>& alongside)
+{
   FrameReport report;
   report.index = frame.index;
   report.timestamp = frame.timestamp;
   StageClock clock;
   preprocessor_.compute (frame.depth, frame.camera, frame_pyramid_);
   report.timings.preprocess_ms = clock.lap ();
+  // The pyramid is only read from here on. Should placeAndFuse throw, the future's
+  // destructor still waits for the task (std::async), so it never outlives the frame.
+  std::future<void> side;
+  if (alongside)
+    side = std::async (std::launch::async, alongside);
+  placeAndFuse (frame, report);
+  if (side.valid ())
+    side.get ();
+  return report;
+}
 
+void
+DenseReconstruction::placeAndFuse (const RGBDFrame& frame, FrameReport& report)
+{
   KeyframeDatabase::Code code;  // the frame's keyframe code, once made
   if (!estimatePose (frame, report, code))
-    return report;
+    return;
   if (!report.tracked)
   {
     // The next raycast may be far from the last: it searches every hole (the last
@@ -129,11 +149,10 @@ DenseReconstruction::process (const RGBDFrame& frame)
     model_.empty_holes.release ();
     // The motion stays known (predictedPose carries it through the gap).
     ++frames_since_tracked_;
-    return report;
+    return;
   }
   acceptPose (frame, report, code);
   fuseAndRender (frame, report);
-  return report;
 }
 
 void
