@@ -54,7 +54,7 @@ class Pipeline:
 
     def process(self, depth, color=None, K=None, masks=None, depth_scale=1000.0, timestamp=None, pose=None):
         """Adds one frame; returns its report (a dict: tracked, pose 4x4, lost_reason,
-        relocalised, segmented, segments, timings_ms, ...). The first argument may be a
+        relocalised, segmented, segments, timings_ms, loop_ms, ...). The first argument may be a
         Frame of open_sequence (then color and K come with it); pose is the frame's
         reference pose (used with reconstruction.use_reference_poses)."""
         if isinstance(depth, Frame):

@@ -37,6 +37,8 @@ def test_the_map_from_python_is_the_map_of_cuefusion_run(sequence, tmp_path):
     for r, frame in zip(reports, seq):
         assert r["pose"].shape == (4, 4)
         assert np.linalg.norm(r["pose"][:3, 3] - frame.pose[:3, 3]) < 0.01
+        # The call's whole loop beside its stages (values not asserted: times).
+        assert isinstance(r["loop_ms"], float) and "geometric_segmentation" in r["timings_ms"]
     ate = cuefusion.evaluate_trajectory(pipeline.trajectory(), [(f.timestamp, f.pose) for f in seq])
     assert ate["pairs"] == 30 and ate["rmse"] < 0.005
 
