@@ -69,7 +69,8 @@ def main():
     print(f"Command: `scripts/bench pipeline` ({datetime.date.today()}, {machine()}). `cuefusion run DATASET` "
           f"(tracking by ICP) in each mode, median over {args.repeat} runs of each run's per-frame median, ms per 640×480 "
           "frame; read = reading and decoding the frame's files, masks = the network on it (on the reading thread when "
-          "read ahead), whole loop = the pipeline's call per frame, wall clock (the network excluded; the frame's segmentation runs beside its tracking, so the stages add up to more), wall per frame = from one "
+          "read ahead), whole loop = the pipeline's call per frame, wall clock (the network excluded; the frame's "
+          "segmentation runs beside its tracking, so the stages add up to more), wall per frame = from one "
           "frame's end to the next's, fps = frames / the run's processing time.\n")
     print("| dataset | mode | frames (tracked) | " + " | ".join(STAGES) + " | fps | ATE | peak memory | volume at 25/50/75/100 % |")
     print("|---|---|---|" + "---|" * len(STAGES) + "---|---|---|---|")

@@ -49,7 +49,8 @@ def main():
     args = parser.parse_args()
     print("### Python binding overhead\n")
     print(f"Command: `scripts/bench python` ({datetime.date.today()}, {machine()}). Per frame: the wall time of "
-          "`Pipeline.process` called from Python with numpy arrays, against the C++ loop's own wall time inside it (the report's loop_ms); "
+          "`Pipeline.process` called from Python with numpy arrays, against the C++ loop's own wall time inside it "
+          "(the report's loop_ms); "
           "medians over the segmented frames, ms per 640×480 frame.\n")
     print("| dataset | mode | frames | process() from Python | C++ loop inside | overhead (median) | overhead (worst frame) | share of the loop |")
     print("|---|---|---:|---:|---:|---:|---:|---:|")
