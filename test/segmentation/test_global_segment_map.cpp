@@ -702,6 +702,70 @@ TEST (SegmentPropagation, VectorKernelDecidesEveryPixelAsTheScalarCode)
   EXPECT_EQ (cv::countNonZero (result[0].labels != result[1].labels), 0);
 }
 
+TEST (SegmentPropagation, APieceWithoutFrameNormalsInheritsTheLabelOfTheSurfaceItLiesOn)
+{
+  // A far sliver (2.5-3.5 m): every pixel of it within the normals' span of a depth edge,
+  // so the frame has no normal there, as for a cup 13 px wide between two boxes. Where
+  // the model's surface lies within the noise bound along the ray it inherits the model's
+  // label (before: no pixel could agree, and it took a fresh label every frame); where the
+  // model's surface is 5 bounds away (another surface) it does not.
+  const int w = 40, h = 40;
+  cv::Mat V (h, w, CV_32FC3), N (h, w, CV_32FC3), Vm (h, w, CV_32FC3), Nm (h, w, CV_32FC3);
+  cv::Mat lj (h, w, CV_32S, cv::Scalar (1)), none (h, w, CV_32S, cv::Scalar (0));
+  std::mt19937 rng (29);
+  std::uniform_real_distribution<float> unit (0.f, 1.f);
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  const auto fill = [&] (float offset_bounds) {
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+      {
+        const float z = 2.5f + unit (rng);
+        const Eigen::Vector3f v ((x - 20) * z / 525.f, (y - 20) * z / 525.f, z);
+        const Eigen::Vector3f vm = v + v.normalized () * (offset_bounds * (0.5f + 0.5f * unit (rng)) * axialNoiseLowerBound (z));
+        V.at<cv::Vec3f> (y, x) = cv::Vec3f (v.x (), v.y (), v.z ());
+        N.at<cv::Vec3f> (y, x) = cv::Vec3f (nan, nan, nan);
+        Vm.at<cv::Vec3f> (y, x) = cv::Vec3f (vm.x (), vm.y (), vm.z ());
+        Nm.at<cv::Vec3f> (y, x) = cv::Vec3f (0.f, 0.f, -1.f);
+      }
+  };
+  for (const bool vector : {false, true})
+  {
+    if (vector && !cpuHasAvx2Fma ())
+      continue;
+    const bool before = vectorKernelsEnabled ();
+    setVectorKernelsEnabled (vector);
+    SCOPED_TRACE (vector ? "vector kernels" : "scalar code");
+    SegmentPropagation propagation;
+    GlobalSegmentMap map;
+    fill (0.9f);
+    PropagationResult first, near, far;
+    propagation.propagate (V, N, lj, Vm, Nm, none, map, 0, first);  // the model has no labels yet
+    ASSERT_EQ (first.fresh, 1);
+    const std::int32_t label = first.labels.at<std::int32_t> (0, 0);
+    const cv::Mat model_labels (h, w, CV_32S, cv::Scalar (label));
+    propagation.propagate (V, N, lj, Vm, Nm, model_labels, map, 1, near);
+    EXPECT_EQ (near.inherited, 1);
+    EXPECT_EQ (near.fresh, 0);
+    EXPECT_EQ (cv::countNonZero (near.labels != label), 0);
+    fill (5.f);
+    propagation.propagate (V, N, lj, Vm, Nm, model_labels, map, 2, far);
+    EXPECT_EQ (far.inherited, 0);
+    EXPECT_EQ (far.fresh, 1);
+    // A segment with frame normals over most of it keeps the reference's normal test for
+    // every pixel: its 40 % without a normal agree in distance (more than inherit_overlap),
+    // the rest turns across the model's normals; it takes a fresh label.
+    fill (0.9f);
+    for (int y = 0; y < 24; ++y)
+      for (int x = 0; x < w; ++x)
+        N.at<cv::Vec3f> (y, x) = cv::Vec3f (1.f, 0.f, 0.f);
+    PropagationResult mixed;
+    propagation.propagate (V, N, lj, Vm, Nm, model_labels, map, 3, mixed);
+    EXPECT_EQ (mixed.inherited, 0);
+    EXPECT_EQ (mixed.fresh, 1);
+    setVectorKernelsEnabled (before);
+  }
+}
+
 TEST (FragmentationReport, CountsSegmentsAndSurfaceBySize)
 {
   // Sizes on both sides of each bound: 99 | 100, 999 | 1000, 9999 | 10000; one empty.

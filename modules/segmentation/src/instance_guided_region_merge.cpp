@@ -7,6 +7,7 @@
 #include "instance_merge_detail.h"
 #include "overlap_table.h"
 
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <set>
 #include <utility>
@@ -189,10 +191,17 @@ public:
   {
   }
 
+  /// No depth jump between i and j (max_depth_jump of the depth), j with a point.
+  bool
+  continuesInDepth (int i, int j) const
+  {
+    return std::isfinite (z_[j]) && std::abs (z_[j] - z_[i]) <= config_.max_depth_jump * std::min (z_[i], z_[j]);
+  }
+
   Result
   operator() (int i, int j) const
   {
-    if (!std::isfinite (z_[j]) || !(std::abs (z_[j] - z_[i]) <= config_.max_depth_jump * std::min (z_[i], z_[j])))
+    if (!continuesInDepth (i, j))
       return kNo;
     if (!check_normals_ || !normalsAreNoisyAt (z_[j], config_.noise_ratio))
       return kJoinsAndGoesOn;
@@ -234,17 +243,110 @@ completeRims (const InstanceGuidedRegionMergeConfig& config, const SurfacePlanes
 }
 
 
+/** \brief recoverLostObjects(): \a mask less the band of \a tolerance pixels along its
+  * outside (8-connected erosion), or the whole mask where that leaves fewer than
+  * \a min_points pixels with a point (a mask too thin to have a core). */
+cv::Mat
+maskCore (const cv::Mat& mask, int tolerance, const cv::Mat& point, int min_points)
+{
+  if (tolerance <= 0)
+    return mask;
+  cv::Mat core;
+  cv::erode (mask, core, cv::getStructuringElement (cv::MORPH_RECT, cv::Size (2 * tolerance + 1, 2 * tolerance + 1)),
+             cv::Point (-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar (255));
+  return cv::countNonZero (core & point) >= min_points ? core : mask;
+}
+
+/** \brief recoverLostObjects(): the 0-pixels within \a region that lie on the plane of a
+  * labelled piece next to them, reached from it over such pixels: the ring of table at a
+  * far object's base, or a neighbour's edge band, that a grown mask covers. A piece is a
+  * plane here where, fitted over its pixels in \a region, at least 80 % of them lie within
+  * kPlaneSigmas · σ_d along their ray (σ_d of the Kinect model at the plane's viewing
+  * angle, times \a noise_ratio); a 0-pixel is on it by the same test. Along the ray the
+  * noise is σ_d, across a table seen at a slant far less: an object standing on it leaves
+  * the plane within a centimetre or two. Returns CV_8U over the image, 255 = on a plane.
+  */
+cv::Mat
+onNeighbouringPlanes (const SurfacePlanes& planes, const cv::Mat& pieces, const cv::Rect& region, float noise_ratio)
+{
+  constexpr float kPlaneSigmas = 2.f;  // 95 % of a plane's pixels under Gaussian noise
+  constexpr int kMinPlanePixels = 20;
+  const int rows = pieces.rows, cols = pieces.cols;
+  cv::Mat on_plane (rows, cols, CV_8U, cv::Scalar (0));
+  if (!(noise_ratio > 0.f))
+    return on_plane;
+  const auto* out = pieces.ptr<std::int32_t> ();
+  const float *px = planes.x.data (), *py = planes.y.data (), *pz = planes.z.data ();
+  const auto point = [&] (int i) { return Eigen::Vector3f (px[i], py[i], pz[i]); };
+  const auto unsegmented = [&] (int i) { return out[i] == 0 && std::isfinite (pz[i]); };
+  // Pieces that border a 0-pixel with a point inside the region.
+  std::map<std::int32_t, std::vector<int>> pixels;
+  std::set<std::int32_t> bordering;
+  for (int y = region.y; y < region.y + region.height; ++y)
+    for (int x = region.x; x < region.x + region.width; ++x)
+    {
+      const int i = y * cols + x;
+      if (out[i] <= 0 || !std::isfinite (pz[i]))
+        continue;
+      pixels[out[i]].push_back (i);
+      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
+        if (j >= 0 && unsegmented (j))
+          bordering.insert (out[i]);
+    }
+  // Distance along the ray from the point to the plane (n, d): n·(t v) + d = 0.
+  const auto off = [] (const Eigen::Vector3f& v, const Eigen::Vector3f& n, float d) {
+    const float along = n.dot (v) / v.norm ();
+    return std::abs (along) > 1e-3f ? std::abs ((n.dot (v) + d) / along) : std::numeric_limits<float>::infinity ();
+  };
+  const auto on = [&] (const Eigen::Vector3f& v, const Eigen::Vector3f& n, float d) {
+    return off (v, n, d) <= kPlaneSigmas * noise_ratio * axialNoiseAt (v, n);
+  };
+  std::vector<int> queue;
+  for (const std::int32_t piece : bordering)
+  {
+    const std::vector<int>& own = pixels[piece];
+    if (static_cast<int> (own.size ()) < kMinPlanePixels)
+      continue;
+    Eigen::Vector3f mean = Eigen::Vector3f::Zero ();
+    for (const int i : own)
+      mean += point (i);
+    mean /= static_cast<float> (own.size ());
+    Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero ();
+    for (const int i : own)
+      covariance += (point (i) - mean) * (point (i) - mean).transpose ();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver (covariance);
+    const Eigen::Vector3f n = solver.eigenvectors ().col (0);
+    const float d = -n.dot (mean);
+    const auto fits = std::count_if (own.begin (), own.end (), [&] (int i) { return on (point (i), n, d); });
+    if (10 * fits < 8 * static_cast<long> (own.size ()))
+      continue;  // not a plane here (a ball, a cup's side)
+    queue = own;
+    growFourConnected (queue, rows, cols, [&] (int, int j) {
+      if (on_plane.data[j] || !unsegmented (j) || !region.contains (cv::Point (j % cols, j / cols)) || !on (point (j), n, d))
+        return false;
+      on_plane.data[j] = 255;
+      return true;
+    });
+  }
+  return on_plane;
+}
+
+
 /** \brief splitAlongMasks(): an instance that claims no piece although more than
-  * min_overlap of its mask's pixels with a point (and at least split_min_pixels) lie on
-  * 0-pixels marks an object geometry lost whole: a small or far one whose interior fell
-  * under min_segment_size or inside the edge band. A piece of its own grows from the
-  * innermost such pixel (the farthest from any other) over the mask's 0-pixels by the
-  * rim's step (RimStep) and is kept when it reaches split_min_pixels and continues no
+  * min_overlap of its mask's pixels with a point lie on 0-pixels — counted over the mask's
+  * core (maskCore), both the pixels it owns and the whole mask — and at least
+  * split_min_pixels of the pixels it owns, marks an object geometry lost whole: a small
+  * or far one whose interior fell under min_segment_size or inside the edge band. A piece
+  * of its own grows from the innermost such pixel (the farthest from any other) over the
+  * mask's 0-pixels — through its core by depth alone, in the band along its boundary by
+  * the rim's step (RimStep), nowhere onto the plane of a neighbouring piece
+  * (onNeighbouringPlanes) — and is kept when it reaches split_min_pixels and continues no
   * piece another instance claims across one surface (then it is a part of that object
   * that a second mask covers: seen on real frames of ycb-real). Growing by depth alone
-  * took the edge bands of neighbouring objects under the mask (generated far clutter:
-  * 0.03 IoU less than this), and so did growing from every piece at once.
-  * The whole mask counts, not only the pixels it owns under masks of higher scores.
+  * everywhere took the edge bands of neighbouring objects under the mask (generated far
+  * clutter: 0.03 IoU less), and so did growing from every piece at once; through the core
+  * without the neighbours' planes it took the ring of table at a far bottle's base
+  * (docs/benchmarks.md, 2026-11-28).
   */
 void
 recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const SurfacePlanes& planes, const cv::Mat& ids,
@@ -257,7 +359,7 @@ recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const Surface
       claimed[static_cast<std::size_t> (s.instance) + 1] = 1;
   if (std::all_of (claimed.begin () + 1, claimed.end (), [] (char c) { return c != 0; }))
     return;  // the common case: every instance claims a piece
-  std::vector<int> with_point (n, 0), unsegmented (n, 0);
+  std::vector<int> unsegmented (n, 0);
   std::vector<cv::Rect> box (n);
   const int rows = pieces.rows, cols = pieces.cols;
   auto* out = pieces.ptr<std::int32_t> ();
@@ -269,7 +371,6 @@ recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const Surface
       const int i = y * cols + x;
       if (!id[i] || claimed[id[i]] || !std::isfinite (z[i]))
         continue;
-      ++with_point[id[i]];
       if (out[i] == 0)
         box[id[i]] = unsegmented[id[i]]++ ? box[id[i]] | cv::Rect (x, y, 1, 1) : cv::Rect (x, y, 1, 1);
     }
@@ -279,10 +380,10 @@ recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const Surface
   std::vector<int> queue;
   for (std::size_t s = 1; s < n; ++s)
   {
-    if (claimed[s] || unsegmented[s] < config.split_min_pixels || !mostly (unsegmented[s], with_point[s]))
+    if (claimed[s] || unsegmented[s] < config.split_min_pixels)
       continue;
-    // So too over its whole mask, not only the pixels it owns: a second mask over part of
-    // an object that a mask of a higher score claims owns only its leftovers in the edge band.
+    // Over its whole mask too, not only the pixels it owns: a second mask over part of an
+    // object that a mask of a higher score claims owns only its leftovers in the edge band.
     if (point.empty ())
     {
       point = cv::Mat (rows, cols, CV_8U);
@@ -290,10 +391,23 @@ recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const Surface
         point.data[i] = std::isfinite (z[i]) ? 255 : 0;
       unsegmented_point = (pieces == 0) & point;
     }
-    const cv::Mat& mask = instances[s - 1].mask;
-    if (!mostly (cv::countNonZero (mask & unsegmented_point), cv::countNonZero (mask & point)))
+    // Both shares are counted over the mask's core, its pixels further than
+    // mask_boundary_tolerance from its outside (where the core has split_min_pixels points;
+    // else the whole mask): a mask's boundary is that uncertain, and a small far object's
+    // mask grown by a pixel or two lies on its neighbours' segments for a third of its
+    // pixels (a cup 13 px wide between two boxes at 3 m: 0.67 of its mask on 0-pixels,
+    // 0.9 of its core).
+    const cv::Mat core = maskCore (instances[s - 1].mask, config.mask_boundary_tolerance, point, config.split_min_pixels);
+    const cv::Mat owned = core & (ids == static_cast<int> (s));
+    if (!mostly (cv::countNonZero (owned & unsegmented_point), cv::countNonZero (owned & point)) ||
+        !mostly (cv::countNonZero (core & unsegmented_point), cv::countNonZero (core & point)))
       continue;
-    const auto free = [&] (int i) { return id[i] == s && out[i] == 0 && std::isfinite (z[i]); };
+    const int margin = std::max (box[s].width, box[s].height);
+    const cv::Mat on_plane = onNeighbouringPlanes (
+      planes, pieces, cv::Rect (box[s].x - margin, box[s].y - margin, box[s].width + 2 * margin, box[s].height + 2 * margin) &
+                        cv::Rect (0, 0, cols, rows),
+      config.noise_ratio);
+    const auto free = [&] (int i) { return id[i] == s && out[i] == 0 && std::isfinite (z[i]) && !on_plane.data[i]; };
     // The innermost pixel: the largest distance to any pixel that is not such a 0-pixel.
     const cv::Rect r (box[s].x - 1, box[s].y - 1, box[s].width + 2, box[s].height + 2);
     cv::Mat inside (r.size (), CV_8U, cv::Scalar (0)), distance;
@@ -302,7 +416,10 @@ recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const Surface
         inside.at<std::uint8_t> (y - r.y, x - r.x) = free (y * cols + x) ? 255 : 0;
     cv::distanceTransform (inside, distance, cv::DIST_L2, 3);
     cv::Point seed;
-    cv::minMaxLoc (distance, nullptr, nullptr, nullptr, &seed);
+    double innermost = 0.0;
+    cv::minMaxLoc (distance, nullptr, &innermost, nullptr, &seed);
+    if (!(innermost > 0.0))
+      continue;  // all of it on the neighbours' planes
     const auto label = static_cast<std::int32_t> (info.size ());
     queue.assign (1, (seed.y + r.y) * cols + seed.x + r.x);
     out[queue[0]] = label;
@@ -310,7 +427,12 @@ recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const Surface
     growFourConnected (queue, rows, cols, [&] (int i, int j) {
       if (!free (j))
         return false;
-      const RimStep::Result result = step (i, j);
+      // Inside the mask's core the pixels are the object's own, whatever their normals
+      // (a far cup's 13 px of curved surface, all of it in the edge band, turns more than
+      // rim_max_normal_angle_deg from pixel to pixel); the rim's step guards the band
+      // along the mask's boundary, and the neighbours' planes (free) both.
+      const RimStep::Result result =
+        core.data[j] ? (step.continuesInDepth (i, j) ? RimStep::kJoinsAndGoesOn : RimStep::kNo) : step (i, j);
       if (result == RimStep::kNo)
         return false;
       out[j] = label;

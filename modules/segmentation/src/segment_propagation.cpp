@@ -50,16 +50,19 @@ angularNoise8 (__m256 scale, __m256 theta)
 /** \brief The per-pixel tests of §4.2.2.3 for eight pixels (CV_32FC3 rows at the
   * pointers, labels L_t \a lj and L^m \a li): returns the lanes with a frame label;
   * \a accepted gets the lanes that pass everything, \a exact those too close to σ_d to
-  * decide without its acos (the caller runs the exact test there).
+  * decide without its acos (the caller runs the exact test there), \a without_normal those
+  * without a frame normal whose distance alone passes at normal incidence's σ_d (the
+  * caller counts them for segments mostly without normals, edgeBoundSegments).
   */
 CUEFUSION_AVX2 int
 agreeingPixels8 (const float* v, const float* n, const float* vm, const float* nm, const std::int32_t* lj,
-                 const std::int32_t* li, float normal_agreement, float noise_factor, int& accepted, int& exact)
+                 const std::int32_t* li, float normal_agreement, float noise_factor, int& accepted, int& exact,
+                 int& without_normal)
 {
   const __m256i zero_i = _mm256_setzero_si256 ();
   const __m256i frame_label = _mm256_cmpgt_epi32 (_mm256_loadu_si256 (reinterpret_cast<const __m256i*> (lj)), zero_i);
   const int labelled = _mm256_movemask_ps (_mm256_castsi256_ps (frame_label));
-  accepted = exact = 0;
+  accepted = exact = without_normal = 0;
   const __m256i both = _mm256_and_si256 (frame_label, _mm256_cmpgt_epi32 (_mm256_loadu_si256 (reinterpret_cast<const __m256i*> (li)), zero_i));
   if (_mm256_movemask_ps (_mm256_castsi256_ps (both)) == 0)
     return labelled;
@@ -68,8 +71,10 @@ agreeingPixels8 (const float* v, const float* n, const float* vm, const float* n
   avx2::loadXyz8 (n, nx, ny, nz);
   avx2::loadXyz8 (vm, mx, my, mz);
   avx2::loadXyz8 (nm, qx, qy, qz);
-  __m256 ok = _mm256_and_ps (_mm256_castsi256_ps (both), _mm256_and_ps (avx2::finite (vx, vy, vz), avx2::finite (nx, ny, nz)));
-  ok = _mm256_and_ps (ok, _mm256_and_ps (avx2::finite (mx, my, mz), avx2::finite (qx, qy, qz)));
+  const __m256 frame_normal = avx2::finite (nx, ny, nz);
+  const __m256 points = _mm256_and_ps (_mm256_castsi256_ps (both), _mm256_and_ps (avx2::finite (vx, vy, vz), avx2::finite (mx, my, mz)));
+  const __m256 no_normal = _mm256_andnot_ps (frame_normal, points);
+  __m256 ok = _mm256_and_ps (points, _mm256_and_ps (frame_normal, avx2::finite (qx, qy, qz)));
   const __m256 agreement = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (nx, qx), _mm256_mul_ps (ny, qy)), _mm256_mul_ps (nz, qz));
   ok = _mm256_and_ps (ok, _mm256_cmp_ps (agreement, _mm256_set1_ps (normal_agreement), _CMP_GT_OQ));
   const __m256 dot = _mm256_add_ps (_mm256_add_ps (_mm256_mul_ps (_mm256_sub_ps (vx, mx), vx), _mm256_mul_ps (_mm256_sub_ps (vy, my), vy)),
@@ -80,6 +85,7 @@ agreeingPixels8 (const float* v, const float* n, const float* vm, const float* n
   const __m256 k = _mm256_set1_ps (noise_factor);
   const __m256 near = _mm256_cmp_ps (along_ray, _mm256_mul_ps (k, bound), _CMP_LT_OQ);
   accepted = _mm256_movemask_ps (_mm256_and_ps (ok, near));
+  without_normal = _mm256_movemask_ps (_mm256_and_ps (no_normal, near));
   const __m256 beyond_bound = _mm256_andnot_ps (near, ok);
   if (_mm256_movemask_ps (beyond_bound) == 0)
     return labelled;
@@ -127,12 +133,41 @@ using FrameOverlaps = OverlapTable<std::uint32_t>;
 
 constexpr int kRowsPerChunk = 16;  ///< rows per work item of the row loops below
 
+/** Per frame label (\a labels = largest + 1): whether more than half of its pixels have
+  * no frame normal. Such a segment lies within the normals' span of depth edges nearly
+  * everywhere — a far, thin object (a cup 13 px wide between two boxes at 3 m) — and
+  * would meet no model label under §4.2.2.3's normal test, taking a fresh label every
+  * frame; its pixels without a normal are judged by the distance alone. Larger segments
+  * keep the reference's test everywhere (with it for all pixels, a room's floor took
+  * the wall's label along their crease). */
+std::vector<char>
+edgeBoundSegments (const cv::Mat& normals, const cv::Mat& frame_labels, std::size_t labels)
+{
+  std::vector<int> total (labels, 0), without (labels, 0);
+  for (int y = 0; y < frame_labels.rows; ++y)
+  {
+    const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
+    const cv::Vec3f* n = normals.ptr<cv::Vec3f> (y);
+    for (int x = 0; x < frame_labels.cols; ++x)
+      if (lj[x] > 0)
+      {
+        ++total[static_cast<std::size_t> (lj[x])];
+        without[static_cast<std::size_t> (lj[x])] += std::isfinite (n[x][2]) ? 0 : 1;
+      }
+  }
+  std::vector<char> edge_bound (labels, 0);
+  for (std::size_t l = 1; l < labels; ++l)
+    edge_bound[l] = 2 * without[l] > total[l] ? 1 : 0;
+  return edge_bound;
+}
+
 /** Counts FrameOverlaps over the images (\a labels = largest frame label + 1). */
 FrameOverlaps
 countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, const cv::Mat& normals, const cv::Mat& frame_labels,
                const cv::Mat& model_vertices, const cv::Mat& model_normals, const cv::Mat& model_labels, std::size_t labels)
 {
   const cv::Size size = frame_labels.size ();
+  const std::vector<char> edge_bound = edgeBoundSegments (normals, frame_labels, labels);
   // Rows in fixed chunks on the pool, each with its own counts, added up in chunk order
   // (the lists keep first-seen order, so the result does not depend on the thread count).
   const int chunks = chunkCount (size.height, kRowsPerChunk);
@@ -159,9 +194,15 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
       if (use_avx2)
         for (; x + 8 <= size.width; x += 8)
         {
-          int accepted = 0, exact = 0;
+          int accepted = 0, exact = 0, without_normal = 0;
           const int labelled = agreeingPixels8 (&v_row[x][0], &n_row[x][0], &vm_row[x][0], &nm_row[x][0], lj + x, li + x,
-                                                config.normal_agreement, config.noise_factor, accepted, exact);
+                                                config.normal_agreement, config.noise_factor, accepted, exact, without_normal);
+          for (int m = without_normal; m != 0; m &= m - 1)
+          {
+            const int i = x + __builtin_ctz (static_cast<unsigned> (m));
+            if (edge_bound[static_cast<std::size_t> (lj[i])])
+              accepted |= 1 << (i - x);
+          }
           for (int m = labelled; m != 0; m &= m - 1)
             ++counts[static_cast<std::size_t> (lj[x + __builtin_ctz (static_cast<unsigned> (m))])];
           for (int m = exact; m != 0; m &= m - 1)
@@ -183,7 +224,14 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
         if (li[x] <= 0)
           continue;
         const Eigen::Vector3f N (n_row[x][0], n_row[x][1], n_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
-        if (!isFiniteVector (N) || !isFiniteVector (Nm) || !(N.dot (Nm) > config.normal_agreement))
+        if (!isFiniteVector (N))
+        {
+          // No frame normal: the distance alone, at normal incidence's σ_d.
+          if (edge_bound[static_cast<std::size_t> (lj[x])] && agreesOnSurface (v_row[x], n_row[x], vm_row[x], config.noise_factor, false))
+            overlap (x);
+          continue;
+        }
+        if (!isFiniteVector (Nm) || !(N.dot (Nm) > config.normal_agreement))
           continue;
         if (agreesOnSurface (v_row[x], n_row[x], vm_row[x], config.noise_factor, false))
           overlap (x);
