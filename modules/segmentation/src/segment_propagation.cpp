@@ -52,7 +52,7 @@ angularNoise8 (__m256 scale, __m256 theta)
   * \a accepted gets the lanes that pass everything, \a exact those too close to σ_d to
   * decide without its acos (the caller runs the exact test there), \a without_normal those
   * without a frame normal whose distance alone passes at normal incidence's σ_d (the
-  * caller counts them for segments mostly without normals, edgeBoundSegments).
+  * caller counts them for segments mostly without normals).
   */
 CUEFUSION_AVX2 int
 agreeingPixels8 (const float* v, const float* n, const float* vm, const float* nm, const std::int32_t* lj,
@@ -133,33 +133,9 @@ using FrameOverlaps = OverlapTable<std::uint32_t>;
 
 constexpr int kRowsPerChunk = 16;  ///< rows per work item of the row loops below
 
-/** Per frame label (\a labels = largest + 1): whether more than half of its pixels have
-  * no frame normal. Such a segment lies within the normals' span of depth edges nearly
-  * everywhere — a far, thin object (a cup 13 px wide between two boxes at 3 m) — and
-  * would meet no model label under §4.2.2.3's normal test, taking a fresh label every
-  * frame; its pixels without a normal are judged by the distance alone. Larger segments
-  * keep the reference's test everywhere (with it for all pixels, a room's floor took
-  * the wall's label along their crease). */
-std::vector<char>
-edgeBoundSegments (const cv::Mat& normals, const cv::Mat& frame_labels, std::size_t labels)
-{
-  std::vector<int> total (labels, 0), without (labels, 0);
-  for (int y = 0; y < frame_labels.rows; ++y)
-  {
-    const std::int32_t* lj = frame_labels.ptr<std::int32_t> (y);
-    const cv::Vec3f* n = normals.ptr<cv::Vec3f> (y);
-    for (int x = 0; x < frame_labels.cols; ++x)
-      if (lj[x] > 0)
-      {
-        ++total[static_cast<std::size_t> (lj[x])];
-        without[static_cast<std::size_t> (lj[x])] += std::isfinite (n[x][2]) ? 0 : 1;
-      }
-  }
-  std::vector<char> edge_bound (labels, 0);
-  for (std::size_t l = 1; l < labels; ++l)
-    edge_bound[l] = 2 * without[l] > total[l] ? 1 : 0;
-  return edge_bound;
-}
+/** Per frame label, its pixels without a frame normal (size) and where the distance
+  * alone agrees with a model label there (overlap). */
+using WithoutNormals = OverlapTable<std::uint32_t>;
 
 /** Counts FrameOverlaps over the images (\a labels = largest frame label + 1). */
 FrameOverlaps
@@ -167,15 +143,19 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
                const cv::Mat& model_vertices, const cv::Mat& model_normals, const cv::Mat& model_labels, std::size_t labels)
 {
   const cv::Size size = frame_labels.size ();
-  const std::vector<char> edge_bound = edgeBoundSegments (normals, frame_labels, labels);
   // Rows in fixed chunks on the pool, each with its own counts, added up in chunk order
   // (the lists keep first-seen order, so the result does not depend on the thread count).
+  // Pixels without a frame normal are counted apart (their share, and where the distance
+  // alone agrees), since whether a segment is edge-bound is known only at the end.
   const int chunks = chunkCount (size.height, kRowsPerChunk);
   [[maybe_unused]] const bool use_avx2 = vectorKernelsEnabled ();
   std::vector<FrameOverlaps> chunk_overlaps (static_cast<std::size_t> (chunks));
+  std::vector<WithoutNormals> chunk_without (static_cast<std::size_t> (chunks));
   parallelForChunks (size.height, kRowsPerChunk, [&] (int k, int begin, int end) {
     FrameOverlaps& overlaps = chunk_overlaps[static_cast<std::size_t> (k)];
+    WithoutNormals& without = chunk_without[static_cast<std::size_t> (k)];
     overlaps = FrameOverlaps (labels);
+    without = WithoutNormals (labels);
     std::vector<int>& counts = overlaps.size;
     for (int y = begin; y < end; ++y)
     {
@@ -200,11 +180,14 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
           for (int m = without_normal; m != 0; m &= m - 1)
           {
             const int i = x + __builtin_ctz (static_cast<unsigned> (m));
-            if (edge_bound[static_cast<std::size_t> (lj[i])])
-              accepted |= 1 << (i - x);
+            without.add (static_cast<std::size_t> (lj[i]), static_cast<std::uint32_t> (li[i]), 1);
           }
           for (int m = labelled; m != 0; m &= m - 1)
-            ++counts[static_cast<std::size_t> (lj[x + __builtin_ctz (static_cast<unsigned> (m))])];
+          {
+            const int i = x + __builtin_ctz (static_cast<unsigned> (m));
+            ++counts[static_cast<std::size_t> (lj[i])];
+            without.size[static_cast<std::size_t> (lj[i])] += std::isfinite (n_row[i][2]) ? 0 : 1;
+          }
           for (int m = exact; m != 0; m &= m - 1)
           {
             // Failed the bound at θ = 0: the exact σ_d(u) of the viewing angle decides.
@@ -221,14 +204,15 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
         if (lj[x] <= 0)
           continue;
         ++counts[static_cast<std::size_t> (lj[x])];
+        const Eigen::Vector3f N (n_row[x][0], n_row[x][1], n_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
+        without.size[static_cast<std::size_t> (lj[x])] += std::isfinite (n_row[x][2]) ? 0 : 1;
         if (li[x] <= 0)
           continue;
-        const Eigen::Vector3f N (n_row[x][0], n_row[x][1], n_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
         if (!isFiniteVector (N))
         {
           // No frame normal: the distance alone, at normal incidence's σ_d.
-          if (edge_bound[static_cast<std::size_t> (lj[x])] && agreesOnSurface (v_row[x], n_row[x], vm_row[x], config.noise_factor, false))
-            overlap (x);
+          if (agreesOnSurface (v_row[x], n_row[x], vm_row[x], config.noise_factor, false))
+            without.add (static_cast<std::size_t> (lj[x]), static_cast<std::uint32_t> (li[x]), 1);
           continue;
         }
         if (!isFiniteVector (Nm) || !(N.dot (Nm) > config.normal_agreement))
@@ -239,8 +223,22 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
     }
   });
   FrameOverlaps out (labels);
-  for (const FrameOverlaps& chunk : chunk_overlaps)
-    out.add (chunk);
+  WithoutNormals without (labels);
+  for (std::size_t k = 0; k < chunk_overlaps.size (); ++k)
+  {
+    out.add (chunk_overlaps[k]);
+    without.add (chunk_without[k]);
+  }
+  // Edge-bound segments (more than half of their pixels without a frame normal): a far,
+  // thin object (a cup 13 px wide between two boxes at 3 m) lies within the normals' span
+  // of depth edges nearly everywhere and would meet no model label under §4.2.2.3's normal
+  // test, taking a fresh label every frame; there the distance alone decides. Larger
+  // segments keep the reference's test everywhere (with it for all pixels, a room's floor
+  // took the wall's label along their crease).
+  for (std::size_t l = 1; l < labels; ++l)
+    if (2 * without.size[l] > out.size[l])
+      for (const auto& [model_label, count] : without.overlap[l])
+        out.add (l, model_label, count);
   return out;
 }
 
