@@ -821,7 +821,14 @@ TEST (SegmentsFile, WhatRunWritesEvalReadsBack)
   EXPECT_NEAR (read[0].score, 0.8, 1e-6);  // the mean score of the frames that voted
   EXPECT_EQ (read[1].id, 7u);
   EXPECT_EQ (read[1].class_name, "");
-  EXPECT_EQ (read[1].score, -1.0);
+  EXPECT_EQ (read[1].score, 0.0);  // the masks spoke in this run, never for it: ranked last
+
+  // A run where no mask gave any segment a class (geometry): no scores at all.
+  const std::string geometry_only = dir / "geometry.json";
+  writeSegmentsJson (geometry_only, {splinter}, {});
+  const std::vector<SegmentEntry> unscored = readSegmentsJson (geometry_only);
+  ASSERT_EQ (unscored.size (), 1u);
+  EXPECT_EQ (unscored[0].score, -1.0);
 
   const nlohmann::json doc = nlohmann::json::parse (test::readFile (path));
   const nlohmann::json& first = doc["segments"][0];

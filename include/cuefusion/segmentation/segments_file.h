@@ -18,7 +18,9 @@ namespace segmentation
   * and read (`cuefusion eval`, library users). The file holds
   * `{"segments": [...], "fragmentation": {...}}`; each segment its `id` (the label in
   * map.pcd and mesh.ply), `voxels`, `first_frame`, `last_frame`, `frames_seen`, `loaded`,
-  * `bounds` {min, max} of its voxels, `class` and `score` (null without one), `class_votes`
+  * `bounds` {min, max} of its voxels, `class` (null without one) and `score` (the mean
+  * score of the masks that gave it its class; 0 without a class where the masks gave some
+  * segment of the run one, null in a run where they gave none, such as geometry), `class_votes`
   * (frames per class), and from the map's points of it `points`, `centroid` and
   * `oriented_box` {center, axes (largest spread first), extents} (0 / null without points);
   * the fragmentation report is fragmentationReport's (fragmentation.h).

@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <limits>
 #include <set>
 
@@ -28,6 +29,15 @@ jsonVector (const Eigen::Vector3f& v)
 std::string
 segmentsJsonText (const std::vector<SegmentRecord>& segments, const std::map<std::uint32_t, ObjectGeometry>& geometry)
 {
+  // A score is the detector's confidence in a segment. Where the masks claimed something in
+  // this run, a segment they gave no class (never claimed, or in under a quarter of its
+  // frames) has none of it: 0, so that 3D AP ranks it after every segment the masks
+  // support. Before, its null tied at the top in `eval`, above them all: with a network
+  // out of its domain (tabletop-trained, whole rooms) the pieces of cabinets and walls
+  // the masks did not support outranked the objects they did. Without any claim (a
+  // geometry run) every score stays null, and all rank alike.
+  const bool detector_spoke =
+      std::any_of (segments.begin (), segments.end (), [] (const SegmentRecord& s) { return !s.class_votes.empty (); });
   nlohmann::json list = nlohmann::json::array ();
   for (const auto& s : segments)
   {
@@ -41,7 +51,7 @@ segmentsJsonText (const std::vector<SegmentRecord>& segments, const std::map<std
                                         {"max", {s.bounds.max ().x (), s.bounds.max ().y (), s.bounds.max ().z ()}}}}};
     const std::string best = s.bestClass ();
     entry["class"] = best.empty () ? nlohmann::json (nullptr) : nlohmann::json (best);
-    entry["score"] = best.empty () ? nlohmann::json (nullptr) : nlohmann::json (s.bestScore ());
+    entry["score"] = !best.empty () ? nlohmann::json (s.bestScore ()) : detector_spoke ? nlohmann::json (0.0) : nlohmann::json (nullptr);
     nlohmann::json votes = nlohmann::json::object ();
     for (const auto& [name, vote] : s.class_votes)
       votes[name] = vote.first;
