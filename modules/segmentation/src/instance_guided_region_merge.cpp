@@ -279,20 +279,27 @@ onNeighbouringPlanes (const SurfacePlanes& planes, const cv::Mat& pieces, const 
   const float *px = planes.x.data (), *py = planes.y.data (), *pz = planes.z.data ();
   const auto point = [&] (int i) { return Eigen::Vector3f (px[i], py[i], pz[i]); };
   const auto unsegmented = [&] (int i) { return out[i] == 0 && std::isfinite (pz[i]); };
-  // Pieces that border a 0-pixel with a point inside the region.
-  std::map<std::int32_t, std::vector<int>> pixels;
+  // Pieces that border a 0-pixel with a point inside the region, then their pixels there.
+  const auto visit = [&] (auto&& f) {
+    for (int y = region.y; y < region.y + region.height; ++y)
+      for (int x = region.x; x < region.x + region.width; ++x)
+      {
+        const int i = y * cols + x;
+        if (out[i] > 0 && std::isfinite (pz[i]))
+          f (i);
+      }
+  };
   std::set<std::int32_t> bordering;
-  for (int y = region.y; y < region.y + region.height; ++y)
-    for (int x = region.x; x < region.x + region.width; ++x)
-    {
-      const int i = y * cols + x;
-      if (out[i] <= 0 || !std::isfinite (pz[i]))
-        continue;
+  visit ([&] (int i) {
+    for (const int j : fourNeighbours (i, rows, cols))
+      if (j >= 0 && unsegmented (j))
+        bordering.insert (out[i]);
+  });
+  std::map<std::int32_t, std::vector<int>> pixels;
+  visit ([&] (int i) {
+    if (bordering.count (out[i]))
       pixels[out[i]].push_back (i);
-      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
-        if (j >= 0 && unsegmented (j))
-          bordering.insert (out[i]);
-    }
+  });
   // Distance along the ray from the point to the plane (n, d): n·(t v) + d = 0.
   const auto off = [] (const Eigen::Vector3f& v, const Eigen::Vector3f& n, float d) {
     const float along = n.dot (v) / v.norm ();
@@ -448,8 +455,7 @@ recoverLostObjects (const InstanceGuidedRegionMergeConfig& config, const Surface
     std::vector<std::pair<std::int32_t, std::pair<int, int>>> contact;  // claimed piece → (pairs, continuing)
     for (const int i : queue)
     {
-      const int x = i % cols, y = i / cols;
-      for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
+      for (const int j : fourNeighbours (i, rows, cols))
       {
         if (j < 0 || out[j] <= 0 || out[j] >= label || info[static_cast<std::size_t> (out[j])].instance < 0)
           continue;

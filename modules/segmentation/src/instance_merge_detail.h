@@ -11,6 +11,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <array>
 #include <vector>
 
 namespace cuefusion
@@ -19,6 +20,15 @@ namespace segmentation
 {
 namespace detail
 {
+/** \brief The 4-neighbours of pixel index \a i of a \a rows × \a cols image (left, right,
+  * above, below), −1 where the image ends. */
+inline std::array<int, 4>
+fourNeighbours (int i, int rows, int cols)
+{
+  const int x = i % cols, y = i / cols;
+  return {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1};
+}
+
 /** \brief Breadth-first growth over the 4-connected pixels of a \a rows × \a cols image
   * from every index in \a queue: a neighbour j of a reached pixel i is reached when
   * join(i, j) accepts (and marks) it. \a queue ends holding every pixel reached. */
@@ -28,8 +38,8 @@ growFourConnected (std::vector<int>& queue, int rows, int cols, Join&& join)
 {
   for (std::size_t k = 0; k < queue.size (); ++k)
   {
-    const int i = queue[k], x = i % cols, y = i / cols;
-    for (const int j : {x > 0 ? i - 1 : -1, x + 1 < cols ? i + 1 : -1, y > 0 ? i - cols : -1, y + 1 < rows ? i + cols : -1})
+    const int i = queue[k];
+    for (const int j : fourNeighbours (i, rows, cols))
       if (j >= 0 && join (i, j))
         queue.push_back (j);
   }
