@@ -51,6 +51,29 @@ mostlyShows (const test::SegmentedView& view)
   return out;
 }
 
+/** A camera \a d metres from kTarget, \a e radians above the table's plane and \a a radians
+  * round it from the +x side. */
+Eigen::Vector3d
+eyeAt (double d, double e, double a)
+{
+  return kTarget + d * Eigen::Vector3d (std::cos (e) * std::cos (a), std::cos (e) * std::sin (a), std::sin (e));
+}
+
+/** \a view with L^G losing object \a id whole: its segments (those mostly showing it) 0, as
+  * geometry does to a small far object whose interior falls under min_segment_size. */
+test::SegmentedView
+withoutObject (const test::SegmentedView& view, std::uint16_t id)
+{
+  test::SegmentedView lost = view;
+  lost.labels = view.labels.clone ();
+  const std::map<int, std::uint16_t> shows = mostlyShows (view);
+  lost.labels.forEach<std::int32_t> ([&] (std::int32_t& l, const int*) {
+    if (shows.at (l) == id)
+      l = 0;
+  });
+  return lost;
+}
+
 /** L_t of a view: scores use the fused labels in place of L^G. */
 test::SegmentedView
 fuse (const test::SegmentedView& view, const std::vector<Instance>& instances, std::vector<SegmentInstance>* info = nullptr)
@@ -499,7 +522,7 @@ TEST (InstanceGuidedRegionMerge, AFarObjectsRimUnderALeakyMaskTakesNoRingOfTheTa
   for (int draw = 0; draw < 3; ++draw)
   {
     const double d = distance (rng), e = elevation (rng) * M_PI / 180.0, a = (azimuth (rng) - 90.0) * M_PI / 180.0;
-    const Eigen::Vector3d eye = kTarget + d * Eigen::Vector3d (std::cos (e) * std::cos (a), std::cos (e) * std::sin (a), std::sin (e));
+    const Eigen::Vector3d eye = eyeAt (d, e, a);
     const auto view = segmentScene (scene, eye, kTarget, true);
     const auto instances = test::simulatedInstances (scene, view, leaky);
     segmentation::SurfacePlanes planes;
@@ -560,7 +583,7 @@ TEST (InstanceGuidedRegionMerge, AnObjectGeometryLostWholeComesBackFromItsMask)
   for (int draw = 0; draw < 3; ++draw)
   {
     const double d = distance (rng), e = elevation (rng) * M_PI / 180.0, a = (azimuth (rng) - 90.0) * M_PI / 180.0;
-    const Eigen::Vector3d eye = kTarget + d * Eigen::Vector3d (std::cos (e) * std::cos (a), std::cos (e) * std::sin (a), std::sin (e));
+    const Eigen::Vector3d eye = eyeAt (d, e, a);
     const auto view = segmentScene (kBoxBallMug, eye, kTarget, true);
     const auto id = static_cast<std::uint16_t> (object (rng));
     SCOPED_TRACE ("object " + std::to_string (id) + " seen from " + std::to_string (d) + " m");
@@ -569,14 +592,7 @@ TEST (InstanceGuidedRegionMerge, AnObjectGeometryLostWholeComesBackFromItsMask)
     {
       continue;  // hidden behind another from this view
     }
-    // L^G without the segments that are mostly the object's.
-    test::SegmentedView lost = view;
-    lost.labels = view.labels.clone ();
-    const std::map<int, std::uint16_t> shows = mostlyShows (view);
-    lost.labels.forEach<std::int32_t> ([&] (std::int32_t& l, const int*) {
-      if (shows.at (l) == id)
-        l = 0;
-    });
+    const test::SegmentedView lost = withoutObject (view, id);
     ASSERT_LT (scoreObject (lost, id).best_iou, 0.2);
     ++tested;
     std::vector<Instance> instances = test::simulatedInstances (kBoxBallMug, view, simulation::DetectorErrorConfig ());
@@ -637,7 +653,7 @@ TEST (InstanceGuidedRegionMerge, AFarObjectLostWholeComesBackThoughItsGrownMaskL
   for (int draw = 0; draw < 4; ++draw)
   {
     const double d = distance (rng), e = elevation (rng) * M_PI / 180.0, a = (azimuth (rng) - 90.0) * M_PI / 180.0;
-    const Eigen::Vector3d eye = kTarget + d * Eigen::Vector3d (std::cos (e) * std::cos (a), std::cos (e) * std::sin (a), std::sin (e));
+    const Eigen::Vector3d eye = eyeAt (d, e, a);
     const auto view = segmentScene (kBoxBallMug, eye, kTarget, true);
     constexpr std::uint16_t kMug = 4;
     SCOPED_TRACE ("seen from " + std::to_string (d) + " m");
@@ -645,13 +661,7 @@ TEST (InstanceGuidedRegionMerge, AFarObjectLostWholeComesBackThoughItsGrownMaskL
     {
       continue;  // hidden behind another from this view
     }
-    test::SegmentedView lost = view;
-    lost.labels = view.labels.clone ();
-    const std::map<int, std::uint16_t> shows = mostlyShows (view);
-    lost.labels.forEach<std::int32_t> ([&] (std::int32_t& l, const int*) {
-      if (shows.at (l) == kMug)
-        l = 0;
-    });
+    const test::SegmentedView lost = withoutObject (view, kMug);
     ASSERT_LT (scoreObject (lost, kMug).best_iou, 0.2);
     simulation::DetectorErrorConfig grown;
     grown.boundary_px = config.mask_boundary_tolerance;
