@@ -229,7 +229,9 @@ public:
 
   /** \brief What each label shows as in outputs: the object it belongs to when that object
     * was loaded or is confirmed (GlobalSegmentMapConfig::confirm_confidence and
-    * confirm_share); otherwise (a fragment not confirmed: the rim of a surface at the edge of the view, a noise patch, a splinter
+    * confirm_share, and some label of it on the map's surface: the nearer voxel of a zero
+    * crossing, which labels the crossing's point; an object left only in voxels of the
+    * truncation band shows in no point of map.pcd or the mesh); otherwise (a fragment not confirmed: the rim of a surface at the edge of the view, a noise patch, a splinter
     * born in the last frames of a run) the confirmed object whose voxels its voxels touch
     * most (6-neighbourhood in \a volume, followed through other fragments); where it
     * touches none, itself while it is still being seen (its last frame less than

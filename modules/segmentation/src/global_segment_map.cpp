@@ -6,6 +6,7 @@
 #include "coplanar_surfaces.h"
 
 #include <algorithm>
+#include <atomic>
 #include <set>
 
 namespace cuefusion
@@ -322,6 +323,28 @@ meanObservations (const reconstruction::VoxelBlockStore& blocks, const VoxelLabe
     out[object] = sum.first / static_cast<double> (sum.second);
   return out;
 }
+
+/** \brief Per label below \a label_end: whether the map's surface shows it, i.e. it is the
+  * label of the nearer voxel of some zero crossing (the voxel that labels the crossing's
+  * point in map.pcd and the mesh; TSDFVolume::extractPointCloud, one source of the rule).
+  */
+std::vector<bool>
+labelsOnSurface (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels, std::uint32_t label_end)
+{
+  // Atomic: the extraction calls back from several threads.
+  std::vector<std::atomic<bool>> shown (label_end);
+  pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+  volume.extractPointCloud (cloud, nullptr, [&] (reconstruction::VoxelNumber v) {
+    const std::uint32_t label = labels.label (v);
+    if (label < label_end)
+      shown[label].store (true, std::memory_order_relaxed);
+    return 0u;
+  });
+  std::vector<bool> out (label_end);
+  for (std::uint32_t l = 0; l < label_end; ++l)
+    out[l] = shown[l].load (std::memory_order_relaxed);
+  return out;
+}
 }  // namespace
 
 std::unordered_map<std::uint32_t, std::uint32_t>
@@ -345,12 +368,19 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
   const std::unordered_map<std::uint32_t, double> observed =
     config.confirm_share > 0.f ? meanObservations (volume.store (), labels, [this] (std::uint32_t l) { return resolve (l); })
                                : std::unordered_map<std::uint32_t, double> ();
+  // An object none of whose labels is on the map's surface (they remain only in voxels of
+  // the truncation band, in front of or behind surfaces other labels show) cannot be seen
+  // in map.pcd or the mesh: it is not confirmed, and settles like a fragment.
+  const std::vector<bool> on_surface = labelsOnSurface (volume, labels, next_label_);
+  std::unordered_map<std::uint32_t, bool> surfaced;  // object → some label of it on the surface
+  for (const auto& [label, record] : records_)
+    surfaced[resolve (label)] = surfaced[resolve (label)] || (label < on_surface.size () && on_surface[label]);
   std::unordered_map<std::uint32_t, bool> kept;  // object → confirmed
   for (const auto& [object, frames] : seen)
   {
     const auto it = observed.find (object);
-    kept[object] = loaded[object] || (most[object] >= confirm && (it == observed.end () ||
-                                                            static_cast<double> (frames) >= config.confirm_share * it->second));
+    kept[object] = loaded[object] || (surfaced[object] && most[object] >= confirm &&
+                                      (it == observed.end () || static_cast<double> (frames) >= config.confirm_share * it->second));
   }
   std::unordered_map<std::uint32_t, std::uint32_t> target;  // object → what it shows as (fragments: once settled)
   for (const auto& [object, keep] : kept)
