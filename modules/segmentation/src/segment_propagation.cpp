@@ -204,10 +204,10 @@ countOverlaps (const SegmentPropagationConfig& config, const cv::Mat& vertices, 
         if (lj[x] <= 0)
           continue;
         ++counts[static_cast<std::size_t> (lj[x])];
-        const Eigen::Vector3f N (n_row[x][0], n_row[x][1], n_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
         without.size[static_cast<std::size_t> (lj[x])] += std::isfinite (n_row[x][2]) ? 0 : 1;
         if (li[x] <= 0)
           continue;
+        const Eigen::Vector3f N (n_row[x][0], n_row[x][1], n_row[x][2]), Nm (nm_row[x][0], nm_row[x][1], nm_row[x][2]);
         if (!isFiniteVector (N))
         {
           // No frame normal: the distance alone, at normal incidence's σ_d.
