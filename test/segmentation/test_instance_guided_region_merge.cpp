@@ -402,6 +402,47 @@ TEST (InstanceGuidedRegionMerge, ASegmentOfTwoUniformColoursSideBySideIsDividedU
   EXPECT_EQ (merge.divideByColor (geometric, {all}, noisy).size (), 1u);
 }
 
+TEST (InstanceGuidedRegionMerge, ASegmentOfSeveralFlatColoursSideBySideIsDividedIntoEach)
+{
+  // Books on a shelf seen from across a room: one segment of L^G, 20×100, four spines of
+  // four colours (columns 0–29, 30–54, 55–79, 80–99), every other row at half the
+  // brightness; one mask over them all, as a detector merges thin neighbours. Each spine
+  // becomes its own mask (two-means repeated on each part while its colours lie apart).
+  const cv::Mat geometric (20, 100, CV_32S, cv::Scalar (1));
+  const std::vector<cv::Vec3b> spines = {cv::Vec3b (40, 110, 210), cv::Vec3b (190, 170, 30), cv::Vec3b (180, 40, 150),
+                                         cv::Vec3b (40, 180, 60)};
+  const int starts[] = {0, 30, 55, 80, 100};
+  cv::Mat color (20, 100, CV_8UC3);
+  for (int y = 0; y < 20; ++y)
+    for (int k = 0; k < 4; ++k)
+      for (int x = starts[k]; x < starts[k + 1]; ++x)
+        color.at<cv::Vec3b> (y, x) = spines[static_cast<std::size_t> (k)] / (y % 2 ? 2 : 1);
+  Instance all;
+  all.mask = cv::Mat (20, 100, CV_8U, cv::Scalar (255));
+  all.class_name = "book";
+  all.score = 0.9f;
+  InstanceGuidedRegionMerge merge;
+  std::vector<Instance> divided = merge.divideByColor (geometric, {all}, color);
+  ASSERT_EQ (divided.size (), 4u);
+  std::sort (divided.begin (), divided.end (), [] (const Instance& a, const Instance& b) { return a.box.x < b.box.x; });
+  for (int k = 0; k < 4; ++k)
+    EXPECT_EQ (divided[static_cast<std::size_t> (k)].box, cv::Rect (starts[k], 0, starts[k + 1] - starts[k], 20)) << "spine " << k;
+  cv::Mat pieces;
+  merge.split (geometric, {all}, pieces, nullptr, nullptr, color);
+  std::set<std::int32_t> labels;
+  for (int k = 0; k < 4; ++k)
+    labels.insert (pieces.at<std::int32_t> (10, (starts[k] + starts[k + 1]) / 2));
+  EXPECT_EQ (labels.size (), 4u);
+
+  // Left whole where one of the parts is texture (not one flat colour).
+  cv::Mat noisy = color.clone ();
+  cv::RNG rng (7);
+  cv::Mat texture (20, 25, CV_8UC3);
+  rng.fill (texture, cv::RNG::UNIFORM, cv::Scalar::all (40), cv::Scalar::all (250));
+  texture.copyTo (noisy.colRange (55, 80));
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, noisy).size (), 1u);
+}
+
 TEST (InstanceGuidedRegionMerge, FlushBoxesOfDifferentColoursGeometrySeesAsOneAreCutUnderAMergedMask)
 {
   // The tabletop's cereal boxes: side by side, front faces in one plane, so the front is

@@ -232,7 +232,12 @@ public:
     * quarter of that distance of its mean (one flat colour, not print or texture) and 80 %
     * of each part is one 4-connected region after a 3×3 opening; the smaller part's region
     * becomes a segment of its own. Geometry cannot see a seam between coplanar faces of
-    * two objects; their colours can.
+    * two objects; their colours can. Where either part's two means lie that far apart
+    * again (more than two colours: books side by side on a shelf seen from afar), two-means
+    * is repeated on each part (up to three levels); each colour of split_min_pixels or more
+    * must then be uniform, together at least 80 % of the segment, and each of them but the
+    * largest takes its largest region (80 % of its pixels, split_min_pixels) as a segment
+    * of its own.
     *
     * A mask claims a segment of L^G when more than half of the segment lies in the pixels
     * it owns (the higher score where masks overlap). Each claimed segment's colour is the

@@ -170,6 +170,33 @@ twoMeans (const std::vector<cv::Point2f>& pixels, std::vector<std::uint8_t>& sid
   }
 }
 
+/** The colour leaves of \a pixels: two-means, and each part again while its two means lie
+  * at least \a distance apart (at most \a levels deep); \a centres gets each leaf's mean. */
+void
+colorLeaves (const std::vector<cv::Point2f>& pixels, float distance, int levels, std::vector<cv::Point2f>& centres)
+{
+  if (pixels.size () >= 2 && levels > 0)
+  {
+    std::vector<std::uint8_t> side;
+    cv::Point2f centre[2];
+    twoMeans (pixels, side, centre);
+    const cv::Point2f gap = centre[0] - centre[1];
+    std::vector<cv::Point2f> part[2];
+    for (std::size_t i = 0; i < pixels.size (); ++i)
+      part[side[i]].push_back (pixels[i]);
+    if (std::sqrt (gap.dot (gap)) >= distance && !part[0].empty () && !part[1].empty ())
+    {
+      for (const auto& p : part)
+        colorLeaves (p, distance, levels - 1, centres);
+      return;
+    }
+  }
+  cv::Point2f mean (0.f, 0.f);
+  for (const cv::Point2f& c : pixels)
+    mean += c;
+  centres.push_back (mean * (1.f / static_cast<float> (std::max<std::size_t> (pixels.size (), 1))));
+}
+
 /** Share of a colour part's pixels within color_split_distance / 4 of its mean chromaticity
   * for the part to count as one uniform colour, and share of them its largest connected
   * region (after a 3×3 opening) must hold: a box's face or an object's side, not print,
@@ -178,6 +205,105 @@ constexpr double kUniformShare = 0.8;
 constexpr double kCoherentShare = 0.8;
 /** Pixels of a segment the colour test looks at, at most (evenly spaced). */
 constexpr std::size_t kSample = 2048;
+
+/** A pixel's rg chromaticity; false where it is too dark to have one (kMinMeanBrightness). */
+inline bool
+chromaticity (const cv::Vec3b& bgr, cv::Point2f& rg)
+{
+  const float total = static_cast<float> (bgr[0]) + bgr[1] + bgr[2];
+  if (total < 3.f * static_cast<float> (kMinMeanBrightness))
+    return false;
+  rg = cv::Point2f (bgr[2] / total, bgr[1] / total);
+  return true;
+}
+
+/** Levels of two-means a segment's colours are divided to (up to 2^3 colours). */
+constexpr int kColorLevels = 3;
+
+/** divideSegmentsByColor() for a segment of more than two colours: segment \a l (pixels in
+  * \a box; its colour sample \a list, every \a stride-th pixel) with colour leaves
+  * \a centres (colorLeaves). Each leaf of split_min_pixels or more must be one uniform
+  * colour (kUniformShare within a quarter of color_split_distance of its mean), at least
+  * two such, together kUniformShare of the segment: a segment made of flat colours (books
+  * side by side on a shelf, seen as one surface from afar), not print or texture. Then
+  * each of them but the largest takes a new label (++\a next in \a divided) over its largest
+  * region where that holds kCoherentShare of its pixels. Returns whether one did. */
+bool
+divideIntoColors (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const cv::Mat& color, std::int32_t l,
+                  const cv::Rect& box, const std::vector<cv::Point2f>& list, std::size_t stride,
+                  const std::vector<cv::Point2f>& centres, cv::Mat& divided, std::int32_t& next)
+{
+  const float radius = config.color_split_distance / 4.f;
+  const auto nearest = [&] (const cv::Point2f& rg) {
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < centres.size (); ++k)
+    {
+      const cv::Point2f a = rg - centres[k], b = rg - centres[best];
+      best = a.dot (a) < b.dot (b) ? k : best;
+    }
+    return best;
+  };
+  std::vector<int> count (centres.size (), 0), near (centres.size (), 0);
+  for (const cv::Point2f& rg : list)
+  {
+    const std::size_t k = nearest (rg);
+    const cv::Point2f d = rg - centres[k];
+    ++count[k];
+    near[k] += d.dot (d) <= radius * radius ? 1 : 0;
+  }
+  const auto min_samples = static_cast<int> ((static_cast<std::size_t> (config.split_min_pixels) + stride - 1) / stride);
+  std::vector<std::size_t> large;
+  int flat = 0;
+  for (std::size_t k = 0; k < centres.size (); ++k)
+    if (count[k] >= min_samples)
+    {
+      if (near[k] < kUniformShare * count[k])
+        return false;  // print or texture
+      large.push_back (k);
+      flat += count[k];
+    }
+  if (large.size () < 2 || flat < kUniformShare * static_cast<double> (list.size ()))
+    return false;
+  std::vector<cv::Mat> part (centres.size ());
+  std::vector<int> pixels (centres.size (), 0);
+  for (const std::size_t k : large)
+    part[k] = cv::Mat (box.size (), CV_8U, cv::Scalar (0));
+  for (int y = 0; y < box.height; ++y)
+    for (int x = 0; x < box.width; ++x)
+    {
+      cv::Point2f rg;
+      if (geometric.at<std::int32_t> (box.y + y, box.x + x) != l || !chromaticity (color.at<cv::Vec3b> (box.y + y, box.x + x), rg))
+        continue;
+      const std::size_t k = nearest (rg);
+      if (!part[k].empty ())
+      {
+        part[k].at<std::uint8_t> (y, x) = 1;
+        ++pixels[k];
+      }
+    }
+  const std::size_t keeper = *std::max_element (large.begin (), large.end (), [&] (std::size_t a, std::size_t b) { return pixels[a] < pixels[b]; });
+  bool any = false;
+  for (const std::size_t k : large)
+  {
+    if (k == keeper)
+      continue;
+    cv::Mat labels, stats, centroids;
+    cv::morphologyEx (part[k], part[k], cv::MORPH_OPEN, cv::Mat::ones (3, 3, CV_8U));
+    const int found = cv::connectedComponentsWithStats (part[k], labels, stats, centroids, 4, CV_32S);
+    int largest = 0;
+    for (int c = 1; c < found; ++c)
+      if (!largest || stats.at<int> (c, cv::CC_STAT_AREA) > stats.at<int> (largest, cv::CC_STAT_AREA))
+        largest = c;
+    if (!largest || stats.at<int> (largest, cv::CC_STAT_AREA) < kCoherentShare * pixels[k] ||
+        stats.at<int> (largest, cv::CC_STAT_AREA) < config.split_min_pixels)
+      continue;
+    if (divided.empty ())
+      divided = geometric.clone ();
+    divided (box).setTo (cv::Scalar (++next), labels == largest);
+    any = true;
+  }
+  return any;
+}
 
 /** Whether any segment a mask claims (more than half of it under one instance's own
   * pixels, by \a owned: countOverlaps of \a geometric and the id image) is made of two
@@ -190,7 +316,8 @@ constexpr std::size_t kSample = 2048;
   * quarter of that distance of its mean, and each part is one region (kCoherentShare).
   * The smaller part's region takes a new label; the rest keeps the segment's. Print and
   * texture fail the uniformity test and leave the segment whole; shading does not count
-  * (rg chromaticity ignores it). */
+  * (rg chromaticity ignores it). A segment of more than two colours (colorLeaves finds
+  * more than two) is divided by divideIntoColors instead. */
 bool
 divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& geometric, const cv::Mat& color,
                        const OverlapTable<int>& owned, cv::Mat& divided)
@@ -203,13 +330,6 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
       stride[l] = (static_cast<std::size_t> (owned.size[l]) + kSample - 1) / kSample;
   std::vector<std::vector<cv::Point2f>> sample (owned.labels ());
   std::vector<cv::Vec4i> bounds (owned.labels (), cv::Vec4i (INT_MAX, INT_MAX, -1, -1));  // x0, y0, x1, y1
-  const auto chroma = [] (const cv::Vec3b& bgr, cv::Point2f& rg) {
-    const float total = static_cast<float> (bgr[0]) + bgr[1] + bgr[2];
-    if (total < 3.f * static_cast<float> (kMinMeanBrightness))
-      return false;
-    rg = cv::Point2f (bgr[2] / total, bgr[1] / total);
-    return true;
-  };
   // By runs of one label along a row: the run's ends widen the box, and the samples are
   // every stride[l]-th pixel of the segment in raster order (skip[l]: pixels before its
   // next sample), with no division per pixel.
@@ -231,7 +351,7 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
         const auto run = static_cast<std::size_t> (end - x);
         std::size_t k = skip[l];
         for (cv::Point2f rg; k < run; k += stride[l])
-          if (chroma (bgr[x + static_cast<int> (k)], rg))
+          if (chromaticity (bgr[x + static_cast<int> (k)], rg))
             sample[l].push_back (rg);
         skip[l] = k - run;
       }
@@ -254,6 +374,16 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
     const cv::Point2f gap = centre[0] - centre[1];
     if (std::sqrt (gap.dot (gap)) < distance)
       continue;
+    const cv::Vec4i& b = bounds[l];
+    const cv::Rect box (b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1);
+    // More than two colours (a part's two means apart again): divideIntoColors.
+    std::vector<cv::Point2f> centres;
+    colorLeaves (list, distance, kColorLevels, centres);
+    if (centres.size () > 2)
+    {
+      any = divideIntoColors (config, geometric, color, static_cast<std::int32_t> (l), box, list, stride[l], centres, divided, next) || any;
+      continue;
+    }
     int count[2] = {0, 0}, near[2] = {0, 0};
     for (std::size_t i = 0; i < list.size (); ++i)
     {
@@ -269,8 +399,6 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
       continue;
     // Every bright pixel of the segment to its nearer mean; each part must be one region:
     // the largest 4-connected component of its opened pixels.
-    const cv::Vec4i& b = bounds[l];
-    const cv::Rect box (b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1);
     cv::Mat part[2] = {cv::Mat (box.size (), CV_8U, cv::Scalar (0)), cv::Mat (box.size (), CV_8U, cv::Scalar (0))};
     int pixels[2] = {0, 0};
     for (int y = 0; y < box.height; ++y)
@@ -278,7 +406,7 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
       {
         cv::Point2f rg;
         if (geometric.at<std::int32_t> (box.y + y, box.x + x) != static_cast<std::int32_t> (l) ||
-            !chroma (color.at<cv::Vec3b> (box.y + y, box.x + x), rg))
+            !chromaticity (color.at<cv::Vec3b> (box.y + y, box.x + x), rg))
           continue;
         const cv::Point2f d0 = rg - centre[0], d1 = rg - centre[1];
         const int k = d1.dot (d1) < d0.dot (d0) ? 1 : 0;
@@ -301,7 +429,7 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
     }
     if (!divide)
       continue;
-    if (!any)
+    if (divided.empty ())
       divided = geometric.clone ();
     any = true;
     divided (box).setTo (cv::Scalar (++next), region[pixels[1] < pixels[0] ? 1 : 0]);
