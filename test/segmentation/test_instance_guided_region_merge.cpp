@@ -339,6 +339,18 @@ expectMergedBoxesCutByColour (const std::string& scene, const test::SegmentedVie
   // Without the colour the mask unites them.
   EXPECT_EQ (scoreObject (fuse (view, instances), 2).best_label, scoreObject (fuse (view, instances), 3).best_label);
 }
+
+/** \a color with columns [\a from, \a to) replaced by random texture (no flat colour). */
+cv::Mat
+withTexture (const cv::Mat& color, int from, int to)
+{
+  cv::Mat noisy = color.clone ();
+  cv::RNG rng (7);
+  cv::Mat texture (color.rows, to - from, CV_8UC3);
+  rng.fill (texture, cv::RNG::UNIFORM, cv::Scalar::all (40), cv::Scalar::all (250));
+  texture.copyTo (noisy.colRange (from, to));
+  return noisy;
+}
 }  // namespace
 
 TEST (InstanceGuidedRegionMerge, ASegmentOfTwoUniformColoursSideBySideIsDividedUnderAMask)
@@ -394,12 +406,7 @@ TEST (InstanceGuidedRegionMerge, ASegmentOfTwoUniformColoursSideBySideIsDividedU
       if ((x / 4 + y / 4) % 2)
         checker.at<cv::Vec3b> (y, x) = teal;
   EXPECT_EQ (merge.divideByColor (geometric, {all}, checker).size (), 1u);
-  cv::Mat noisy = color.clone ();
-  cv::RNG rng (7);
-  cv::Mat texture (20, 40, CV_8UC3);
-  rng.fill (texture, cv::RNG::UNIFORM, cv::Scalar::all (40), cv::Scalar::all (250));
-  texture.copyTo (noisy.colRange (60, 100));
-  EXPECT_EQ (merge.divideByColor (geometric, {all}, noisy).size (), 1u);
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, withTexture (color, 60, 100)).size (), 1u);
 }
 
 TEST (InstanceGuidedRegionMerge, ASegmentOfSeveralFlatColoursSideBySideIsDividedIntoEach)
@@ -435,12 +442,7 @@ TEST (InstanceGuidedRegionMerge, ASegmentOfSeveralFlatColoursSideBySideIsDivided
   EXPECT_EQ (labels.size (), 4u);
 
   // Left whole where one of the parts is texture (not one flat colour).
-  cv::Mat noisy = color.clone ();
-  cv::RNG rng (7);
-  cv::Mat texture (20, 25, CV_8UC3);
-  rng.fill (texture, cv::RNG::UNIFORM, cv::Scalar::all (40), cv::Scalar::all (250));
-  texture.copyTo (noisy.colRange (55, 80));
-  EXPECT_EQ (merge.divideByColor (geometric, {all}, noisy).size (), 1u);
+  EXPECT_EQ (merge.divideByColor (geometric, {all}, withTexture (color, 55, 80)).size (), 1u);
 }
 
 TEST (InstanceGuidedRegionMerge, FlushBoxesOfDifferentColoursGeometrySeesAsOneAreCutUnderAMergedMask)

@@ -217,6 +217,24 @@ chromaticity (const cv::Vec3b& bgr, cv::Point2f& rg)
   return true;
 }
 
+/** The largest 4-connected region of \a part (CV_8U, 1 = in) after a 3×3 opening, as
+  * \a region (255 = in); returns its pixels, 0 when none. */
+int
+largestRegion (cv::Mat& part, cv::Mat& region)
+{
+  cv::Mat labels, stats, centroids;
+  cv::morphologyEx (part, part, cv::MORPH_OPEN, cv::Mat::ones (3, 3, CV_8U));
+  const int found = cv::connectedComponentsWithStats (part, labels, stats, centroids, 4, CV_32S);
+  int largest = 0;
+  for (int c = 1; c < found; ++c)
+    if (!largest || stats.at<int> (c, cv::CC_STAT_AREA) > stats.at<int> (largest, cv::CC_STAT_AREA))
+      largest = c;
+  if (!largest)
+    return 0;
+  region = labels == largest;
+  return stats.at<int> (largest, cv::CC_STAT_AREA);
+}
+
 /** Levels of two-means a segment's colours are divided to (up to 2^3 colours). */
 constexpr int kColorLevels = 3;
 
@@ -287,19 +305,13 @@ divideIntoColors (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& 
   {
     if (k == keeper)
       continue;
-    cv::Mat labels, stats, centroids;
-    cv::morphologyEx (part[k], part[k], cv::MORPH_OPEN, cv::Mat::ones (3, 3, CV_8U));
-    const int found = cv::connectedComponentsWithStats (part[k], labels, stats, centroids, 4, CV_32S);
-    int largest = 0;
-    for (int c = 1; c < found; ++c)
-      if (!largest || stats.at<int> (c, cv::CC_STAT_AREA) > stats.at<int> (largest, cv::CC_STAT_AREA))
-        largest = c;
-    if (!largest || stats.at<int> (largest, cv::CC_STAT_AREA) < kCoherentShare * pixels[k] ||
-        stats.at<int> (largest, cv::CC_STAT_AREA) < config.split_min_pixels)
+    cv::Mat region;
+    const int area = largestRegion (part[k], region);
+    if (area < kCoherentShare * pixels[k] || area < config.split_min_pixels)
       continue;
     if (divided.empty ())
       divided = geometric.clone ();
-    divided (box).setTo (cv::Scalar (++next), labels == largest);
+    divided (box).setTo (cv::Scalar (++next), region);
     any = true;
   }
   return any;
@@ -416,16 +428,8 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
     cv::Mat region[2];
     for (int k = 0; k < 2 && divide; ++k)
     {
-      cv::Mat labels, stats, centroids;
-      cv::morphologyEx (part[k], part[k], cv::MORPH_OPEN, cv::Mat::ones (3, 3, CV_8U));
-      const int found = cv::connectedComponentsWithStats (part[k], labels, stats, centroids, 4, CV_32S);
-      int largest = 0;
-      for (int c = 1; c < found; ++c)
-        if (!largest || stats.at<int> (c, cv::CC_STAT_AREA) > stats.at<int> (largest, cv::CC_STAT_AREA))
-          largest = c;
-      divide = largest && stats.at<int> (largest, cv::CC_STAT_AREA) >= kCoherentShare * pixels[k];
-      if (divide)
-        region[k] = labels == largest;
+      const int area = largestRegion (part[k], region[k]);
+      divide = area > 0 && area >= kCoherentShare * pixels[k];
     }
     if (!divide)
       continue;
