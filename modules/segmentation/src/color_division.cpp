@@ -388,9 +388,14 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
       continue;
     const cv::Vec4i& b = bounds[l];
     const cv::Rect box (b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1);
-    // More than two colours (a part's two means apart again): divideIntoColors.
-    std::vector<cv::Point2f> centres;
-    colorLeaves (list, distance, kColorLevels, centres);
+    // More than two colours (a part's two means apart again): divideIntoColors. The first
+    // level is the two-means just made; colorLeaves goes on from its parts.
+    std::vector<cv::Point2f> part_samples[2], centres;
+    for (std::size_t i = 0; i < list.size (); ++i)
+      part_samples[side[i]].push_back (list[i]);
+    if (!part_samples[0].empty () && !part_samples[1].empty ())
+      for (const auto& samples : part_samples)
+        colorLeaves (samples, distance, kColorLevels - 1, centres);
     if (centres.size () > 2)
     {
       any = divideIntoColors (config, geometric, color, static_cast<std::int32_t> (l), box, list, stride[l], centres, divided, next) || any;

@@ -352,13 +352,18 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
 {
   const GlobalSegmentMapConfig& config = evidence_.getConfig ();
   const auto confirm = static_cast<std::size_t> (config.confirm_confidence);
-  std::unordered_map<std::uint32_t, bool> loaded, recent;  // object → loaded, still being seen
+  // An object none of whose labels is on the map's surface (they remain only in voxels of
+  // the truncation band, in front of or behind surfaces other labels show) cannot be seen
+  // in map.pcd or the mesh: it is not confirmed, and settles like a fragment.
+  const std::vector<bool> on_surface = labelsOnSurface (volume, labels, next_label_);
+  std::unordered_map<std::uint32_t, bool> loaded, recent, surfaced;  // object → loaded, still being seen, some label on the surface
   std::unordered_map<std::uint32_t, std::size_t> most, seen;  // object → frames its most seen label was, all its labels were
   for (const auto& [label, record] : records_)
   {
     const std::uint32_t object = resolve (label);
     loaded[object] = loaded[object] || record.loaded;
     recent[object] = recent[object] || latest_frame_ - record.last_frame < confirm;
+    surfaced[object] = surfaced[object] || (label < on_surface.size () && on_surface[label]);
     most[object] = std::max (most[object], record.frames_seen);
     seen[object] += record.frames_seen;
   }
@@ -368,13 +373,6 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
   const std::unordered_map<std::uint32_t, double> observed =
     config.confirm_share > 0.f ? meanObservations (volume.store (), labels, [this] (std::uint32_t l) { return resolve (l); })
                                : std::unordered_map<std::uint32_t, double> ();
-  // An object none of whose labels is on the map's surface (they remain only in voxels of
-  // the truncation band, in front of or behind surfaces other labels show) cannot be seen
-  // in map.pcd or the mesh: it is not confirmed, and settles like a fragment.
-  const std::vector<bool> on_surface = labelsOnSurface (volume, labels, next_label_);
-  std::unordered_map<std::uint32_t, bool> surfaced;  // object → some label of it on the surface
-  for (const auto& [label, record] : records_)
-    surfaced[resolve (label)] = surfaced[resolve (label)] || (label < on_surface.size () && on_surface[label]);
   std::unordered_map<std::uint32_t, bool> kept;  // object → confirmed
   for (const auto& [object, frames] : seen)
   {
