@@ -246,6 +246,53 @@ TEST_F (OnnxSegmenter, XyzScoresAreRankedByStability)
   EXPECT_THROW (OnnxInstanceSegmenter{config}, ParameterError);
 }
 
+TEST (OnnxInstanceSegmenter, MasksWiderThanAnyTrainedObjectAreDropped)
+{
+  // 2 m away at f = 500 px a pixel is 4 mm: the default limit 0.56 m is 140 px. A mask's
+  // width is the span of the middle 90 % of its columns over 0.9 (a filled rectangle's).
+  RGBDFrame frame;
+  frame.camera = PinholeCamera (500, 500, 319.5, 239.5, 640, 480);
+  frame.depth = cv::Mat (480, 640, CV_32F, cv::Scalar (2.f));
+  const auto mask = [&] (std::initializer_list<cv::Rect> rects, const std::string& name) {
+    Instance instance;
+    instance.mask = cv::Mat::zeros (480, 640, CV_8U);
+    for (const cv::Rect& r : rects)
+      instance.mask (r).setTo (255);
+    instance.box = cv::boundingRect (instance.mask);
+    instance.class_name = name;
+    return instance;
+  };
+  std::vector<Instance> instances{
+      mask ({cv::Rect (10, 10, 130, 40)}, "narrow"),                                // 0.52 m
+      mask ({cv::Rect (10, 60, 150, 40)}, "wide"),                                  // 0.60 m
+      mask ({cv::Rect (200, 10, 20, 150)}, "tall"),                                 // 0.60 m high
+      mask ({cv::Rect (300, 10, 60, 40), cv::Rect (360, 30, 100, 1)}, "thread"),    // core 0.24 m, a 1 px thread to 0.64 m
+      mask ({cv::Rect (300, 200, 100, 40)}, "rim far behind"),                     // its rim is the wall 4 m behind
+      mask ({cv::Rect (10, 300, 400, 40)}, "no depth")};
+  frame.depth (cv::Rect (300, 200, 100, 3)).setTo (6.f);
+  frame.depth (cv::Rect (10, 300, 400, 40)).setTo (0.f);
+  std::vector<Instance> kept = instances;
+  OnnxInstanceSegmenter::dropWiderThan (frame, OnnxInstanceSegmenterConfig ().max_object_extent, kept);
+  std::vector<std::string> names;
+  for (const Instance& instance : kept)
+    names.push_back (instance.class_name);
+  EXPECT_EQ (names, (std::vector<std::string>{"narrow", "thread", "rim far behind", "no depth"}));
+
+  // The limit scales with depth: at 1 m the wide mask is 0.30 m across.
+  frame.depth /= 2.f;
+  kept = instances;
+  OnnxInstanceSegmenter::dropWiderThan (frame, 0.56f, kept);
+  EXPECT_EQ (kept.size (), instances.size ());
+  // 0 keeps every mask.
+  frame.depth *= 2.f;
+  kept = instances;
+  OnnxInstanceSegmenter::dropWiderThan (frame, 0.f, kept);
+  EXPECT_EQ (kept.size (), instances.size ());
+  OnnxInstanceSegmenterConfig config;
+  config.max_object_extent = -1.f;
+  EXPECT_THROW (config.validate (), ParameterError);
+}
+
 TEST_F (OnnxSegmenter, XyzInputIsTheBackProjectedDepth)
 {
   // 128×96 frame at dense_width 64: every second pixel, padded to 64×48 → 64×48 (a multiple of 16).
@@ -281,6 +328,7 @@ TEST_F (OnnxSegmenter, XyzRgbLayoutSeesTheColourAsTrained)
                          {"weights", {{0, 3, 40.0}}}};
   config.dense_width = 64;
   config.min_mask_pixels = 20;
+  config.max_object_extent = 0.f;  // the wall frame's toy camera makes the half frame 1.3 m tall
   RGBDFrame frame = wallFrame ();
   frame.color (cv::Rect (0, 0, 32, 64)).setTo (cv::Scalar (0, 0, 128));
   frame.color (cv::Rect (32, 0, 32, 64)).setTo (cv::Scalar (255, 0, 127));

@@ -59,6 +59,8 @@ OnnxInstanceSegmenterConfig::validate () const
     throw ParameterError ("OnnxInstanceSegmenterConfig::dense_width", "must lie in [16, 4096] pixels");
   if (min_mask_pixels < 0)
     throw ParameterError ("OnnxInstanceSegmenterConfig::min_mask_pixels", "must not be negative");
+  if (!(std::isfinite (max_object_extent) && max_object_extent >= 0.f))
+    throw ParameterError ("OnnxInstanceSegmenterConfig::max_object_extent", "must be a finite length of at least 0 (m; 0 = off)");
 }
 
 cv::Mat
@@ -535,6 +537,50 @@ OnnxInstanceSegmenter::name () const
   return "onnx:" + boost::filesystem::path (config_.model_path).filename ().string () + layouts[static_cast<int> (layout_)];
 }
 
+void
+OnnxInstanceSegmenter::dropWiderThan (const RGBDFrame& frame, float max_extent, std::vector<Instance>& instances)
+{
+  if (!(max_extent > 0.f) || frame.depth.empty ())
+    return;
+  // The middle 90 % of a mask's pixels, over 0.9 (a filled mask's full width): a thread
+  // leaking along a neighbour does not make it wide; its depth is the median's, so rim
+  // pixels on the wall behind do not either.
+  const auto span = [] (std::vector<float>& values) {
+    const auto at = [&] (double q) {
+      auto it = values.begin () + static_cast<std::ptrdiff_t> (q * static_cast<double> (values.size () - 1));
+      std::nth_element (values.begin (), it, values.end ());
+      return *it;
+    };
+    const float low = at (0.05);
+    return (at (0.95) - low) / 0.9f;  // the width of a filled mask with that span
+  };
+  std::vector<float> us, vs, zs;
+  const auto wide = [&] (const Instance& instance) {
+    us.clear ();
+    vs.clear ();
+    zs.clear ();
+    const cv::Rect box = instance.box & cv::Rect (0, 0, frame.depth.cols, frame.depth.rows);
+    for (int v = box.y; v < box.y + box.height; ++v)
+    {
+      const std::uint8_t* m = instance.mask.ptr<std::uint8_t> (v);
+      const float* z = frame.depth.ptr<float> (v);
+      for (int u = box.x; u < box.x + box.width; ++u)
+        if (m[u] && isValidDepth (z[u]))
+        {
+          us.push_back (static_cast<float> (u));
+          vs.push_back (static_cast<float> (v));
+          zs.push_back (z[u]);
+        }
+    }
+    if (zs.empty ())
+      return false;
+    std::nth_element (zs.begin (), zs.begin () + static_cast<std::ptrdiff_t> (zs.size () / 2), zs.end ());
+    const double z = zs[zs.size () / 2];
+    return std::max (span (us) * z / frame.camera.fx, span (vs) * z / frame.camera.fy) > max_extent;
+  };
+  instances.erase (std::remove_if (instances.begin (), instances.end (), wide), instances.end ());
+}
+
 bool
 OnnxInstanceSegmenter::segment (const RGBDFrame& frame, std::vector<Instance>& instances)
 {
@@ -552,6 +598,7 @@ OnnxInstanceSegmenter::segment (const RGBDFrame& frame, std::vector<Instance>& i
     timings_.forward_ms = since (t0);
     t0 = clock::now ();
     instances = decodeDense (output, cv::Size ((content.width + 1) / 2, (content.height + 1) / 2), frame.depth.size (), config_);
+    dropWiderThan (frame, config_.max_object_extent, instances);
     timings_.decode_ms = since (t0);
     return true;
   }

@@ -23,6 +23,7 @@ fields (V& v, OnnxInstanceSegmenterConfig& c)
   v ("mask_threshold", c.mask_threshold);
   v ("boundary_threshold", c.boundary_threshold);
   v ("stability_delta", c.stability_delta);
+  v ("max_object_extent", c.max_object_extent);
   v ("max_detections", c.max_detections);
 }
 
