@@ -445,6 +445,66 @@ TEST (InstanceGuidedRegionMerge, ASegmentOfSeveralFlatColoursSideBySideIsDivided
   EXPECT_EQ (merge.divideByColor (geometric, {all}, withTexture (color, 55, 80)).size (), 1u);
 }
 
+TEST (InstanceGuidedRegionMerge, BooksOfNearColoursAreDividedAndNotChainedIntoOne)
+{
+  // Four spines in one segment of L^G, rg chromaticity A (0.32, 0.14), B (0.61, 0.24),
+  // C (0.15, 0.28), D (0.28, 0.36): C and D lie 0.14 apart, closer than
+  // color_split_distance (0.2), every other pair further. Each is one flat colour, so the
+  // segment is divided into all four (a part that is not one uniform colour is divided
+  // again, whatever its means' distance); the mask is then cut by colour into A, B and
+  // C + D — C and D are not clearly different hues.
+  const cv::Mat geometric (20, 100, CV_32S, cv::Scalar (1));
+  const std::vector<cv::Vec3b> spines = {cv::Vec3b (162, 42, 96), cv::Vec3b (45, 72, 183), cv::Vec3b (171, 84, 45),
+                                         cv::Vec3b (108, 108, 84)};
+  cv::Mat color (20, 100, CV_8UC3);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 100; ++x)
+      color.at<cv::Vec3b> (y, x) = spines[static_cast<std::size_t> (x / 25)] / (y % 2 ? 2 : 1);
+  Instance all;
+  all.mask = cv::Mat (20, 100, CV_8U, cv::Scalar (255));
+  all.class_name = "book";
+  InstanceGuidedRegionMerge merge;
+  cv::Mat pieces;
+  merge.split (geometric, {all}, pieces, nullptr, nullptr, color);
+  std::set<std::int32_t> labels;
+  for (int k = 0; k < 4; ++k)
+    labels.insert (pieces.at<std::int32_t> (10, 25 * k + 12));
+  EXPECT_EQ (labels.size (), 4u);
+  std::vector<Instance> divided = merge.divideByColor (geometric, {all}, color);
+  ASSERT_EQ (divided.size (), 3u);
+  std::sort (divided.begin (), divided.end (), [] (const Instance& a, const Instance& b) { return a.box.x < b.box.x; });
+  EXPECT_EQ (divided[0].box, cv::Rect (0, 0, 25, 20));
+  EXPECT_EQ (divided[1].box, cv::Rect (25, 0, 25, 20));
+  EXPECT_EQ (divided[2].box, cv::Rect (50, 0, 50, 20));
+}
+
+TEST (InstanceGuidedRegionMerge, AMaskIsNotKeptWholeByAChainOfNearColours)
+{
+  // Three segments of L^G side by side under one mask, rg chromaticity X (0.30, 0.30),
+  // Y (0.45, 0.30), Z (0.60, 0.30): X–Y and Y–Z 0.15 apart (less than color_split_distance),
+  // X–Z 0.30. X and Z are clearly different hues, so the mask is cut in two, with Y on one
+  // side; a chain through Y does not keep it whole.
+  cv::Mat geometric (20, 90, CV_32S);
+  cv::Mat color (20, 90, CV_8UC3);
+  const std::vector<cv::Vec3b> shades = {cv::Vec3b (120, 90, 90), cv::Vec3b (75, 90, 135), cv::Vec3b (30, 90, 180)};
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 90; ++x)
+    {
+      geometric.at<std::int32_t> (y, x) = 1 + x / 30;
+      color.at<cv::Vec3b> (y, x) = shades[static_cast<std::size_t> (x / 30)];
+    }
+  Instance all;
+  all.mask = cv::Mat (20, 90, CV_8U, cv::Scalar (255));
+  all.class_name = "object";
+  std::vector<Instance> divided = InstanceGuidedRegionMerge ().divideByColor (geometric, {all}, color);
+  ASSERT_EQ (divided.size (), 2u);
+  std::sort (divided.begin (), divided.end (), [] (const Instance& a, const Instance& b) { return a.box.x < b.box.x; });
+  EXPECT_EQ (divided[0].box.x, 0);
+  EXPECT_EQ (divided[1].box.x + divided[1].box.width, 90);
+  EXPECT_TRUE (divided[0].box.width == 30 || divided[0].box.width == 60) << divided[0].box;
+  EXPECT_EQ (divided[0].box.width + divided[1].box.width, 90);
+}
+
 TEST (InstanceGuidedRegionMerge, FlushBoxesOfDifferentColoursGeometrySeesAsOneAreCutUnderAMergedMask)
 {
   // The tabletop's cereal boxes: side by side, front faces in one plane, so the front is

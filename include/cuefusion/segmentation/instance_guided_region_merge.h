@@ -242,8 +242,10 @@ public:
     * A mask claims a segment of L^G when more than half of the segment lies in the pixels
     * it owns (the higher score where masks overlap). Each claimed segment's colour is the
     * mean of its claimed pixels, in rg chromaticity; segments darker than a mean of 20 of
-    * 255 have no colour to speak of and stay with the largest group. Segments closer than
-    * color_split_distance (through a chain of such steps) form one group. With two or
+    * 255 have no colour to speak of and stay with the largest group. Groups of segments
+    * are joined, closest first, while every colour of one lies within color_split_distance
+    * of every colour of the other (complete linkage: no chain of near colours links the
+    * first book of a shelf to the last). With two or
     * more groups each holding color_split_share of the claimed pixels, the largest keeps
     * the mask, the others each take their segments' pixels of it as a new Instance (same
     * class and score) appended after the given ones, in order of instance and group.

@@ -4,7 +4,6 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/segmentation/instance_guided_region_merge.h>
 
-#include "disjoint_sets.h"
 #include "instance_merge_detail.h"
 
 #include <opencv2/imgproc.hpp>
@@ -13,7 +12,9 @@
 #include <climits>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <map>
+#include <numeric>
 #include <set>
 #include <utility>
 
@@ -53,18 +54,45 @@ colorClaim (std::size_t segment, int pixels, const cv::Vec3d& sum)
   return claim;
 }
 
-/** The colour groups of one instance's claims: per claim, the index of the claim standing
-  * for its group (single linkage under \a distance; unknown colours stay alone). */
+/** The colour groups of one instance's claims: per claim, the index of the first claim of
+  * its group. Groups are joined closest first while every colour of the one lies within
+  * \a distance of every colour of the other (complete linkage; unknown colours stay alone):
+  * no chain of near colours links the first book of a shelf to the last. */
 std::vector<std::size_t>
 colorGroups (const std::vector<ColorClaim>& claims, float distance)
 {
-  detail::DisjointSets groups (claims.size ());
-  for (std::size_t i = 0; i < claims.size (); ++i)
-    for (std::size_t j = i + 1; j < claims.size (); ++j)
-      if (claims[i].known && claims[j].known &&
-          std::hypot (claims[i].r - claims[j].r, claims[i].g - claims[j].g) < distance)
-        groups.join (i, j);
-  return groups.roots ();
+  const std::size_t n = claims.size ();
+  std::vector<std::size_t> group (n);
+  std::iota (group.begin (), group.end (), 0);
+  // far(a, b): the largest distance between a colour of group a and one of group b.
+  std::vector<float> far (n * n, std::numeric_limits<float>::infinity ());
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j)
+      if (claims[i].known && claims[j].known)
+        far[i * n + j] = far[j * n + i] = std::hypot (claims[i].r - claims[j].r, claims[i].g - claims[j].g);
+  std::vector<bool> alive (n, true);
+  while (true)
+  {
+    std::size_t a = n, b = n;
+    float best = distance;
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = i + 1; j < n; ++j)
+        if (alive[i] && alive[j] && far[i * n + j] < best)
+        {
+          best = far[i * n + j];
+          a = i;
+          b = j;
+        }
+    if (a == n)
+      break;
+    alive[b] = false;  // b joins a (a < b: a group is named by its first claim)
+    for (std::size_t k = 0; k < n; ++k)
+    {
+      group[k] = group[k] == b ? a : group[k];
+      far[a * n + k] = far[k * n + a] = std::max (far[a * n + k], far[b * n + k]);
+    }
+  }
+  return group;
 }
 
 /** The pixels instance \a k owns (id k + 1 in \a ids) go to the instance of the nearest
@@ -170,13 +198,30 @@ twoMeans (const std::vector<cv::Point2f>& pixels, std::vector<std::uint8_t>& sid
   }
 }
 
+/** Share of a colour part's pixels within color_split_distance / 4 of its mean chromaticity
+  * for the part to count as one uniform colour, and share of them its largest connected
+  * region (after a 3×3 opening) must hold: a box's face or an object's side, not print,
+  * texture or shading. */
+constexpr double kUniformShare = 0.8;
+
 /** The colour leaves of \a pixels: two-means, and each part again while its two means lie
-  * at least \a distance apart (at most \a levels deep); \a centres gets each leaf's mean. */
+  * at least \a distance apart or it is not one uniform colour (kUniformShare within a
+  * quarter of \a distance of its mean: four books of four colours on a shelf, two of them
+  * less than \a distance apart), at most \a levels deep; \a centres gets each leaf's mean. */
 void
 colorLeaves (const std::vector<cv::Point2f>& pixels, float distance, int levels, std::vector<cv::Point2f>& centres)
 {
+  cv::Point2f mean (0.f, 0.f);
+  for (const cv::Point2f& c : pixels)
+    mean += c;
+  mean *= 1.f / static_cast<float> (std::max<std::size_t> (pixels.size (), 1));
   if (pixels.size () >= 2 && levels > 0)
   {
+    const float radius = distance / 4.f;
+    const auto near = std::count_if (pixels.begin (), pixels.end (), [&] (const cv::Point2f& p) {
+      const cv::Point2f d = p - mean;
+      return d.dot (d) <= radius * radius;
+    });
     std::vector<std::uint8_t> side;
     cv::Point2f centre[2];
     twoMeans (pixels, side, centre);
@@ -184,24 +229,17 @@ colorLeaves (const std::vector<cv::Point2f>& pixels, float distance, int levels,
     std::vector<cv::Point2f> part[2];
     for (std::size_t i = 0; i < pixels.size (); ++i)
       part[side[i]].push_back (pixels[i]);
-    if (std::sqrt (gap.dot (gap)) >= distance && !part[0].empty () && !part[1].empty ())
+    const bool uniform = static_cast<double> (near) >= kUniformShare * static_cast<double> (pixels.size ());
+    if ((std::sqrt (gap.dot (gap)) >= distance || !uniform) && !part[0].empty () && !part[1].empty ())
     {
       for (const auto& p : part)
         colorLeaves (p, distance, levels - 1, centres);
       return;
     }
   }
-  cv::Point2f mean (0.f, 0.f);
-  for (const cv::Point2f& c : pixels)
-    mean += c;
-  centres.push_back (mean * (1.f / static_cast<float> (std::max<std::size_t> (pixels.size (), 1))));
+  centres.push_back (mean);
 }
 
-/** Share of a colour part's pixels within color_split_distance / 4 of its mean chromaticity
-  * for the part to count as one uniform colour, and share of them its largest connected
-  * region (after a 3×3 opening) must hold: a box's face or an object's side, not print,
-  * texture or shading. */
-constexpr double kUniformShare = 0.8;
 constexpr double kCoherentShare = 0.8;
 /** Pixels of a segment the colour test looks at, at most (evenly spaced). */
 constexpr std::size_t kSample = 2048;
