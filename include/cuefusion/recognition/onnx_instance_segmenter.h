@@ -32,10 +32,10 @@ struct OnnxInstanceSegmenterConfig
   /// Chosen on held-out synthetic views (tools/train_masks/score_calibration.py).
   float stability_delta = 0.1f;
   /// xyz layouts: a mask wider than this across the view (metres: the span of the middle
-  /// 90 % of its pixels' columns or rows, over 0.9, at their median depth) is dropped. The network was
-  /// trained on objects of at most 0.28 m (RandomSceneConfig::max_size); a mask twice that
-  /// wide is outside anything it saw — a run of wall cabinets, a shelf of books, a wall —
-  /// and would unite what geometry keeps apart. 0 = keep every mask.
+  /// 90 % of its pixels' columns or rows, over 0.9, at their median depth) is dropped. The
+  /// network was trained on objects of at most 0.28 m (RandomSceneConfig::max_size); a mask
+  /// twice that wide is outside anything it saw — a run of wall cabinets, a shelf of books,
+  /// a wall — and would unite what geometry keeps apart. 0 = keep every mask.
   float max_object_extent = 0.56f;
   int max_detections = 100;
   void validate () const;
@@ -133,8 +133,9 @@ public:
 
   /** \brief Removes the \a instances wider than \a max_extent metres across the view: the
     * span between the 5th and 95th percentile of their pixels' columns (and rows) over 0.9
-    * (a filled rectangle's width), times the median depth of those pixels over the focal length (\a frame's depth and camera).
-    * Masks without depth are kept. OnnxInstanceSegmenterConfig::max_object_extent.
+    * (a filled rectangle's width), times the median depth of those pixels over the focal
+    * length (\a frame's depth and camera). Masks without depth are kept.
+    * OnnxInstanceSegmenterConfig::max_object_extent.
     */
   static void dropWiderThan (const RGBDFrame& frame, float max_extent, std::vector<Instance>& instances);
 
