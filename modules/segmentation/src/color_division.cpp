@@ -204,6 +204,14 @@ twoMeans (const std::vector<cv::Point2f>& pixels, std::vector<std::uint8_t>& sid
   * texture or shading. */
 constexpr double kUniformShare = 0.8;
 
+/** Whether chromaticity \a rg lies within \a radius of \a centre (the uniformity tests). */
+inline bool
+withinRadius (const cv::Point2f& rg, const cv::Point2f& centre, float radius)
+{
+  const cv::Point2f d = rg - centre;
+  return d.dot (d) <= radius * radius;
+}
+
 /** The colour leaves of \a pixels: two-means, and each part again while its two means lie
   * at least \a distance apart or it is not one uniform colour (kUniformShare within a
   * quarter of \a distance of its mean: four books of four colours on a shelf, two of them
@@ -217,11 +225,6 @@ colorLeaves (const std::vector<cv::Point2f>& pixels, float distance, int levels,
   mean *= 1.f / static_cast<float> (std::max<std::size_t> (pixels.size (), 1));
   if (pixels.size () >= 2 && levels > 0)
   {
-    const float radius = distance / 4.f;
-    const auto near = std::count_if (pixels.begin (), pixels.end (), [&] (const cv::Point2f& p) {
-      const cv::Point2f d = p - mean;
-      return d.dot (d) <= radius * radius;
-    });
     std::vector<std::uint8_t> side;
     cv::Point2f centre[2];
     twoMeans (pixels, side, centre);
@@ -229,8 +232,12 @@ colorLeaves (const std::vector<cv::Point2f>& pixels, float distance, int levels,
     std::vector<cv::Point2f> part[2];
     for (std::size_t i = 0; i < pixels.size (); ++i)
       part[side[i]].push_back (pixels[i]);
-    const bool uniform = static_cast<double> (near) >= kUniformShare * static_cast<double> (pixels.size ());
-    if ((std::sqrt (gap.dot (gap)) >= distance || !uniform) && !part[0].empty () && !part[1].empty ())
+    const auto uniform = [&] {
+      const auto near = std::count_if (pixels.begin (), pixels.end (),
+                                       [&] (const cv::Point2f& p) { return withinRadius (p, mean, distance / 4.f); });
+      return static_cast<double> (near) >= kUniformShare * static_cast<double> (pixels.size ());
+    };
+    if ((std::sqrt (gap.dot (gap)) >= distance || !uniform ()) && !part[0].empty () && !part[1].empty ())
     {
       for (const auto& p : part)
         colorLeaves (p, distance, levels - 1, centres);
@@ -303,9 +310,8 @@ divideIntoColors (const InstanceGuidedRegionMergeConfig& config, const cv::Mat& 
   for (const cv::Point2f& rg : list)
   {
     const std::size_t k = nearest (rg);
-    const cv::Point2f d = rg - centres[k];
     ++count[k];
-    near[k] += d.dot (d) <= radius * radius ? 1 : 0;
+    near[k] += withinRadius (rg, centres[k], radius) ? 1 : 0;
   }
   const auto min_samples = static_cast<int> ((static_cast<std::size_t> (config.split_min_pixels) + stride - 1) / stride);
   std::vector<std::size_t> large;
@@ -442,9 +448,8 @@ divideSegmentsByColor (const InstanceGuidedRegionMergeConfig& config, const cv::
     int count[2] = {0, 0}, near[2] = {0, 0};
     for (std::size_t i = 0; i < list.size (); ++i)
     {
-      const cv::Point2f d = list[i] - centre[side[i]];
       ++count[side[i]];
-      near[side[i]] += d.dot (d) <= radius * radius ? 1 : 0;
+      near[side[i]] += withinRadius (list[i], centre[side[i]], radius) ? 1 : 0;
     }
     bool divide = true;
     for (int k = 0; k < 2; ++k)
