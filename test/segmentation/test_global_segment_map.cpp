@@ -223,6 +223,7 @@ protected:
       std::cerr << "frame " << i << ": " << changed << " labels changed object\n";
     writes += updateVoxelLabels (*volume, layer, result.labels, map);
     truth = frame->instance_mask;
+    last_labels = result.labels;
     return result.labels;
   }
 
@@ -294,7 +295,7 @@ protected:
   VoxelLabelLayer layer;
   GlobalSegmentMap map;
   SegmentPropagation propagation;
-  cv::Mat truth;
+  cv::Mat truth, last_labels;  ///< the last frame's instances and L^p
   std::size_t writes = 0;
 };
 }  // namespace
@@ -619,6 +620,48 @@ TEST_F (PropagationFixture, AnObjectWhoseLabelsTheSurfaceDoesNotShowSettlesIntoI
   volume->extractPointCloud (cloud, nullptr, [this] (reconstruction::VoxelNumber v) { return map.resolve (layer.label (v)); });
   for (const auto& p : cloud)
     ASSERT_NE (p.label, map.resolve (patch)) << "a point of the map still shows the patch: the test's premise";
+}
+
+TEST_F (PropagationFixture, APatchOfAFlatSurfaceThatNoFrameJudgedShowsAsTheSurfaceItTouches)
+{
+  // A patch of the table top (14 × 10 cm, narrower than surface_min_extent) is its own
+  // frame segment in all 30 frames, with a ring of no label around it, so that no frame
+  // judges it with the table (what a strip of a floor seen only between the slats of a
+  // chair's back is). Confirmed, it shows as itself while it touches nothing (the ring's
+  // voxels carry no label); once the ring's voxels are the table's, it touches the table
+  // it lies on and shows as the table. The book on the table, which frames judged,
+  // stays itself throughout.
+  std::uint32_t patch = 0, table = 0;
+  fuseWithTablePatch (30, patch, table);
+  ASSERT_NE (patch, 0u);
+  ASSERT_NE (map.resolve (patch), map.resolve (table));
+  const std::uint32_t book = majority (last_labels, 7);
+  ASSERT_NE (book, 0u);
+  ASSERT_NE (map.resolve (book), map.resolve (table));
+  const auto before = map.settledLabels (*volume, layer);
+  ASSERT_TRUE (before.count (patch) && before.count (table));
+  ASSERT_NE (before.at (patch), before.at (table)) << "the patch touches the table without the ring: the test's premise";
+  // The ring (x 0.09–0.29, y −0.39 to −0.23 around the patch) on the table top, as the table.
+  const double voxel = volume->getConfig ().voxel_size;
+  std::size_t filled = 0;
+  const reconstruction::VoxelBlockStore& blocks = volume->store ();
+  for (std::size_t id = 0; id < std::min (blocks.size (), layer.blockCount ()); ++id)
+    for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
+    {
+      const std::size_t v = static_cast<std::size_t> (i);
+      const Eigen::Vector3d p =
+        (blocks.block (id).index * reconstruction::kBlockSide + reconstruction::localVoxelPosition (i)).cast<double> () * voxel;
+      if (layer.block (id).labels[v] != 0 || !(blocks.block (id).voxels[v].weight > 0.f) || p.x () < 0.09 || p.x () > 0.29 ||
+          p.y () < -0.39 || p.y () > -0.23 || p.z () < 0.70 || p.z () > 0.78)
+        continue;
+      layer.block (id).labels[v] = table;
+      ++filled;
+    }
+  ASSERT_GT (filled, 0u);
+  const auto after = map.settledLabels (*volume, layer);
+  ASSERT_TRUE (after.count (patch) && after.count (table) && after.count (book));
+  EXPECT_EQ (after.at (patch), after.at (table));
+  EXPECT_NE (after.at (book), after.at (table));
 }
 
 TEST_F (PropagationFixture, LabelLayerKeysTheVolumesVoxelsAndItsFileRoundTrips)

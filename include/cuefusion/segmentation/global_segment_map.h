@@ -79,7 +79,10 @@ struct GlobalSegmentMapConfig
     * that the evidence has not judged (fewer than confirm_confidence votes on them: no
     * frame saw them touch, or hardly any), with no free space and no third surface on
     * the plane between them (where a camera looked through: two tables at one height; a
-    * third door between two). 0 = off (before 0.5).
+    * third door between two). A flat object no mask gave a class that is narrower than
+    * this joins the larger such object it touches when that one's surface continues its
+    * plane around it (a strip of a floor seen between the slats of a chair's back) and the
+    * evidence has not judged them. 0 = off, patches too (before 0.5).
     */
   float surface_min_extent = 0.3f;
   /** A flat surface has 90 % of its voxels within this distance (m) of its plane; two are

@@ -6,10 +6,12 @@
 #include <cuefusion/reconstruction/tsdf_volume.h>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <unordered_map>
 
 namespace cuefusion
 {
@@ -24,11 +26,22 @@ namespace
   * on a floor, a switch on a wall, fragments settled into it). */
 constexpr double kFlatShare = 0.9;
 
+/** A plane is fitted to no fewer surface voxels than this (a patch of 3 × 3 voxels). */
+constexpr std::size_t kMinPatchVoxels = 9;
+
 /** A plane in voxel units (voxel (i, j, k) is the lattice point (i, j, k)). */
 struct Plane
 {
   std::uint32_t object = 0;
   Eigen::Vector3d centroid, normal;
+};
+
+/** An object's surface voxels (in voxel units); its plane when flat. */
+struct StuffSurface
+{
+  Plane plane;  ///< the object always; centroid and normal when flat
+  std::vector<Eigen::Vector3f> points;
+  bool flat = false, wide = false;
 };
 
 /** The plane of the \a points marked in \a use, and the eigenvalues of their spread,
@@ -57,10 +70,34 @@ fitPlane (const std::vector<Eigen::Vector3f>& points, const std::vector<char>& u
   return plane;
 }
 
-/** The objects of \a stuff whose surface lies on a plane (coplanarSurfaces' first test). */
-std::vector<Plane>
-flatSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels, const std::vector<std::uint32_t>& shown,
-              const std::set<std::uint32_t>& stuff, const GlobalSegmentMapConfig& config)
+/** Whether kFlatShare of \a points lie within \a tolerance of one plane, fitted to every
+  * point, then twice to those within the tolerance of the last fit: the plane in \a plane,
+  * the eigenvalues of the inliers' spread, ascending, in \a lambda. */
+bool
+flatPlane (const std::vector<Eigen::Vector3f>& points, double tolerance, Plane& plane, Eigen::Vector3d& lambda)
+{
+  if (points.size () < kMinPatchVoxels)
+    return false;
+  std::vector<char> use (points.size (), 1);
+  plane = fitPlane (points, use, lambda);
+  for (int round = 0; round < 2; ++round)
+  {
+    std::size_t inliers = 0;
+    for (std::size_t i = 0; i < points.size (); ++i)
+      inliers += use[i] = std::abs (plane.normal.dot (points[i].cast<double> () - plane.centroid)) <= tolerance;
+    if (static_cast<double> (inliers) < kFlatShare * static_cast<double> (points.size ()))
+      return false;
+    plane = fitPlane (points, use, lambda);
+  }
+  return true;
+}
+
+/** The surfaces of the objects of \a stuff, in increasing object order: flat when they lie
+  * on a plane (coplanarSurfaces' first test), wide when flat and at least
+  * surface_min_extent across in both directions of the plane. */
+std::vector<StuffSurface>
+stuffSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels, const std::vector<std::uint32_t>& shown,
+               const std::set<std::uint32_t>& stuff, const GlobalSegmentMapConfig& config)
 {
   // Voxels within one voxel of the zero crossing: the surface, not the truncation band
   // around it (the band is 2τ thick, eight voxels at the defaults).
@@ -86,31 +123,19 @@ flatSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& l
   }
   const double voxel = volume.getConfig ().voxel_size;
   const double tolerance = config.surface_tolerance / voxel, extent = config.surface_min_extent / voxel;
-  std::vector<Plane> out;
-  for (const auto& [object, points] : surfaces)
+  std::vector<StuffSurface> out;
+  for (auto& [object, points] : surfaces)
   {
-    if (static_cast<double> (points.size ()) < extent * extent)
-      continue;
-    // Fitted to every voxel, then twice to those within the tolerance of the last fit.
-    std::vector<char> use (points.size (), 1);
+    StuffSurface surface;
     Eigen::Vector3d lambda;
-    Plane plane = fitPlane (points, use, lambda);
-    bool flat = true;
-    for (int round = 0; round < 2 && flat; ++round)
-    {
-      std::size_t inliers = 0;
-      for (std::size_t i = 0; i < points.size (); ++i)
-        inliers += use[i] = std::abs (plane.normal.dot (points[i].cast<double> () - plane.centroid)) <= tolerance;
-      flat = static_cast<double> (inliers) >= kFlatShare * static_cast<double> (points.size ());
-      if (flat)
-        plane = fitPlane (points, use, lambda);
-    }
+    surface.flat = flatPlane (points, tolerance, surface.plane, lambda);
     // A rectangle a × b has second moments a²/12 and b²/12 along its sides: the shorter
     // side is √(12 λ₁) long.
-    if (!flat || std::sqrt (12.0 * lambda (1)) < extent)
-      continue;
-    plane.object = object;
-    out.push_back (plane);
+    surface.wide = surface.flat && static_cast<double> (points.size ()) >= extent * extent &&
+                   std::sqrt (12.0 * lambda (1)) >= extent;
+    surface.plane.object = object;
+    surface.points = std::move (points);
+    out.push_back (std::move (surface));
   }
   return out;
 }
@@ -148,6 +173,82 @@ somethingBetween (const reconstruction::TSDFVolume& volume, const VoxelLabelLaye
   }
   return false;
 }
+
+/** Patches of a surface (flat objects narrower than surface_min_extent: a strip of a
+  * floor seen only between the slats of a chair's back, a piece of a table top) join the
+  * larger surface they touch and that continues their plane: around the patch (within
+  * \a extent of its bounds) that surface's voxels within \a tolerance of the patch's plane
+  * are at least as many as the patch's and lie on a plane (flatPlane) on which kFlatShare
+  * of the patch's voxels lie too, and the pair is not judged. A face that meets a
+  * surface at an angle (the side of a box against a wall) selects a strip of that
+  * surface, whose plane is the surface's, not the face's. Largest
+  * patches first, so that a smaller one can follow through a larger one; each joins the
+  * surface it shares the most voxel faces with. */
+template <typename Apart, typename Join>
+void
+joinPatches (const std::vector<StuffSurface>& surfaces, double tolerance, double extent, DisjointSets& sets, const Apart& apart,
+             const Join& join)
+{
+  const auto key = [] (const Eigen::Vector3i& v) {
+    return (static_cast<std::uint64_t> (v.x () & 0x1fffff) << 42) | (static_cast<std::uint64_t> (v.y () & 0x1fffff) << 21) |
+           static_cast<std::uint64_t> (v.z () & 0x1fffff);
+  };
+  std::unordered_map<std::uint64_t, std::size_t> owner;  // surface voxel → surface
+  for (std::size_t i = 0; i < surfaces.size (); ++i)
+    for (const Eigen::Vector3f& p : surfaces[i].points)
+      owner.emplace (key (p.cast<int> ()), i);
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < surfaces.size (); ++i)
+    if (surfaces[i].flat && !surfaces[i].wide)
+      order.push_back (i);
+  std::stable_sort (order.begin (), order.end (),
+                    [&] (std::size_t a, std::size_t b) { return surfaces[a].points.size () > surfaces[b].points.size (); });
+  const Eigen::Vector3i steps[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (const std::size_t p : order)
+  {
+    const std::vector<Eigen::Vector3f>& patch = surfaces[p].points;
+    std::map<std::size_t, std::size_t> contacts;  // larger surface → voxel faces it shares with the patch
+    Eigen::AlignedBox3f around;
+    for (const Eigen::Vector3f& v : patch)
+    {
+      around.extend (v);
+      for (const Eigen::Vector3i& step : steps)
+      {
+        const auto it = owner.find (key (v.cast<int> () + step));
+        if (it != owner.end () && surfaces[it->second].points.size () > patch.size ())
+          ++contacts[it->second];
+      }
+    }
+    around.min ().array () -= static_cast<float> (extent);
+    around.max ().array () += static_cast<float> (extent);
+    const Plane& plane = surfaces[p].plane;
+    std::size_t best = p, best_contacts = 0;
+    for (const auto& [s, n] : contacts)
+    {
+      if (n <= best_contacts || sets.find (s) == sets.find (p) || apart (sets.find (s), sets.find (p)))
+        continue;
+      // The larger surface's voxels around the patch on the patch's plane, and their plane.
+      std::vector<Eigen::Vector3f> on_plane;
+      for (const Eigen::Vector3f& v : surfaces[s].points)
+        if (around.contains (v) && std::abs (plane.normal.dot (v.cast<double> () - plane.centroid)) <= tolerance)
+          on_plane.push_back (v);
+      Plane continued;
+      Eigen::Vector3d lambda;
+      if (on_plane.size () < patch.size () || !flatPlane (on_plane, tolerance, continued, lambda))
+        continue;
+      std::size_t on = 0;
+      for (const Eigen::Vector3f& v : patch)
+        on += std::abs (continued.normal.dot (v.cast<double> () - continued.centroid)) <= tolerance;
+      if (static_cast<double> (on) >= kFlatShare * static_cast<double> (patch.size ()))
+      {
+        best = s;
+        best_contacts = n;
+      }
+    }
+    if (best != p)
+      join (sets.find (best), sets.find (p));
+  }
+}
 }  // namespace
 
 std::unordered_map<std::uint32_t, std::uint32_t>
@@ -158,43 +259,50 @@ coplanarSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLaye
   std::unordered_map<std::uint32_t, std::uint32_t> out;
   if (config.surface_min_extent <= 0.f || stuff.size () < 2)
     return out;
-  const std::vector<Plane> planes = flatSurfaces (volume, labels, shown, stuff, config);
+  const std::vector<StuffSurface> surfaces = stuffSurfaces (volume, labels, shown, stuff, config);
   const double tolerance = config.surface_tolerance / volume.getConfig ().voxel_size;
   const double extent = config.surface_min_extent / volume.getConfig ().voxel_size;
   const double min_cos = std::cos (config.surface_max_angle_deg * M_PI / 180.0);
   // Groups never hold a pair the evidence judged, not even through a third surface.
-  DisjointSets sets (planes.size ());
-  std::vector<std::vector<std::size_t>> members (planes.size ());  // by root
-  for (std::size_t i = 0; i < planes.size (); ++i)
+  DisjointSets sets (surfaces.size ());
+  std::vector<std::vector<std::size_t>> members (surfaces.size ());  // by root
+  for (std::size_t i = 0; i < surfaces.size (); ++i)
     members[i] = {i};
   const auto apart = [&] (std::size_t ra, std::size_t rb) {
     for (const std::size_t x : members[ra])
       for (const std::size_t y : members[rb])
-        if (judged.count ({std::min (planes[x].object, planes[y].object), std::max (planes[x].object, planes[y].object)}))
+        if (judged.count ({std::min (surfaces[x].plane.object, surfaces[y].plane.object),
+                           std::max (surfaces[x].plane.object, surfaces[y].plane.object)}))
           return true;
     return false;
   };
-  for (std::size_t i = 0; i < planes.size (); ++i)
-    for (std::size_t j = i + 1; j < planes.size (); ++j)
+  const auto join = [&] (std::size_t ra, std::size_t rb) {
+    sets.join (ra, rb);
+    members[ra].insert (members[ra].end (), members[rb].begin (), members[rb].end ());
+    members[rb].clear ();
+  };
+  for (std::size_t i = 0; i < surfaces.size (); ++i)
+    for (std::size_t j = i + 1; j < surfaces.size (); ++j)
     {
-      const Plane &a = planes[i], &b = planes[j];
+      if (!surfaces[i].wide || !surfaces[j].wide)
+        continue;
+      const Plane &a = surfaces[i].plane, &b = surfaces[j].plane;
       const Eigen::Vector3d d = b.centroid - a.centroid;
       const std::size_t ra = sets.find (i), rb = sets.find (j);
       if (ra == rb || std::abs (a.normal.dot (b.normal)) < min_cos || std::abs (a.normal.dot (d)) > tolerance ||
           std::abs (b.normal.dot (d)) > tolerance || apart (ra, rb) || somethingBetween (volume, labels, shown, a, b, tolerance, extent))
         continue;
-      sets.join (ra, rb);
-      members[ra].insert (members[ra].end (), members[rb].begin (), members[rb].end ());
-      members[rb].clear ();
+      join (ra, rb);
     }
-  // Each group under its smallest object (planes come in increasing object order).
+  joinPatches (surfaces, tolerance, extent, sets, [&] (std::size_t ra, std::size_t rb) { return apart (ra, rb); }, join);
+  // Each group under its smallest object (surfaces come in increasing object order).
   const std::vector<std::size_t> roots = sets.roots ();
   std::map<std::size_t, std::uint32_t> root_object;
-  for (std::size_t i = 0; i < planes.size (); ++i)
-    root_object.emplace (roots[i], planes[i].object);
-  for (std::size_t i = 0; i < planes.size (); ++i)
-    if (root_object.at (roots[i]) != planes[i].object)
-      out[planes[i].object] = root_object.at (roots[i]);
+  for (std::size_t i = 0; i < surfaces.size (); ++i)
+    root_object.emplace (roots[i], surfaces[i].plane.object);
+  for (std::size_t i = 0; i < surfaces.size (); ++i)
+    if (root_object.at (roots[i]) != surfaces[i].plane.object)
+      out[surfaces[i].plane.object] = root_object.at (roots[i]);
   return out;
 }
 }  // namespace detail

@@ -39,6 +39,12 @@ namespace detail
   * more than surface_min_extent along that line (a third door between two), and no
   * group holds two objects of a judged pair, even through a third.
   *
+  * A flat object of \a stuff narrower than that (a patch: a strip of a floor seen only
+  * between the slats of a chair's back) joins the larger object of \a stuff it touches
+  * (surface voxels sharing a face) whose surface continues the patch's plane: within
+  * surface_min_extent of the patch's bounds, at least as many of its surface voxels as the
+  * patch has lie within surface_tolerance of the patch's plane; never a judged pair.
+  *
   * Returns object → the object it joins (the smallest of its group), only for objects
   * that join another.
   */
