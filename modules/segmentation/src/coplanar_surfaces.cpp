@@ -181,9 +181,9 @@ somethingBetween (const reconstruction::TSDFVolume& volume, const VoxelLabelLaye
   * are at least as many as the patch's and lie on a plane (flatPlane) on which kFlatShare
   * of the patch's voxels lie too, and the pair is not judged. A face that meets a
   * surface at an angle (the side of a box against a wall) selects a strip of that
-  * surface, whose plane is the surface's, not the face's. Largest
-  * patches first, so that a smaller one can follow through a larger one; each joins the
-  * surface it shares the most voxel faces with. */
+  * surface, whose plane is the surface's, not the face's. Largest patches first, so that
+  * a smaller one can follow through a larger one; each joins the surface it shares the
+  * most voxel faces with. */
 template <typename Apart, typename Join>
 void
 joinPatches (const std::vector<StuffSurface>& surfaces, double tolerance, double extent, DisjointSets& sets, const Apart& apart,

@@ -43,7 +43,9 @@ namespace detail
   * between the slats of a chair's back) joins the larger object of \a stuff it touches
   * (surface voxels sharing a face) whose surface continues the patch's plane: within
   * surface_min_extent of the patch's bounds, at least as many of its surface voxels as the
-  * patch has lie within surface_tolerance of the patch's plane; never a judged pair.
+  * patch has lie within surface_tolerance of the patch's plane, and those voxels and the
+  * patch's lie on one plane (90 % of each within surface_tolerance of it); never a judged
+  * pair.
   *
   * Returns object → the object it joins (the smallest of its group), only for objects
   * that join another.
