@@ -36,6 +36,25 @@ struct Plane
   Eigen::Vector3d centroid, normal;
 };
 
+/** Whether \a v (voxel units) lies within \a tolerance voxels of \a plane. */
+inline bool
+onPlane (const Plane& plane, const Eigen::Vector3f& v, double tolerance)
+{
+  return std::abs (plane.normal.dot (v.cast<double> () - plane.centroid)) <= tolerance;
+}
+
+/** The object of \a stuff whose surface voxel \a v (label \a label) is: within one voxel of
+  * the zero crossing (the surface, not the truncation band around it, which is 2τ thick,
+  * eight voxels at the defaults); 0 when it is none's. */
+inline std::uint32_t
+surfaceObject (const reconstruction::TsdfVoxel& v, std::uint32_t label, const std::vector<std::uint32_t>& shown,
+               const std::set<std::uint32_t>& stuff, float near_surface)
+{
+  if (label == 0 || label >= shown.size () || v.weight <= 0.f || std::abs (v.sdf) > near_surface)
+    return 0;
+  return stuff.count (shown[label]) ? shown[label] : 0;
+}
+
 /** An object's surface voxels (in voxel units); its plane when flat. */
 struct StuffSurface
 {
@@ -84,7 +103,7 @@ flatPlane (const std::vector<Eigen::Vector3f>& points, double tolerance, Plane& 
   {
     std::size_t inliers = 0;
     for (std::size_t i = 0; i < points.size (); ++i)
-      inliers += use[i] = std::abs (plane.normal.dot (points[i].cast<double> () - plane.centroid)) <= tolerance;
+      inliers += use[i] = onPlane (plane, points[i], tolerance);
     if (static_cast<double> (inliers) < kFlatShare * static_cast<double> (points.size ()))
       return false;
     plane = fitPlane (points, use, lambda);
@@ -99,8 +118,6 @@ std::vector<StuffSurface>
 stuffSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels, const std::vector<std::uint32_t>& shown,
                const std::set<std::uint32_t>& stuff, const GlobalSegmentMapConfig& config)
 {
-  // Voxels within one voxel of the zero crossing: the surface, not the truncation band
-  // around it (the band is 2τ thick, eight voxels at the defaults).
   const float near_surface = static_cast<float> (1.0 / volume.getConfig ().truncation_voxels);
   std::map<std::uint32_t, std::vector<Eigen::Vector3f>> surfaces;  // in voxel units
   const reconstruction::VoxelBlockStore& blocks = volume.store ();
@@ -110,12 +127,9 @@ stuffSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& 
     const auto& block_labels = labels.block (id).labels;
     for (int i = 0; i < reconstruction::kBlockVoxels; ++i)
     {
-      const std::uint32_t label = block_labels[static_cast<std::size_t> (i)];
-      const reconstruction::TsdfVoxel& v = block.voxels[static_cast<std::size_t> (i)];
-      if (label == 0 || label >= shown.size () || v.weight <= 0.f || std::abs (v.sdf) > near_surface)
-        continue;
-      const std::uint32_t object = shown[label];
-      if (object != 0 && stuff.count (object))
+      const std::uint32_t object = surfaceObject (block.voxels[static_cast<std::size_t> (i)],
+                                                  block_labels[static_cast<std::size_t> (i)], shown, stuff, near_surface);
+      if (object != 0)
         surfaces[object].push_back ((block.index * reconstruction::kBlockSide +
                                      reconstruction::localVoxelPosition (i))
                                         .cast<float> ());
@@ -186,17 +200,24 @@ somethingBetween (const reconstruction::TSDFVolume& volume, const VoxelLabelLaye
   * most voxel faces with. */
 template <typename Apart, typename Join>
 void
-joinPatches (const std::vector<StuffSurface>& surfaces, double tolerance, double extent, DisjointSets& sets, const Apart& apart,
-             const Join& join)
+joinPatches (const reconstruction::TSDFVolume& volume, const VoxelLabelLayer& labels, const std::vector<std::uint32_t>& shown,
+             const std::set<std::uint32_t>& stuff, const std::vector<StuffSurface>& surfaces, double tolerance, double extent,
+             DisjointSets& sets, const Apart& apart, const Join& join)
 {
-  const auto key = [] (const Eigen::Vector3i& v) {
-    return (static_cast<std::uint64_t> (v.x () & 0x1fffff) << 42) | (static_cast<std::uint64_t> (v.y () & 0x1fffff) << 21) |
-           static_cast<std::uint64_t> (v.z () & 0x1fffff);
-  };
-  std::unordered_map<std::uint64_t, std::size_t> owner;  // surface voxel → surface
+  const reconstruction::VoxelBlockStore& blocks = volume.store ();
+  const float near_surface = static_cast<float> (1.0 / volume.getConfig ().truncation_voxels);
+  std::unordered_map<std::uint32_t, std::size_t> index;  // object → its surface
   for (std::size_t i = 0; i < surfaces.size (); ++i)
-    for (const Eigen::Vector3f& p : surfaces[i].points)
-      owner.emplace (key (p.cast<int> ()), i);
+    index.emplace (surfaces[i].plane.object, i);
+  // The surface whose voxel \a v is (surfaces.size () when none's).
+  const auto owner = [&] (const Eigen::Vector3i& v) {
+    const reconstruction::VoxelNumber n = blocks.findVoxelNumber (v);
+    if (n == reconstruction::kNoVoxel)
+      return surfaces.size ();
+    const auto it = index.find (surfaceObject (blocks.block (n / reconstruction::kBlockVoxels).voxels[n % reconstruction::kBlockVoxels],
+                                               labels.label (n), shown, stuff, near_surface));
+    return it == index.end () ? surfaces.size () : it->second;
+  };
   std::vector<std::size_t> order;
   for (std::size_t i = 0; i < surfaces.size (); ++i)
     if (surfaces[i].flat && !surfaces[i].wide)
@@ -214,9 +235,9 @@ joinPatches (const std::vector<StuffSurface>& surfaces, double tolerance, double
       around.extend (v);
       for (const Eigen::Vector3i& step : steps)
       {
-        const auto it = owner.find (key (v.cast<int> () + step));
-        if (it != owner.end () && surfaces[it->second].points.size () > patch.size ())
-          ++contacts[it->second];
+        const std::size_t s = owner (v.cast<int> () + step);
+        if (s < surfaces.size () && surfaces[s].points.size () > patch.size ())
+          ++contacts[s];
       }
     }
     around.min ().array () -= static_cast<float> (extent);
@@ -230,7 +251,7 @@ joinPatches (const std::vector<StuffSurface>& surfaces, double tolerance, double
       // The larger surface's voxels around the patch on the patch's plane, and their plane.
       std::vector<Eigen::Vector3f> on_plane;
       for (const Eigen::Vector3f& v : surfaces[s].points)
-        if (around.contains (v) && std::abs (plane.normal.dot (v.cast<double> () - plane.centroid)) <= tolerance)
+        if (around.contains (v) && onPlane (plane, v, tolerance))
           on_plane.push_back (v);
       Plane continued;
       Eigen::Vector3d lambda;
@@ -238,7 +259,7 @@ joinPatches (const std::vector<StuffSurface>& surfaces, double tolerance, double
         continue;
       std::size_t on = 0;
       for (const Eigen::Vector3f& v : patch)
-        on += std::abs (continued.normal.dot (v.cast<double> () - continued.centroid)) <= tolerance;
+        on += onPlane (continued, v, tolerance);
       if (static_cast<double> (on) >= kFlatShare * static_cast<double> (patch.size ()))
       {
         best = s;
@@ -294,7 +315,7 @@ coplanarSurfaces (const reconstruction::TSDFVolume& volume, const VoxelLabelLaye
         continue;
       join (ra, rb);
     }
-  joinPatches (surfaces, tolerance, extent, sets, [&] (std::size_t ra, std::size_t rb) { return apart (ra, rb); }, join);
+  joinPatches (volume, labels, shown, stuff, surfaces, tolerance, extent, sets, apart, join);
   // Each group under its smallest object (surfaces come in increasing object order).
   const std::vector<std::size_t> roots = sets.roots ();
   std::map<std::size_t, std::uint32_t> root_object;
