@@ -664,6 +664,76 @@ TEST_F (PropagationFixture, APatchOfAFlatSurfaceThatNoFrameJudgedShowsAsTheSurfa
   EXPECT_NE (after.at (book), after.at (table));
 }
 
+TEST_F (PropagationFixture, PiecesWhoseVotesSpreadOverManyLabelPairsShowAsOneObject)
+{
+  // The patch of the table top (its own frame segment in all 30 frames, a ring of no
+  // label around it: no frame judged it with the table) and the table, given a second
+  // label of its own (a label it took in some frames, as a surface whose label changes
+  // from frame to frame does). Three frames vote Together on the patch and one of the
+  // table's labels, three on the patch and the other: fewer than confirm_confidence on
+  // either pair, so the map keeps them apart, but six in all and none apart — one
+  // object in outputs (what a strip of a refrigerator's side that takes a fresh label in
+  // most frames is to its front). With five votes apart as well on those pairs (summed:
+  // 8 together, 5 apart; the summed rule alone would unite them), the pair is one the
+  // evidence has seen apart often enough to decide, and it stays apart. Nor does a pair
+  // the masks named differently join: the patch a cup in a quarter of its frames, the
+  // table nothing.
+  std::uint32_t patch = 0, table = 0;
+  fuseWithTablePatch (30, patch, table);
+  ASSERT_NE (patch, 0u);
+  ASSERT_NE (map.resolve (patch), map.resolve (table));
+  // Every other voxel of the table takes the second label.
+  const std::uint32_t first = table, second = map.newSegment (29);
+  ASSERT_EQ (map.resolve (map.merge (first, second)), map.resolve (table));
+  std::size_t relabelled = 0;
+  const reconstruction::VoxelBlockStore& blocks = volume->store ();
+  for (std::size_t id = 0; id < std::min (blocks.size (), layer.blockCount ()); ++id)
+    for (std::uint32_t& label : layer.block (id).labels)
+      if (label == first && relabelled++ % 2 == 0)
+        label = second;
+  ASSERT_GT (relabelled, 0u);
+  const auto vote = [] (GlobalSegmentMap& m, std::uint32_t a, std::uint32_t b, PairVote v, int frames) {
+    for (int f = 0; f < frames; ++f)
+      m.addEvidence ({std::make_tuple (a, b, v)});
+  };
+  const int decide = GlobalSegmentMapConfig ().confirm_confidence;
+  ASSERT_EQ (decide, 5) << "the votes below are counted for confirm_confidence 5";
+
+  GlobalSegmentMap spread = map;
+  vote (spread, patch, first, PairVote::Together, 3);
+  vote (spread, patch, second, PairVote::Together, 3);
+  ASSERT_NE (spread.resolve (patch), spread.resolve (table)) << "a pair of labels reached confirm_confidence";
+  const auto one = spread.settledLabels (*volume, layer);
+  ASSERT_TRUE (one.count (patch) && one.count (table));
+  EXPECT_EQ (one.at (patch), one.at (table));
+  EXPECT_EQ (one.at (first), one.at (second));
+
+  GlobalSegmentMap named = map;
+  SegmentInstance cup;
+  cup.instance = 0;
+  cup.class_name = "cup";
+  cup.score = 0.9f;
+  for (int f = 0; f < 8; ++f)  // frame 29, the patch's last: frames seen stay 30
+    named.observe (patch, 29, &cup);
+  ASSERT_EQ (named.record (patch)->bestClass (), "cup");
+  ASSERT_EQ (named.record (table)->bestClass (), "");
+  vote (named, patch, first, PairVote::Together, 3);
+  vote (named, patch, second, PairVote::Together, 3);
+  const auto cup_and_table = named.settledLabels (*volume, layer);
+  ASSERT_TRUE (cup_and_table.count (patch) && cup_and_table.count (table));
+  EXPECT_NE (cup_and_table.at (patch), cup_and_table.at (table));
+
+  GlobalSegmentMap contested = map;
+  vote (contested, patch, first, PairVote::Together, 4);
+  vote (contested, patch, second, PairVote::Together, 4);
+  vote (contested, patch, first, PairVote::Apart, 3);
+  vote (contested, patch, second, PairVote::Apart, 2);
+  ASSERT_NE (contested.resolve (patch), contested.resolve (table));
+  const auto two = contested.settledLabels (*volume, layer);
+  ASSERT_TRUE (two.count (patch) && two.count (table));
+  EXPECT_NE (two.at (patch), two.at (table));
+}
+
 TEST_F (PropagationFixture, LabelLayerKeysTheVolumesVoxelsAndItsFileRoundTrips)
 {
   for (std::size_t i = 0; i < 4; ++i)

@@ -238,7 +238,12 @@ public:
     * born in the last frames of a run) the confirmed object whose voxels its voxels touch
     * most (6-neighbourhood in \a volume, followed through other fragments); where it
     * touches none, itself while it is still being seen (its last frame less than
-    * confirm_confidence frames before the latest), else 0. Last, objects that are one
+    * confirm_confidence frames before the latest), else 0. Then objects whose labels'
+    * votes, summed over all their pairs, unite them (PairEvidence::united) with fewer
+    * than confirm_confidence votes apart, and that the masks gave the same class or
+    * none, show as one: a surface seen at a grazing angle
+    * takes a fresh label in most frames, and its votes spread over many label pairs that
+    * none reaches confirm_confidence alone. Last, objects that are one
     * flat surface parted in every view (a floor around an island, a wall beside a
     * shelf) show as one (GlobalSegmentMapConfig::surface_min_extent). Labels not in the
     * result are 0. Reads the volume; nothing is written, so a fragment confirmed later
@@ -254,6 +259,13 @@ public:
 private:
   /** \brief Rebuilds the equivalence from the evidence and the pinned merges. */
   void regroup ();
+
+  /** \brief settledLabels(): objects (\a shown: label → object, 0 none) that the evidence
+    * unites once its votes are summed over their labels' pairs, with fewer than
+    * confirm_confidence of them apart and one class (or none) for both, show as one (the
+    * smallest object of the group); a group never holds two objects the summed votes
+    * judge apart. */
+  void uniteBySummedEvidence (std::vector<std::uint32_t>& shown) const;
 
   std::uint32_t next_label_ = 1;
   std::size_t latest_frame_ = 0;  ///< the latest frame a segment was seen or made in
