@@ -498,23 +498,6 @@ GlobalSegmentMap::uniteBySummedEvidence (std::vector<std::uint32_t>& shown) cons
     sum.together += counts.together;
     sum.apart += counts.apart;
   }
-  // Each object's class as outputs show it (its labels' records combined, fragments
-  // settled into it included): a pair the masks named differently is theirs to part.
-  std::unordered_map<std::uint32_t, SegmentRecord> records;
-  for (const auto& [label, record] : records_)
-  {
-    const std::uint32_t object = label < shown.size () ? shown[label] : 0;
-    if (object == 0)
-      continue;
-    const auto it = records.find (object);
-    if (it == records.end ())
-      records.emplace (object, record);
-    else
-      combine (it->second, record);
-  }
-  std::unordered_map<std::uint32_t, std::string> classes;
-  for (const auto& [object, record] : records)
-    classes[object] = record.bestClass ();
   const int decide = evidence_.getConfig ().confirm_confidence;
   const auto judgedApart = [&] (std::uint32_t x, std::uint32_t y) {
     const auto it = sums.find ({std::min (x, y), std::max (x, y)});
@@ -531,9 +514,28 @@ GlobalSegmentMap::uniteBySummedEvidence (std::vector<std::uint32_t>& shown) cons
   // Most votes together first; a group never holds a pair judged apart, even through a
   // third.
   std::vector<std::pair<std::pair<std::uint32_t, std::uint32_t>, int>> united;
+  std::unordered_map<std::uint32_t, SegmentRecord> records;  // the candidates' objects → their labels' records combined
   for (const auto& [pair, counts] : sums)
-    if (evidence_.united (counts) && counts.apart < decide && classes[pair.first] == classes[pair.second])
+    if (evidence_.united (counts) && counts.apart < decide)
+    {
       united.emplace_back (pair, counts.together);
+      records.emplace (pair.first, SegmentRecord ());
+      records.emplace (pair.second, SegmentRecord ());
+    }
+  // Each candidate's class as outputs show it (fragments settled into it included;
+  // bestClass reads only the combined class votes and frames seen).
+  for (const auto& [label, record] : records_)
+  {
+    const auto it = records.find (label < shown.size () ? shown[label] : 0);
+    if (it != records.end ())
+      combine (it->second, record);
+  }
+  std::unordered_map<std::uint32_t, std::string> classes;
+  for (const auto& [object, record] : records)
+    classes[object] = record.bestClass ();
+  united.erase (std::remove_if (united.begin (), united.end (),
+                                [&] (const auto& u) { return classes.at (u.first.first) != classes.at (u.first.second); }),
+                united.end ());
   if (united.empty ())
     return;
   std::stable_sort (united.begin (), united.end (), [] (const auto& a, const auto& b) { return a.second > b.second; });
