@@ -248,6 +248,25 @@ GlobalSegmentMap::refreshStatistics (const reconstruction::TSDFVolume& volume, c
 
 namespace
 {
+/** \brief The votes on pairs of labels summed per pair of the objects \a shown gives their
+  * labels (label → object, 0 none), by (smaller, larger) object; pairs within one object
+  * are left out. */
+std::map<std::pair<std::uint32_t, std::uint32_t>, PairEvidence::Counts>
+votesByObject (const PairEvidence& evidence, const std::vector<std::uint32_t>& shown)
+{
+  std::map<std::pair<std::uint32_t, std::uint32_t>, PairEvidence::Counts> sums;
+  for (const auto& [pair, counts] : evidence.pairs ())
+  {
+    const std::uint32_t a = pair.first < shown.size () ? shown[pair.first] : 0, b = pair.second < shown.size () ? shown[pair.second] : 0;
+    if (a == 0 || b == 0 || a == b)
+      continue;
+    PairEvidence::Counts& sum = sums[{std::min (a, b), std::max (a, b)}];
+    sum.together += counts.together;
+    sum.apart += counts.apart;
+  }
+  return sums;
+}
+
 /** \brief \a source's frames, class votes, voxels and bounds added to \a target. */
 void
 combine (SegmentRecord& target, const SegmentRecord& source)
@@ -456,16 +475,9 @@ GlobalSegmentMap::settledLabels (const reconstruction::TSDFVolume& volume, const
   }
   // Pairs of objects the evidence has had its say on: votes on their labels' pairs, for
   // or against, in confirm_confidence frames or more (the frames it needs to decide).
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> votes;
-  for (const auto& [pair, counts] : evidence_.pairs ())
-  {
-    const std::uint32_t a = pair.first < shown.size () ? shown[pair.first] : 0, b = pair.second < shown.size () ? shown[pair.second] : 0;
-    if (a != 0 && b != 0 && a != b)
-      votes[{std::min (a, b), std::max (a, b)}] += counts.together + counts.apart;
-  }
   std::set<std::pair<std::uint32_t, std::uint32_t>> judged;
-  for (const auto& [pair, n] : votes)
-    if (n >= config.confirm_confidence)
+  for (const auto& [pair, counts] : votesByObject (evidence_, shown))
+    if (counts.together + counts.apart >= config.confirm_confidence)
       judged.insert (pair);
   const auto joined = detail::coplanarSurfaces (volume, labels, shown, stuff, judged, config);
   std::unordered_map<std::uint32_t, std::uint32_t> out;
@@ -488,16 +500,7 @@ GlobalSegmentMap::uniteBySummedEvidence (std::vector<std::uint32_t>& shown) cons
   // (a generated kitchen: 84 votes together and none apart between a refrigerator's
   // front and the strip of its side, over a dozen label pairs). Summed over the objects'
   // labels' pairs, the same rule (PairEvidence::united) decides, as below.
-  std::map<std::pair<std::uint32_t, std::uint32_t>, PairEvidence::Counts> sums;  // (smaller, larger) object → votes
-  for (const auto& [pair, counts] : evidence_.pairs ())
-  {
-    const std::uint32_t a = pair.first < shown.size () ? shown[pair.first] : 0, b = pair.second < shown.size () ? shown[pair.second] : 0;
-    if (a == 0 || b == 0 || a == b)
-      continue;
-    PairEvidence::Counts& sum = sums[{std::min (a, b), std::max (a, b)}];
-    sum.together += counts.together;
-    sum.apart += counts.apart;
-  }
+  const auto sums = votesByObject (evidence_, shown);  // (smaller, larger) object → votes
   const int decide = evidence_.getConfig ().confirm_confidence;
   const auto judgedApart = [&] (std::uint32_t x, std::uint32_t y) {
     const auto it = sums.find ({std::min (x, y), std::max (x, y)});
