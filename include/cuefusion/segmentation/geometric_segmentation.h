@@ -59,7 +59,8 @@ struct GeometricSegmentationConfig
   EdgeLabelingConfig labeling;
   /** The depth's noise as a multiple of the Kinect model σ_z(z) (Nguyen et al. 2012) that
     * the segmentation's noise thresholds are written in: the smoothing's range σ
-    * (preprocessing.bilateral.noise_range_sigma), the concavity's noise slope and the
+    * (preprocessing.bilateral.noise_range_sigma), the concavity's noise slopes, the wide
+    * test's span (concavity.wide_noise_scale) and the
     * depth-edge factor k are multiplied by it (noiseScaled). 0 (the default): measured
     * from each cloud's depth before smoothing (reconstruction::estimateDepthNoise) and
     * never taken below 1, since the thresholds were set on Kinect-class noise — so a

@@ -160,6 +160,7 @@ fields (V& v, ConcavityEdgeEstimationConfig& c)
   v ("noise_slope", c.noise_slope);
   v ("wide_step", c.wide_step);
   v ("wide_noise_slope", c.wide_noise_slope);
+  v ("wide_noise_scale", c.wide_noise_scale);
 }
 
 template <class V>

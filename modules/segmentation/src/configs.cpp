@@ -36,6 +36,8 @@ ConcavityEdgeEstimationConfig::validate () const
   require (wide_step >= 0 && wide_step <= 16, "ConcavityEdgeEstimationConfig::wide_step", "must be 0..16 pixels (0: no wide test)");
   require (std::isfinite (wide_noise_slope) && wide_noise_slope >= 0.f && wide_noise_slope <= 1000.f,
            "ConcavityEdgeEstimationConfig::wide_noise_slope", "must lie in [0, 1000]");
+  require (std::isfinite (wide_noise_scale) && wide_noise_scale > 0.f && wide_noise_scale <= 100.f,
+           "ConcavityEdgeEstimationConfig::wide_noise_scale", "must lie in (0, 100] (a sensor's noise over the Kinect's)");
 }
 
 void
@@ -73,6 +75,7 @@ GeometricSegmentationConfig::noiseScaled (float scale) const
   out.preprocessing.bilateral.noise_range_sigma *= scale;
   out.concavity.noise_slope *= scale;
   out.concavity.wide_noise_slope *= scale;
+  out.concavity.wide_noise_scale *= scale;
   out.discontinuity.noise_factor *= scale;
   return out;
 }

@@ -13,6 +13,7 @@
 #include <cuefusion/segmentation/concavity_edge_estimation.h>
 #include <cuefusion/segmentation/edge_operators.h>
 #include <cuefusion/segmentation/surface_planes.h>
+#include <cuefusion/segmentation/surface_preprocessing.h>
 
 #include <algorithm>
 #include <array>
@@ -112,12 +113,22 @@ edgeRow (const SurfacePlanes& planes, int y, int step, ConvexityTest test, float
   }
 }
 
+/** The normals the wide test compares, planar like SurfacePlanes': the planes' own, or
+  * central differences over the test's wider span (ConcavityEdgeEstimationConfig::wideSpan). */
+struct WideNormals
+{
+  const float* nx;
+  const float* ny;
+  const float* nz;
+};
+
 /** Φ_w,d of row y for one direction d = (dx, dy) (ConcavityEdgeEstimationConfig::wide_step):
-  * the normals at u − s·d and u + s·d, the same terms as edgeRowPass's; 1 where convex or
-  * either side lacks a point or normal. */
+  * the normals \a n at u − s·d and u + s·d, the same terms as edgeRowPass's; 1 where convex
+  * or either side lacks a point or normal. */
 template <bool kSymmetric>
 CUEFUSION_AVX2_CLONES void
-wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float max_jump, float wide_slope, float* __restrict phi)
+wideRowPass (const SurfacePlanes& p, const WideNormals& n, int y, int s, int dx, int dy, float max_jump, float wide_slope,
+             float* __restrict phi)
 {
   const int w = p.width;
   std::fill (phi, phi + w, 1.f);
@@ -129,15 +140,15 @@ wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float max_jum
   const float* __restrict X = p.x.data () + a;
   const float* __restrict Y = p.y.data () + a;
   const float* __restrict Z = p.z.data () + a;
-  const float* __restrict NX = p.nx.data () + a;
-  const float* __restrict NY = p.ny.data () + a;
-  const float* __restrict NZ = p.nz.data () + a;
+  const float* __restrict NX = n.nx + a;
+  const float* __restrict NY = n.ny + a;
+  const float* __restrict NZ = n.nz + a;
   const float* __restrict Xi = p.x.data () + b;
   const float* __restrict Yi = p.y.data () + b;
   const float* __restrict Zi = p.z.data () + b;
-  const float* __restrict NXi = p.nx.data () + b;
-  const float* __restrict NYi = p.ny.data () + b;
-  const float* __restrict NZi = p.nz.data () + b;
+  const float* __restrict NXi = n.nx + b;
+  const float* __restrict NYi = n.ny + b;
+  const float* __restrict NZi = n.nz + b;
   const float* __restrict Zu = p.z.data () + u;
   for (int x = x0; x < x1; ++x)
   {
@@ -155,10 +166,8 @@ wideRowPass (const SurfacePlanes& p, int y, int s, int dx, int dy, float max_jum
     // A small far object's faces are a few pixels; its creases are Φ's and the masks' to
     // find, and the wide pairs across it cut it into pieces the masks no longer unite.
     const float theta = normalNoiseAngle (Zu[x], wide_slope), t = 1.f - 0.5f * theta * theta;
-    const float side_a = NX[x] * p.nx[static_cast<std::size_t> (a2 + x)] + NY[x] * p.ny[static_cast<std::size_t> (a2 + x)] +
-                         NZ[x] * p.nz[static_cast<std::size_t> (a2 + x)];
-    const float side_b = NXi[x] * p.nx[static_cast<std::size_t> (b2 + x)] + NYi[x] * p.ny[static_cast<std::size_t> (b2 + x)] +
-                         NZi[x] * p.nz[static_cast<std::size_t> (b2 + x)];
+    const float side_a = NX[x] * n.nx[a2 + x] + NY[x] * n.ny[a2 + x] + NZ[x] * n.nz[a2 + x];
+    const float side_b = NXi[x] * n.nx[b2 + x] + NYi[x] * n.ny[b2 + x] + NZi[x] * n.nz[b2 + x];
     const bool flat_sides = side_a >= t && side_b >= t;  // NaN compares false
     phi[x] = convex || !continuous || !flat_sides || agreement != agreement ? 1.f : agreement;
   }
@@ -171,11 +180,15 @@ constexpr std::array<std::array<int, 2>, 4> kWideDirections{{{{1, 0}}, {{0, 1}},
   * and no smaller than at u ∓ d (non-maximum suppression across the crease: the pairs
   * straddle a crease for 2s pixels, and a band that wide ate small objects whole; the
   * crease's own line is one or two pixels, as Φ's), and only where θ(z) exceeds what a
-  * right-angle crease turns the normals by per pixel. */
+  * right-angle crease turns the normals by per pixel. On a noisier sensor the span s and the
+  * normals' differences widen with the noise (ConcavityEdgeEstimationConfig::wideSpan) and
+  * θ_w shrinks by as much: a normal's angular noise is the depth noise over the span of its
+  * differences. */
 void
 wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& config, cv::Mat& edges)
 {
-  const int w = planes.width, h = planes.height, s = config.wide_step;
+  const int w = planes.width, h = planes.height, s = config.wideSpan ();
+  const float wide_slope = config.wide_noise_slope * static_cast<float> (config.wide_step) / static_cast<float> (s);
   edges = cv::Mat::zeros (h, w, CV_8U);
   // The pixels' angular size, from two neighbouring points of the middle row (an
   // organized cloud's rays): a surface 75° from the view changes depth by tan 75° of it
@@ -190,12 +203,12 @@ wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& con
   constexpr float kTan75 = 3.7320508f;
   const float max_jump = inverse_focal > 0.f ? 0.5f * kTan75 * 2.f * static_cast<float> (s) * inverse_focal
                                              : std::numeric_limits<float>::infinity ();
-  // Where the wide test applies: θ(z) above what a right-angle crease turns the normals
-  // by per pixel (elsewhere Φ sees such creases, or there is no depth). Only the rows
-  // holding such a pixel, and their neighbours (the suppression reads them), get Φ_w,d: a
-  // near view computes none.
+  // Where the wide test applies: θ(z) above what a right-angle crease turns Φ's normals
+  // (the segmentation's ±wide_step px) by per pixel (elsewhere Φ sees such creases, or
+  // there is no depth). Only the rows holding such a pixel, and their neighbours (the
+  // suppression reads them), get Φ_w,d: a near view computes none.
   constexpr float kRightAngle = 1.57079633f;
-  const float blend = kRightAngle / (2.f * static_cast<float> (s));
+  const float blend = kRightAngle / (2.f * static_cast<float> (config.wide_step));
   const auto applies = [&] (float z) { return normalNoiseAngle (z, config.noise_slope) > blend; };
   std::vector<char> needed (static_cast<std::size_t> (h), 0), computed (needed.size (), 0);
   parallelFor (h, [&] (int y) {
@@ -207,6 +220,18 @@ wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& con
       computed[static_cast<std::size_t> (y)] |= needed[static_cast<std::size_t> (r)];
   if (std::none_of (needed.begin (), needed.end (), [] (char n) { return n != 0; }))
     return;
+  WideNormals normals{planes.nx.data (), planes.ny.data (), planes.nz.data ()};
+  std::vector<float> wider_normals;
+  if (s != config.wide_step)
+  {
+    const std::size_t n = planes.x.size ();
+    wider_normals.resize (3 * n);
+    reconstruction::NormalMapConfig wider = SurfacePreprocessingConfig::segmentationNormals ();
+    wider.step = s;
+    reconstruction::computeNormalMapPlanar (planes.x.data (), planes.y.data (), planes.z.data (), w, h, wider, wider_normals.data (),
+                                            wider_normals.data () + n, wider_normals.data () + 2 * n);
+    normals = {wider_normals.data (), wider_normals.data () + n, wider_normals.data () + 2 * n};
+  }
   std::array<cv::Mat, 4> phi;
   for (std::size_t k = 0; k < kWideDirections.size (); ++k)
   {
@@ -215,10 +240,10 @@ wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& con
       if (!computed[static_cast<std::size_t> (y)])
         return;
       if (config.convexity_test == ConvexityTest::NormalDivergence)
-        wideRowPass<true> (planes, y, s, kWideDirections[k][0], kWideDirections[k][1], max_jump, config.wide_noise_slope,
+        wideRowPass<true> (planes, normals, y, s, kWideDirections[k][0], kWideDirections[k][1], max_jump, wide_slope,
                            phi[k].ptr<float> (y));
       else
-        wideRowPass<false> (planes, y, s, kWideDirections[k][0], kWideDirections[k][1], max_jump, config.wide_noise_slope,
+        wideRowPass<false> (planes, normals, y, s, kWideDirections[k][0], kWideDirections[k][1], max_jump, wide_slope,
                             phi[k].ptr<float> (y));
     });
   }
@@ -231,7 +256,7 @@ wideEdges (const SurfacePlanes& planes, const ConcavityEdgeEstimationConfig& con
     {
       if (!applies (z[x]))
         continue;
-      const float theta = normalNoiseAngle (z[x], config.wide_noise_slope), t = 1.f - 0.5f * theta * theta;
+      const float theta = normalNoiseAngle (z[x], wide_slope), t = 1.f - 0.5f * theta * theta;
       for (std::size_t k = 0; k < kWideDirections.size () && !out[x]; ++k)
       {
         const int dx = kWideDirections[k][0], dy = kWideDirections[k][1];
