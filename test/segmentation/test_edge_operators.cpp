@@ -537,6 +537,17 @@ segmentCorner (const CornerView& c, const GeometricSegmentationConfig& config)
   r.flat_marked = flat ? static_cast<double> (marked) / flat : 0.0;
   return r;
 }
+
+/** The floor and the wall two segments, each at least 85 % whole, and the flat surface
+  * marked by at most one percent more than by Φ alone (\a flat_marked_by_phi). */
+void
+expectApartAndWhole (const CornerResult& r, double flat_marked_by_phi, const std::string& where)
+{
+  EXPECT_TRUE (r.apart ()) << where;
+  EXPECT_GE (r.floor.coverage, 0.85) << where;
+  EXPECT_GE (r.wall.coverage, 0.85) << where;
+  EXPECT_LE (r.flat_marked, flat_marked_by_phi + 0.01) << where;
+}
 }  // namespace
 
 TEST (ConcavityEdgeEstimation, AFarCreaseIsFoundAndAFarWallIsNot)
@@ -564,10 +575,7 @@ TEST (ConcavityEdgeEstimation, AFarCreaseIsFoundAndAFarWallIsNot)
                 << (wide.apart () ? " apart" : " ONE") << ", flat marked " << wide.flat_marked << "; without: " << alone.floor.coverage
                 << " " << alone.wall.coverage << (alone.apart () ? " apart" : " ONE") << ", " << alone.flat_marked << "\n";
     const std::string where = "distance " + std::to_string (c.distance);
-    EXPECT_TRUE (wide.apart ()) << where;
-    EXPECT_GE (wide.floor.coverage, 0.85) << where;
-    EXPECT_GE (wide.wall.coverage, 0.85) << where;
-    EXPECT_LE (wide.flat_marked, alone.flat_marked + 0.01) << where;
+    expectApartAndWhole (wide, alone.flat_marked, where);
     if (c.distance > 3.0)
     {
       ++far_views;
@@ -610,10 +618,7 @@ TEST (ConcavityEdgeEstimation, AFarCreaseIsFoundOnANoisierSensor)
                 << ", flat marked " << wide.flat_marked << "; at the Kinect's span " << (kinect_span.apart () ? "apart" : "ONE")
                 << "; Φ alone " << phi_alone.flat_marked << "\n";
     EXPECT_GT (wide.noise_scale, 1.5f) << where;
-    EXPECT_TRUE (wide.apart ()) << where;
-    EXPECT_GE (wide.floor.coverage, 0.85) << where;
-    EXPECT_GE (wide.wall.coverage, 0.85) << where;
-    EXPECT_LE (wide.flat_marked, phi_alone.flat_marked + 0.01) << where;
+    expectApartAndWhole (wide, phi_alone.flat_marked, where);
     if (c.distance > 2.5)
     {
       ++far_views;

@@ -131,6 +131,11 @@ public:
     * config changes nothing): FusionPipeline's smoothing follows the measured depth noise.
     */
   void setPreprocessingConfig (const DepthPreprocessorConfig& config);
+  /** \brief Tracking (and the relocalisation's verification) from the next frame on with
+    * \a config (validated first; a bad config changes nothing): FusionPipeline's normal
+    * gate follows the measured depth noise (ProjectiveICPConfig::noise_scale).
+    */
+  void setTrackingConfig (const CameraTrackerConfig& config);
 
   FrameReport
   process (const RGBDFrame& frame);

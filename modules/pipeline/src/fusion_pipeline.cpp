@@ -78,6 +78,7 @@ reconstruction::DenseReconstructionConfig
 reconstructionConfig (const FusionPipelineConfig& config, float noise_scale)
 {
   reconstruction::DenseReconstructionConfig out = config.reconstruction;
+  out.tracking.icp.noise_scale *= noise_scale;  // the normal gate follows the noise
   if (sharesSmoothing (config))
     out.preprocessing.bilateral = config.geometry.noiseScaled (noise_scale).preprocessing.bilateral;
   if (sharesNormals (config))
@@ -153,7 +154,9 @@ FusionPipeline::applyNoiseScale (float scale)
   if (scale == noise_scale_)
     return;
   noise_scale_ = scale;
-  reconstruction_.setPreprocessingConfig (reconstructionConfig (config_, scale).preprocessing);
+  const reconstruction::DenseReconstructionConfig reconstruction = reconstructionConfig (config_, scale);
+  reconstruction_.setPreprocessingConfig (reconstruction.preprocessing);
+  reconstruction_.setTrackingConfig (reconstruction.tracking);
   segmentation::GeometricSegmentationConfig geometry = config_.geometry;
   geometry.noise_scale = scale;
   geometry_.setConfig (geometry);

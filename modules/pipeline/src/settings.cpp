@@ -64,6 +64,7 @@ fields (V& v, ProjectiveICPConfig& c)
   v ("max_angle_deg", c.max_angle_deg);
   v ("angle_reference_depth", c.angle_reference_depth);
   v ("max_angle_limit_deg", c.max_angle_limit_deg);
+  v ("noise_scale", c.noise_scale);
   v ("convergence_translation", c.convergence_translation);
   v ("convergence_rotation", c.convergence_rotation);
   v ("noise_weighting", c.noise_weighting);

@@ -68,6 +68,16 @@ DenseReconstruction::setPreprocessingConfig (const DepthPreprocessorConfig& conf
 }
 
 void
+DenseReconstruction::setTrackingConfig (const CameraTrackerConfig& config)
+{
+  DenseReconstructionConfig next = config_;
+  next.tracking = config;
+  next.validate ();  // the ICP levels must fit the pyramid
+  config_.tracking = config;
+  tracker_ = CameraTracker (config);
+}
+
+void
 DenseReconstruction::reset ()
 {
   volume_.reset ();

@@ -296,10 +296,12 @@ double
 normalGateDeg (const ProjectiveICPConfig& config, double median_depth)
 {
   const double z_ref = config.angle_reference_depth;
-  if (!(z_ref > 0.0) || !(median_depth > z_ref))
+  if (!(z_ref > 0.0))
     return config.max_angle_deg;
   const auto relative_noise = [] (double z) { return KinectNoiseModel::atNormalIncidence (static_cast<float> (z)) / z; };
-  return std::min (config.max_angle_limit_deg, config.max_angle_deg * relative_noise (median_depth) / relative_noise (z_ref));
+  const double depth_ratio = median_depth > z_ref ? relative_noise (median_depth) / relative_noise (z_ref) : 1.0;
+  const double ratio = config.noise_scale * depth_ratio;
+  return ratio > 1.0 ? std::min (config.max_angle_limit_deg, config.max_angle_deg * ratio) : config.max_angle_deg;
 }
 
 double
@@ -335,6 +337,8 @@ ProjectiveICPConfig::validate () const
     throw ParameterError ("ProjectiveICPConfig::max_angle_limit_deg", "must lie in [max_angle_deg, 180] degrees");
   if (!(angle_reference_depth >= 0.0 && angle_reference_depth <= 20.0))
     throw ParameterError ("ProjectiveICPConfig::angle_reference_depth", "must lie in [0, 20] metres");
+  if (!(noise_scale > 0.0 && noise_scale <= 100.0))
+    throw ParameterError ("ProjectiveICPConfig::noise_scale", "must lie in (0, 100] (the depth's noise over the Kinect model's)");
 }
 
 ProjectiveICP::ProjectiveICP (const ProjectiveICPConfig& config) : config_ (config)
