@@ -68,9 +68,11 @@ struct FusionPipelineConfig
     * this many frames with enough surface (reconstruction::estimateDepthNoise, from the raw
     * depth before any smoothing) and their median ratio, at least 1, is the scale of every
     * threshold written in sensor-noise units from then on: the smoothing's range σ shared
-    * with tracking, the concavity's noise slope, the depth-edge factor
-    * (GeometricSegmentationConfig::noiseScaled) and the propagation's distance test
-    * (SegmentPropagationConfig::noise_factor). Until the first measurement the scale is 1.
+    * with tracking, the concavity's noise slopes and wide test's span, the depth-edge
+    * factor (GeometricSegmentationConfig::noiseScaled), tracking's normal gate
+    * (reconstruction::ProjectiveICPConfig::noise_scale) and the propagation's distance
+    * test (SegmentPropagationConfig::noise_factor). Until the first measurement the scale
+    * is 1.
     */
   int noise_estimation_frames = 10;
   void validate () const;
