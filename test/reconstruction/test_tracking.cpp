@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "reconstruction_fixtures.h"
 
+#include <cuefusion/common/exceptions.h>
 #include <cuefusion/evaluation/trajectory_error.h>
 #include <cuefusion/simulation/synthetic_sequence.h>
 #include <cuefusion/reconstruction/dense_reconstruction.h>
@@ -222,6 +223,34 @@ TEST (DenseReconstruction, ReferencePosesModeFusesWithTheFramesPoses)
   const FrameReport report = fusion.process (*no_pose);
   EXPECT_FALSE (report.tracked);
   EXPECT_EQ (report.failure, "no reference pose");
+}
+
+TEST (DenseReconstruction, TheTruncationIsSetOnlyWhileNothingIsFused)
+{
+  // The volume keeps its distances in truncation units: a new truncation applies to an empty
+  // volume (FusionPipeline's follows the noise measured on the first frame) and is refused
+  // once a frame is fused; a value out of range is an error naming the field.
+  const simulation::SyntheticSequence sequence = tabletopSequence (2, false);
+  DenseReconstruction fusion;
+  fusion.volume ().setRecordObservedSurface (true);
+  EXPECT_THROW (fusion.setTruncation (0.5), ParameterError);
+  ASSERT_TRUE (fusion.setTruncation (7.5));
+  EXPECT_EQ (fusion.volume ().getConfig ().truncation_voxels, 7.5);
+  EXPECT_EQ (fusion.getConfig ().volume.truncation_voxels, 7.5);
+  EXPECT_TRUE (fusion.volume ().getRecordObservedSurface ());
+  const FrameReport report = fusion.process (*sequence.frame (0));
+  ASSERT_TRUE (report.tracked);
+  // The band the frame reached is 7.5 voxels deep: voxels 6 voxels and more from the surface
+  // along their pixel's ray, as the default 4 would not reach.
+  const double voxel = fusion.volume ().getConfig ().voxel_size;
+  double deepest = 0.0;
+  for (const std::vector<SurfaceObservation>& part : fusion.volume ().lastObservedSurface ())
+    for (const SurfaceObservation& o : part)
+      deepest = std::max (deepest, static_cast<double> (o.gap));
+  EXPECT_GT (deepest, 6.0 * voxel);
+  EXPECT_LT (deepest, 7.5 * voxel);
+  EXPECT_FALSE (fusion.setTruncation (4.0));
+  EXPECT_EQ (fusion.volume ().getConfig ().truncation_voxels, 7.5);
 }
 
 TEST (TrajectoryError, AlignsARigidlyMovedCopyExactly)

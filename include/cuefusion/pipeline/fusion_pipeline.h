@@ -212,6 +212,12 @@ private:
   void applyNoiseScale (float scale);
   float noise_scale_ = 1.f;
   std::vector<float> noise_ratios_;  ///< the frames' measured ratios so far
+  /** The label update (config_.update with its band in the configured truncation's metres:
+    * the volume's truncation follows the noise, the band of voxels a frame's labels reach
+    * does not — measured on generated rooms through the RealSense-like sensor, a band of
+    * the noise-scaled truncation joined books on shelves and thin objects to what lies
+    * behind them). */
+  segmentation::VoxelLabelUpdateConfig update_;
   static constexpr std::size_t kViewSettleFrames = 30;
   std::size_t processed_ = 0;  ///< frames given to process()
   mutable std::size_t settled_at_ = static_cast<std::size_t> (-1);

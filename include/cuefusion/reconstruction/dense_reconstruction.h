@@ -136,6 +136,13 @@ public:
     * gate follows the measured depth noise (ProjectiveICPConfig::noise_scale).
     */
   void setTrackingConfig (const CameraTrackerConfig& config);
+  /** \brief The volume's truncation (TSDFVolumeConfig::truncation_voxels) from the next
+    * frame on, while nothing is fused yet: the volume keeps its distances in truncation
+    * units, so once a frame is fused (or a volume continued) it keeps its own and this
+    * returns false. FusionPipeline's truncation follows the depth noise measured on the
+    * first frame. Throws ParameterError (nothing changed) for a value out of range.
+    */
+  bool setTruncation (double truncation_voxels);
 
   FrameReport
   process (const RGBDFrame& frame);

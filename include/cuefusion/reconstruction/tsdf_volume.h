@@ -29,7 +29,11 @@ namespace reconstruction
 struct TSDFVolumeConfig
 {
   double voxel_size = 0.01;          ///< metres
-  double truncation_voxels = 4.0;    ///< truncation distance τ in voxels
+  /** Truncation distance τ in voxels. FusionPipeline multiplies it by the measured depth
+    * noise over the Kinect model's when above 1 (a sensor whose noise reaches τ leaves a
+    * single frame's zero crossing ragged and its raycast full of holes). */
+  double truncation_voxels = 4.0;
+  static constexpr double kMaxTruncationVoxels = 64.0;  ///< truncation_voxels' upper bound
   float max_weight = 100.f;          ///< w_max of §4.1.4
   double min_depth = kMinDepth;      ///< depth measurements outside [min, max] are not fused
   double max_depth = kMaxDepth;

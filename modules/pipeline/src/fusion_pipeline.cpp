@@ -79,6 +79,9 @@ reconstructionConfig (const FusionPipelineConfig& config, float noise_scale)
 {
   reconstruction::DenseReconstructionConfig out = config.reconstruction;
   out.tracking.icp.noise_scale *= noise_scale;  // the normal gate follows the noise
+  // and so does the truncation (set while nothing is fused: DenseReconstruction::setTruncation)
+  out.volume.truncation_voxels =
+      std::min (reconstruction::TSDFVolumeConfig::kMaxTruncationVoxels, out.volume.truncation_voxels * std::max (1.f, noise_scale));
   if (sharesSmoothing (config))
     out.preprocessing.bilateral = config.geometry.noiseScaled (noise_scale).preprocessing.bilateral;
   if (sharesNormals (config))
@@ -97,6 +100,7 @@ FusionPipeline::FusionPipeline (const FusionPipelineConfig& config)
   , instance_merge_ (config.instance_merge)
   , propagation_ (config.propagation)
   , map_ (config.merging)
+  , update_ (config.update)
 {
   config_.validate ();
   // Until the noise is measured (or as configured), the thresholds' own scale.
@@ -134,6 +138,7 @@ FusionPipeline::continueFrom (reconstruction::TSDFVolume volume, segmentation::V
       }
   *labels_ = std::move (labels);  // keeps labelValues ()'s address
   reconstruction_.continueFrom (std::move (volume), std::move (keyframes));
+  update_ = config_.update;  // the loaded volume keeps its truncation, the band its share of it
   settled_at_ = static_cast<std::size_t> (-1);
 }
 
@@ -157,6 +162,12 @@ FusionPipeline::applyNoiseScale (float scale)
   const reconstruction::DenseReconstructionConfig reconstruction = reconstructionConfig (config_, scale);
   reconstruction_.setPreprocessingConfig (reconstruction.preprocessing);
   reconstruction_.setTrackingConfig (reconstruction.tracking);
+  if (reconstruction_.setTruncation (reconstruction.volume.truncation_voxels))
+  {
+    update_ = config_.update;
+    update_.band = static_cast<float> (update_.band * config_.reconstruction.volume.truncation_voxels /
+                                       reconstruction.volume.truncation_voxels);
+  }
   segmentation::GeometricSegmentationConfig geometry = config_.geometry;
   geometry.noise_scale = scale;
   geometry_.setConfig (geometry);
@@ -283,7 +294,7 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   report.segmentation.merging_ms = watch.getTime ();
   watch.reset ();
   report.voxel_writes =
-      segmentation::updateVoxelLabels (reconstruction_.volume (), *labels_, propagated.labels, map_, config_.update);
+      segmentation::updateVoxelLabels (reconstruction_.volume (), *labels_, propagated.labels, map_, update_);
   report.segmentation.update_ms = watch.getTime ();
   report.loop_ms = loop.getTime ();
   return report;

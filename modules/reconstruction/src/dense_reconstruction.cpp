@@ -77,6 +77,21 @@ DenseReconstruction::setTrackingConfig (const CameraTrackerConfig& config)
   tracker_ = CameraTracker (config);
 }
 
+bool
+DenseReconstruction::setTruncation (double truncation_voxels)
+{
+  TSDFVolumeConfig next = volume_.getConfig ();
+  next.truncation_voxels = truncation_voxels;
+  next.validate ();
+  if (volume_.blockCount () > 0)
+    return false;
+  const bool record = volume_.getRecordObservedSurface ();
+  volume_ = TSDFVolume (next);
+  volume_.setRecordObservedSurface (record);
+  config_.volume = next;
+  return true;
+}
+
 void
 DenseReconstruction::reset ()
 {

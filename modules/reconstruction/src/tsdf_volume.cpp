@@ -53,7 +53,7 @@ TSDFVolumeConfig::validate () const
 {
   if (!(voxel_size > 0.0005 && voxel_size <= 1.0))
     throw ParameterError ("TSDFVolumeConfig::voxel_size", "must lie in (0.0005, 1] metres");
-  if (!(truncation_voxels >= 1.0 && truncation_voxels <= 64.0))
+  if (!(truncation_voxels >= 1.0 && truncation_voxels <= kMaxTruncationVoxels))
     throw ParameterError ("TSDFVolumeConfig::truncation_voxels", "must lie in [1, 64] voxels");
   if (!(max_weight >= 1.f && max_weight <= 1e6f))
     throw ParameterError ("TSDFVolumeConfig::max_weight", "must lie in [1, 1e6]");
