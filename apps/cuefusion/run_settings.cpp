@@ -55,7 +55,7 @@ addRunOptions (po::options_description& options, RunSettings& s)
     ("format", po::value (&s.format)->default_value (s.format), "auto, tum, redwood, 7scenes, scannet, openni2")
     ("intrinsics", po::value (&s.intrinsics), "intrinsics file overriding the sequence's own")
     (boundOption ("TSDFVolumeConfig::voxel_size"), po::value (&r.volume.voxel_size)->default_value (r.volume.voxel_size), "TSDF voxel size in metres")
-    (boundOption ("TSDFVolumeConfig::truncation_voxels"), po::value (&r.volume.truncation_voxels)->default_value (r.volume.truncation_voxels), "TSDF truncation distance in voxels")
+    (boundOption ("TSDFVolumeConfig::truncation_voxels"), po::value (&r.volume.truncation_voxels)->default_value (r.volume.truncation_voxels), "TSDF truncation distance in voxels (times the depth noise scale when above 1: see --noise-scale)")
     (boundOption ("TSDFVolumeConfig::max_depth"), po::value<double> ()->notifier ([&r] (double d) { r.volume.max_depth = r.preprocessing.max_depth = d; }),
      withDefault ("ignore depth beyond this (metres)", r.volume.max_depth).c_str ())
     ("use-gt-poses", setsWhenGiven (r.use_reference_poses, true), "integrate with the sequence's own poses instead of tracking")
