@@ -70,9 +70,11 @@ struct FusionPipelineConfig
     * threshold written in sensor-noise units from then on: the smoothing's range σ shared
     * with tracking, the concavity's noise slopes and wide test's span, the depth-edge
     * factor (GeometricSegmentationConfig::noiseScaled), tracking's normal gate
-    * (reconstruction::ProjectiveICPConfig::noise_scale) and the propagation's distance
-    * test (SegmentPropagationConfig::noise_factor). Until the first measurement the scale
-    * is 1.
+    * (reconstruction::ProjectiveICPConfig::noise_scale), the propagation's distance
+    * test (SegmentPropagationConfig::noise_factor) and the TSDF truncation, which is set
+    * once, before the first frame is fused (reconstruction::DenseReconstruction::
+    * setTruncation; the label update's band keeps its width in metres). Until the first
+    * measurement the scale is 1.
     */
   int noise_estimation_frames = 10;
   void validate () const;
