@@ -138,6 +138,8 @@ runSynthViews (const std::vector<std::string>& args)
      "share of the multi-part objects drawn as figures (a soft toy: body, head, arms, ears, legs)")
     (boundOption ("RandomSceneConfig::aligned_probability"), po::value (&config.aligned_probability)->default_value (config.aligned_probability),
      "share of the boxes placed flush against a box that are lined up with it (one side face in one plane)")
+    (boundOption ("RandomSceneConfig::room_probability"), po::value (&config.room_probability)->default_value (config.room_probability),
+     "share of the scenes drawn as a random kitchen, office or living room seen from its camera path (objects up to twice the largest table-top object)")
     (boundOption ("RandomSceneConfig::table_probability"), po::value (&config.table_probability)->default_value (config.table_probability),
      "probability that the objects stand on a table (else on the floor)")
     ("overwrite", "replace OUT if it exists");

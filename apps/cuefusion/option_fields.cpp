@@ -49,6 +49,7 @@ const OptionField kOptionFields[] = {
   {"RandomSceneConfig::multipart_probability", "multipart"},
   {"RandomSceneConfig::figure_probability", "figures"},
   {"RandomSceneConfig::aligned_probability", "aligned"},
+  {"RandomSceneConfig::room_probability", "rooms"},
   {"RandomSceneConfig::table_probability", "table"},
   {"RandomSceneConfig::views_per_scene", "views-per-scene"},
   {"DetectorErrorConfig::merge_probability", "mask-merge"},

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <random>
 
 
 using namespace cuefusion;
@@ -247,4 +248,71 @@ TEST (RandomSceneGenerator, AlignedFlushBoxesShareASideFace)
   EXPECT_LT (aligned, unaligned_pairs / 2);
   config.aligned_probability = 2.0;
   test::expectError ([&] { simulation::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::aligned_probability", "[0, 1]");
+}
+
+TEST (RandomSceneGenerator, RoomViewsSeeTheRoomsSmallObjectsAndNotItsFurniture)
+{
+  // A generator seed drawn at random (the draw itself seeded, so a failure reproduces).
+  const std::uint64_t seed = std::mt19937 (20261130) ();
+  SCOPED_TRACE ("seed " + std::to_string (seed));
+  simulation::RandomSceneConfig config;
+  config.room_probability = 1.0;
+  const simulation::RandomSceneGenerator rooms (config, seed);
+  const double largest = 2 * config.max_size;
+  int views_with_objects = 0, views_with_furniture = 0;
+  for (std::size_t i = 0; i < 6; ++i)
+  {
+    const simulation::SyntheticScene scene = rooms.scene (i);
+    ASSERT_GE (scene.path.waypoints.size (), 2u);  // a room and its camera path
+    const simulation::RandomView view = rooms.view (i * config.views_per_scene + i % 4, 160, 120);
+    // Seen from inside the room at standing distances: depth nearly everywhere, 0.5–6 m.
+    std::vector<float> depth;
+    for (int v = 0; v < view.view.depth.rows; ++v)
+      for (int u = 0; u < view.view.depth.cols; ++u)
+        if (view.view.depth.at<float> (v, u) > 0.f)
+          depth.push_back (view.view.depth.at<float> (v, u));
+    ASSERT_GT (depth.size (), 0.8 * view.view.depth.total ());
+    std::nth_element (depth.begin (), depth.begin () + depth.size () / 2, depth.end ());
+    EXPECT_GT (depth[depth.size () / 2], 0.5f);
+    EXPECT_LT (depth[depth.size () / 2], 6.f);
+    // Objects are exactly the detectable instances no larger than twice max_size.
+    bool furniture = false, object = false;
+    for (int v = 0; v < view.objects.rows; ++v)
+      for (int u = 0; u < view.objects.cols; ++u)
+      {
+        const std::uint16_t id = view.view.instance.at<std::uint16_t> (v, u), kept = view.objects.at<std::uint16_t> (v, u);
+        const simulation::SceneObject* o = scene.objectById (id);
+        ASSERT_TRUE (o);
+        const bool small = o->detectable && o->bounds ().sizes ().maxCoeff () <= largest;
+        EXPECT_EQ (kept, small ? id : 0) << o->name;
+        furniture = furniture || (o->detectable && !small);
+        object = object || small;
+      }
+    views_with_objects += object ? 1 : 0;
+    views_with_furniture += furniture ? 1 : 0;
+  }
+  // The path looks at furniture, which carries the objects.
+  EXPECT_GE (views_with_furniture, 5);
+  EXPECT_GE (views_with_objects, 4);
+
+  // A share of rooms leaves every other scene as it was: a table-top scene of the mixed
+  // generator is the scene (and views) of the generator without rooms.
+  config.room_probability = 0.5;
+  const simulation::RandomSceneGenerator mixed (config, seed), tabletops (simulation::RandomSceneConfig (), seed);
+  int room_scenes = 0;
+  for (std::size_t i = 0; i < 16; ++i)
+  {
+    const simulation::SyntheticScene scene = mixed.scene (i);
+    if (scene.path.waypoints.size () >= 2)
+    {
+      ++room_scenes;
+      continue;
+    }
+    EXPECT_EQ (scene.text (), tabletops.scene (i).text ());
+    EXPECT_EQ (cv::countNonZero (mixed.view (4 * i, 80, 60).view.depth != tabletops.view (4 * i, 80, 60).view.depth), 0);
+  }
+  EXPECT_GE (room_scenes, 3);
+  EXPECT_LE (room_scenes, 13);
+  config.room_probability = 1.5;
+  test::expectError ([&] { simulation::RandomSceneGenerator g (config, 1); }, "RandomSceneConfig::room_probability", "[0, 1]");
 }

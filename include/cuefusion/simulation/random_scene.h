@@ -29,6 +29,13 @@ struct RandomSceneConfig
     * side face of each in one plane (boxes in a row, products on a shelf), so depth shows
     * no step along that face. 0 (the default) draws no random number for it. */
   double aligned_probability = 0.0;
+  /** Share of the scenes drawn as a random room (generateRoom: a kitchen, office or living
+    * room, each as likely) seen from points of its hand-held camera path, 1–4 m from its
+    * furniture, instead of a table-top scene. In a room's views only the objects no larger
+    * than twice max_size (books, monitors, keyboards, the small objects on every surface)
+    * are objects; furniture, like the table of a table-top scene, is not. 0 (the default)
+    * draws no random number for it, so scenes of earlier versions render unchanged. */
+  double room_probability = 0.0;
   double min_size = 0.03;                ///< smallest object extent (m)
   double max_size = 0.28;                ///< largest object extent (m)
   double min_distance = 0.45;            ///< camera distance to the point it looks at (m)

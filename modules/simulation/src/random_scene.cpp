@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/file_io.h>
+#include <cuefusion/simulation/random_room.h>
 #include <cuefusion/simulation/random_scene.h>
 
 #include "scene_shapes.h"
@@ -44,7 +45,7 @@ RandomSceneConfig::validate () const
        {std::make_pair (table_probability, "table_probability"), std::make_pair (touching_probability, "touching_probability"),
         std::make_pair (stacking_probability, "stacking_probability"),
         std::make_pair (multipart_probability, "multipart_probability"), std::make_pair (figure_probability, "figure_probability"),
-        std::make_pair (aligned_probability, "aligned_probability"),
+        std::make_pair (aligned_probability, "aligned_probability"), std::make_pair (room_probability, "room_probability"),
         std::make_pair (focal_jitter, "focal_jitter")})
     if (!(value >= 0.0 && value <= 1.0))
       throw ParameterError (std::string ("RandomSceneConfig::") + name, "must lie in [0, 1]");
@@ -69,6 +70,29 @@ RandomSceneGenerator::RandomSceneGenerator (const RandomSceneConfig& config, std
 SyntheticScene
 RandomSceneGenerator::scene (std::size_t index) const
 {
+  if (config_.room_probability > 0.0)
+  {
+    Rng pick (mixSeed (seed_ ^ 0x400dULL, index));
+    if (chance (pick, config_.room_probability))
+    {
+      RoomConfig room;
+      room.type = static_cast<RoomType> (std::uniform_int_distribution<int> (0, 2) (pick));
+      // A draw may find no camera path through its furniture (generateRoom says so): the
+      // next draw of the same stream is taken, so the scene still depends on (seed, index) alone.
+      for (std::uint64_t attempt = 0;; ++attempt)
+        try
+        {
+          SyntheticScene scene = generateRoom (room, mixSeed (seed_ ^ 0x5400dULL, 64 * static_cast<std::uint64_t> (index) + attempt));
+          scene.name = "room-" + std::to_string (index);
+          return scene;
+        }
+        catch (const Error&)
+        {
+          if (attempt == 63)
+            throw;
+        }
+    }
+  }
   Rng rng (mixSeed (seed_, 2 * static_cast<std::uint64_t> (index)));
   const RandomSceneConfig& c = config_;
   SyntheticScene scene;
@@ -222,8 +246,6 @@ RandomSceneGenerator::view (std::size_t index, int width, int height) const
 
   RandomView out;
   out.scene_index = scene_index;
-  for (const SceneObject& o : scene.objects)
-    out.object_count += o.detectable ? 1 : 0;
   PinholeCamera& camera = out.camera;
   camera.width = width;
   camera.height = height;
@@ -232,9 +254,18 @@ RandomSceneGenerator::view (std::size_t index, int width, int height) const
   camera.cx = (width - 1) / 2.0 + uniform (rng, -0.03, 0.03) * width;
   camera.cy = (height - 1) / 2.0 + uniform (rng, -0.03, 0.03) * height;
 
-  // A pose above the support looking near the objects, with a clear line of sight to
+  const bool room = scene.path.waypoints.size () >= 2;
+  // In a room: a point of its hand-held path (clear of the furniture), turned a little.
+  // Else a pose above the support looking near the objects, with a clear line of sight to
   // the point looked at (not behind a wall or inside an object).
-  for (int attempt = 0; attempt < 20; ++attempt)
+  if (room)
+  {
+    out.pose = scene.cameraPoseAt (uniform (rng, 0, 1));
+    out.pose.linear () = out.pose.linear () * Eigen::AngleAxisd (uniform (rng, -15, 15) * kDeg, Eigen::Vector3d::UnitY ()) *
+                         Eigen::AngleAxisd (uniform (rng, -10, 10) * kDeg, Eigen::Vector3d::UnitX ()) *
+                         Eigen::AngleAxisd (uniform (rng, -10, 10) * kDeg, Eigen::Vector3d::UnitZ ());
+  }
+  for (int attempt = 0; attempt < (room ? 0 : 20); ++attempt)
   {
     const Eigen::Vector3d target = scene.trajectory.target +
                                    Eigen::Vector3d (uniform (rng, -0.15, 0.15), uniform (rng, -0.15, 0.15), uniform (rng, -0.05, 0.1));
@@ -257,14 +288,20 @@ RandomSceneGenerator::view (std::size_t index, int width, int height) const
   noise.dropout_start_deg = uniform (rng, 60, 75);
   noise.max_incidence_deg = noise.dropout_start_deg + uniform (rng, 8, 14);
   out.view = renderer.render (camera, out.pose, noise, mixSeed (seed_ ^ 0x5eedULL, index));
+  // Objects are what a detector reports; in a room only those of a table-top object's
+  // sizes (furniture is to the network what a table is).
+  std::vector<bool> object (scene.objects.size ());
+  for (std::size_t i = 0; i < scene.objects.size (); ++i)
+    object[i] = scene.objects[i].detectable && (!room || scene.objects[i].bounds ().sizes ().maxCoeff () <= 2 * c.max_size);
   out.objects = out.view.instance.clone ();
   for (int v = 0; v < out.objects.rows; ++v)
     for (int u = 0; u < out.objects.cols; ++u)
     {
       std::uint16_t& id = out.objects.at<std::uint16_t> (v, u);
-      if (id && !scene.objects[id - 1u].detectable)
+      if (id && !object[id - 1u])
         id = 0;
     }
+  out.object_count = static_cast<int> (std::count (object.begin (), object.end (), true));
   return out;
 }
 
@@ -283,6 +320,7 @@ generatorJson (const RandomSceneGenerator& generator)
           {"multipart_probability", c.multipart_probability},
           {"figure_probability", c.figure_probability},
           {"aligned_probability", c.aligned_probability},
+          {"room_probability", c.room_probability},
           {"min_size", c.min_size},
           {"max_size", c.max_size},
           {"min_distance", c.min_distance},
