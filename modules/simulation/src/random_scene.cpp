@@ -34,6 +34,27 @@ struct Placed
   Shape shape;
   bool carries = false;  // something stands on it
 };
+/** Scene \a index as a random room (kitchen, office or living room, drawn from \a pick).
+  * A draw may find no camera path through its furniture (generateRoom says so): the next
+  * draw of the same stream is taken, so the scene still depends on (seed, index) alone. */
+SyntheticScene
+randomRoom (Rng& pick, std::uint64_t seed, std::size_t index)
+{
+  RoomConfig room;
+  room.type = static_cast<RoomType> (std::uniform_int_distribution<int> (0, 2) (pick));
+  for (std::uint64_t attempt = 0;; ++attempt)
+    try
+    {
+      SyntheticScene scene = generateRoom (room, mixSeed (seed ^ 0x5400dULL, 64 * static_cast<std::uint64_t> (index) + attempt));
+      scene.name = "room-" + std::to_string (index);
+      return scene;
+    }
+    catch (const Error&)
+    {
+      if (attempt == 63)
+        throw;
+    }
+}
 }  // namespace
 
 void
@@ -74,24 +95,7 @@ RandomSceneGenerator::scene (std::size_t index) const
   {
     Rng pick (mixSeed (seed_ ^ 0x400dULL, index));
     if (chance (pick, config_.room_probability))
-    {
-      RoomConfig room;
-      room.type = static_cast<RoomType> (std::uniform_int_distribution<int> (0, 2) (pick));
-      // A draw may find no camera path through its furniture (generateRoom says so): the
-      // next draw of the same stream is taken, so the scene still depends on (seed, index) alone.
-      for (std::uint64_t attempt = 0;; ++attempt)
-        try
-        {
-          SyntheticScene scene = generateRoom (room, mixSeed (seed_ ^ 0x5400dULL, 64 * static_cast<std::uint64_t> (index) + attempt));
-          scene.name = "room-" + std::to_string (index);
-          return scene;
-        }
-        catch (const Error&)
-        {
-          if (attempt == 63)
-            throw;
-        }
-    }
+      return randomRoom (pick, seed_, index);
   }
   Rng rng (mixSeed (seed_, 2 * static_cast<std::uint64_t> (index)));
   const RandomSceneConfig& c = config_;
