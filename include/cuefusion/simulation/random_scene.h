@@ -56,7 +56,7 @@ struct RandomView
   RenderedView view;            ///< instance holds every object id, stuff included
   cv::Mat objects;              ///< CV_16U: the instance image with stuff (detectable=no) set to 0
   std::size_t scene_index = 0;
-  int object_count = 0;         ///< detectable objects in the scene
+  int object_count = 0;         ///< objects of the scene that `objects` keeps (detectable; in a room no larger than twice max_size)
 };
 
 /** \brief Draws randomized table-top and floor scenes (boxes, cylinders, spheres and
