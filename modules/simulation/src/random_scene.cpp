@@ -269,24 +269,25 @@ RandomSceneGenerator::view (std::size_t index, int width, int height) const
                          Eigen::AngleAxisd (uniform (rng, -10, 10) * kDeg, Eigen::Vector3d::UnitX ()) *
                          Eigen::AngleAxisd (uniform (rng, -10, 10) * kDeg, Eigen::Vector3d::UnitZ ());
   }
-  for (int attempt = 0; attempt < (room ? 0 : 20); ++attempt)
-  {
-    const Eigen::Vector3d target = scene.trajectory.target +
-                                   Eigen::Vector3d (uniform (rng, -0.15, 0.15), uniform (rng, -0.15, 0.15), uniform (rng, -0.05, 0.1));
-    const double azimuth = uniform (rng, 0, 2 * kPi);
-    const double elevation = uniform (rng, c.min_elevation_deg, c.max_elevation_deg) * kDeg;
-    const double distance = uniform (rng, c.min_distance, c.max_distance);
-    const Eigen::Vector3d eye =
-      target + distance * Eigen::Vector3d (std::cos (elevation) * std::cos (azimuth), std::cos (elevation) * std::sin (azimuth),
-                                           std::sin (elevation));
-    out.pose = lookAt (eye, target);
-    out.pose.linear () = out.pose.linear () * Eigen::AngleAxisd (uniform (rng, -10, 10) * kDeg, Eigen::Vector3d::UnitZ ());
-    double t;
-    Eigen::Vector3d n;
-    const Eigen::Vector3d back = (eye - target).normalized ();
-    if (renderer.castRay (target + 0.02 * back, back, t, n) == 0 || t > distance)
-      break;
-  }
+  else
+    for (int attempt = 0; attempt < 20; ++attempt)
+    {
+      const Eigen::Vector3d target = scene.trajectory.target +
+                                     Eigen::Vector3d (uniform (rng, -0.15, 0.15), uniform (rng, -0.15, 0.15), uniform (rng, -0.05, 0.1));
+      const double azimuth = uniform (rng, 0, 2 * kPi);
+      const double elevation = uniform (rng, c.min_elevation_deg, c.max_elevation_deg) * kDeg;
+      const double distance = uniform (rng, c.min_distance, c.max_distance);
+      const Eigen::Vector3d eye =
+        target + distance * Eigen::Vector3d (std::cos (elevation) * std::cos (azimuth), std::cos (elevation) * std::sin (azimuth),
+                                             std::sin (elevation));
+      out.pose = lookAt (eye, target);
+      out.pose.linear () = out.pose.linear () * Eigen::AngleAxisd (uniform (rng, -10, 10) * kDeg, Eigen::Vector3d::UnitZ ());
+      double t;
+      Eigen::Vector3d n;
+      const Eigen::Vector3d back = (eye - target).normalized ();
+      if (renderer.castRay (target + 0.02 * back, back, t, n) == 0 || t > distance)
+        break;
+    }
   DepthNoiseConfig noise;
   noise.enabled = true;
   noise.dropout_start_deg = uniform (rng, 60, 75);
