@@ -95,6 +95,7 @@ struct RunSettings
   std::string render_dir, video_path, screenshot;
   std::string load_volume;  ///< a volume.tsdf to continue (its .keyframes beside it)
   bool view = false, async_masks = false;
+  long long masks_every = 1;  ///< --masks-every: the mask source on every N-th frame (recognition::PeriodicSegmenter)
   bool sequential = false;  ///< --sequential: no reading or masking ahead of the loop
   bool export_objects = false;  ///< objects/ID.ply: each object's part of the mesh
   std::string colors;           ///< --colors: "segments" or "surface" for map.pcd and mesh.ply; "" = each its own

@@ -22,6 +22,7 @@
 #include <cuefusion/segmentation/segments_file.h>
 #include <cuefusion/recognition/asynchronous_segmenter.h>
 #include <cuefusion/recognition/frame_prefetcher.h>
+#include <cuefusion/recognition/periodic_segmenter.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
 #include <cuefusion/visualization/frame_view.h>
@@ -217,11 +218,14 @@ private:
 std::shared_ptr<recognition::InstanceSegmenter>
 makeMaskSource (const RunSettings& s)
 {
+  recognition::InstanceSegmenter::Ptr source;
   if (!s.masks.empty ())
-    return std::make_shared<recognition::MaskFolderSegmenter> (s.masks);
-  if (!s.onnx.model_path.empty ())
-    return std::make_shared<recognition::OnnxInstanceSegmenter> (s.onnx);
-  return nullptr;
+    source = std::make_shared<recognition::MaskFolderSegmenter> (s.masks);
+  else if (!s.onnx.model_path.empty ())
+    source = std::make_shared<recognition::OnnxInstanceSegmenter> (s.onnx);
+  if (source && s.masks_every > 1)
+    source = std::make_shared<recognition::PeriodicSegmenter> (source, static_cast<std::size_t> (s.masks_every));
+  return source;
 }
 
 /** --out, once the settings are known to suit the sequence (\a dataset: null for a camera). */

@@ -22,6 +22,7 @@ struct OptionField
   * which settings files use. */
 const OptionField kOptionFields[] = {
   {"InstanceGuidedRegionMergeConfig::min_overlap", "min-overlap"},
+  {"PeriodicSegmenter::period", "masks-every"},
   {"InstanceGuidedRegionMergeConfig::color_split_distance", "color-split"},
   {"ConcavityEdgeEstimationConfig::noise_slope", "concavity-noise-slope"},
   {"ConcavityEdgeEstimationConfig::threshold", "concavity-threshold"},

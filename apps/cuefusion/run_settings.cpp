@@ -7,6 +7,7 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/io/sequence.h>
 #include <cuefusion/pipeline/settings.h>
+#include <cuefusion/recognition/periodic_segmenter.h>
 #include <cuefusion/recognition/settings.h>
 
 #include <boost/filesystem.hpp>
@@ -81,6 +82,8 @@ addRunOptions (po::options_description& options, RunSettings& s)
     (boundOption ("OnnxInstanceSegmenterConfig::score_threshold"), po::value (&s.onnx.score_threshold)->default_value (s.onnx.score_threshold), "--model detections below are dropped")
     (boundOption ("OnnxInstanceSegmenterConfig::boundary_threshold"), po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
      "--model of the xyz layout: instances are cut where the boundary probability reaches this")
+    (boundOption ("PeriodicSegmenter::period"), po::value (&s.masks_every)->default_value (s.masks_every),
+     "run the mask source on every N-th frame only; the frames between use the masks of the last frame it ran on (as a live camera does, but repeatable; 1 = every frame)")
     ("async-masks", po::bool_switch (&s.async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
     ("sequential", po::bool_switch (&s.sequential), "a recorded sequence: read, mask and process each frame in turn instead of reading and masking the next frames while the loop runs (the same outputs; slower, for profiling)")
     ("save-every", po::value (&s.save_every)->default_value (s.save_every), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")
@@ -103,6 +106,10 @@ checkRunSettings (const RunSettings& s)
     throw ParameterError ("--frames", "must not be negative (0 = all frames), got " + std::to_string (s.frames));
   if (s.save_every < 0)
     throw ParameterError ("--save-every", "must not be negative (0 = never), got " + std::to_string (s.save_every));
+  if (s.masks_every < 1 || s.masks_every > static_cast<long long> (recognition::PeriodicSegmenter::kMaxPeriod))
+    throw ParameterError ("--masks-every", "must lie in [1, 1000] frames, got " + std::to_string (s.masks_every));
+  if (s.masks_every > 1 && s.masks.empty () && s.onnx.model_path.empty ())
+    throw UsageError ("--masks-every needs --masks or --model");
   if (!s.screenshot.empty () && !s.view)
     throw UsageError ("--view-screenshot needs --view");
   if (!s.load_volume.empty () && !s.save_volume)  // the new set, without a volume, would remove the loaded one
