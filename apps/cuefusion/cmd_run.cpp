@@ -22,9 +22,9 @@
 #include <cuefusion/segmentation/segments_file.h>
 #include <cuefusion/recognition/asynchronous_segmenter.h>
 #include <cuefusion/recognition/frame_prefetcher.h>
-#include <cuefusion/recognition/periodic_segmenter.h>
 #include <cuefusion/recognition/mask_folder_segmenter.h>
 #include <cuefusion/recognition/onnx_instance_segmenter.h>
+#include <cuefusion/recognition/periodic_segmenter.h>
 #include <cuefusion/visualization/frame_view.h>
 
 #include <boost/filesystem.hpp>

@@ -106,8 +106,7 @@ checkRunSettings (const RunSettings& s)
     throw ParameterError ("--frames", "must not be negative (0 = all frames), got " + std::to_string (s.frames));
   if (s.save_every < 0)
     throw ParameterError ("--save-every", "must not be negative (0 = never), got " + std::to_string (s.save_every));
-  if (s.masks_every < 1 || s.masks_every > static_cast<long long> (recognition::PeriodicSegmenter::kMaxPeriod))
-    throw ParameterError ("--masks-every", "must lie in [1, 1000] frames, got " + std::to_string (s.masks_every));
+  recognition::PeriodicSegmenter::checkPeriod (s.masks_every);  // named by its field, as the library's checks below
   if (s.masks_every > 1 && s.masks.empty () && s.onnx.model_path.empty ())
     throw UsageError ("--masks-every needs --masks or --model");
   if (!s.screenshot.empty () && !s.view)

@@ -46,6 +46,9 @@ public:
   std::size_t framesSegmented () const { return runs_; }
 
   static constexpr std::size_t kMaxPeriod = 1000;
+  /** \brief Throws ParameterError ("PeriodicSegmenter::period") unless \a period lies in
+    * [1, kMaxPeriod] (signed: what a user typed, before it is a size). */
+  static void checkPeriod (long long period);
 
 private:
   InstanceSegmenter::Ptr inner_;

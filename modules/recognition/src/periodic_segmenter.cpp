@@ -2,6 +2,8 @@
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/recognition/periodic_segmenter.h>
 
+#include <string>
+
 namespace cuefusion
 {
 namespace recognition
@@ -11,8 +13,15 @@ PeriodicSegmenter::PeriodicSegmenter (InstanceSegmenter::Ptr inner, std::size_t 
 {
   if (!inner_)
     throw ParameterError ("PeriodicSegmenter", "needs a mask source");
-  if (period_ < 1 || period_ > kMaxPeriod)
-    throw ParameterError ("PeriodicSegmenter::period", "must lie in [1, 1000] frames");
+  checkPeriod (period_ > kMaxPeriod ? static_cast<long long> (kMaxPeriod) + 1 : static_cast<long long> (period_));
+}
+
+void
+PeriodicSegmenter::checkPeriod (long long period)
+{
+  if (period < 1 || period > static_cast<long long> (kMaxPeriod))
+    throw ParameterError ("PeriodicSegmenter::period",
+                          "must lie in [1, " + std::to_string (kMaxPeriod) + "] frames, got " + std::to_string (period));
 }
 
 bool
