@@ -173,7 +173,8 @@ private:
   /** Whether frames get masks: a mask source, and a mode that uses them. */
   bool usesMasks () const { return mask_source_ && pipeline_config_.mode != pipeline::SegmentationMode::Geometry; }
   /** The frame's masks from the mask source (or \a masks_ahead's); false when it has none. */
-  bool masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, recognition::PreparedFrame* masks_ahead);
+  bool masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, recognition::PreparedFrame* masks_ahead,
+                 std::optional<std::size_t>& masks_frame);
   /** labels/INDEX.png, --render's PNG and --video's frame of a segmented frame. */
   void writeFrameViews (const RGBDFrame& frame);
   void postToViewer (const RGBDFrame& frame, const reconstruction::FrameReport& report);
@@ -290,7 +291,8 @@ RunSession::RunSession (const RunSettings& s, const po::variables_map& vm)
 }
 
 bool
-RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, recognition::PreparedFrame* masks_ahead)
+RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, recognition::PreparedFrame* masks_ahead,
+                      std::optional<std::size_t>& masks_frame)
 {
   if (!usesMasks ())
     return false;
@@ -303,6 +305,7 @@ RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, 
       std::rethrow_exception (masks_ahead->mask_error);
     have_masks = masks_ahead->have_masks;
     instances = std::move (masks_ahead->instances);
+    masks_frame = masks_ahead->masks_frame;
   }
   else
   {
@@ -310,6 +313,7 @@ RunSession::masksFor (const RGBDFrame& frame, std::vector<Instance>& instances, 
     have_masks = mask_source_->segment (frame, instances);
     result_.masks_ms.push_back (std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count ());
     result_.masks_stages.push_back (mask_source_->lastTimings ());
+    masks_frame = mask_source_->lastResultFrame ();
   }
   if (!have_masks && result_.frames_without_masks++ == 0 && !asynchronous_masks_)
     std::cerr << "cuefusion run: no masks for frame " << frame.index << " (nor, maybe, for later frames): "
@@ -387,8 +391,9 @@ RunSession::processFrame (const RGBDFrame::ConstPtr& frame, std::optional<double
       return;
     }
     std::vector<Instance> instances;
-    const bool have_masks = masksFor (*frame, instances, masks_ahead);
-    const pipeline::PipelineFrameReport full = fusion_.process (*frame, have_masks ? &instances : nullptr);
+    std::optional<std::size_t> masks_frame;  // when the masks are an earlier frame's (async, --masks-every)
+    const bool have_masks = masksFor (*frame, instances, masks_ahead, masks_frame);
+    const pipeline::PipelineFrameReport full = fusion_.process (*frame, have_masks ? &instances : nullptr, masks_frame);
     reconstruction::FrameReport report = full.reconstruction;
     if (full.segmented)
     {

@@ -83,7 +83,7 @@ addRunOptions (po::options_description& options, RunSettings& s)
     (boundOption ("OnnxInstanceSegmenterConfig::boundary_threshold"), po::value (&s.onnx.boundary_threshold)->default_value (s.onnx.boundary_threshold),
      "--model of the xyz layout: instances are cut where the boundary probability reaches this")
     (boundOption ("PeriodicSegmenter::period"), po::value (&s.masks_every)->default_value (s.masks_every),
-     "run the mask source on every N-th frame only; the frames between use the masks of the last frame it ran on (as a live camera does, but repeatable; 1 = every frame)")
+     "run the mask source on every N-th frame only; the frames between use the masks of the last frame it ran on, carried by the camera's motion (as a live camera does, but repeatable; 1 = every frame)")
     ("async-masks", po::bool_switch (&s.async_masks), "run the mask source on its own thread and use its newest finished masks (always on for live cameras; offline runs are otherwise frame-exact)")
     ("sequential", po::bool_switch (&s.sequential), "a recorded sequence: read, mask and process each frame in turn instead of reading and masking the next frames while the loop runs (the same outputs; slower, for profiling)")
     ("save-every", po::value (&s.save_every)->default_value (s.save_every), "every K-th frame, write the map's segment ids seen from the camera to labels/INDEX.png (16-bit; 0 = never)")

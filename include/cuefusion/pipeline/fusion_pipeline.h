@@ -3,6 +3,7 @@
 
 #include <cuefusion/common/instance.h>
 #include <cuefusion/common/rgbd_frame.h>
+#include <cuefusion/pipeline/mask_carry.h>
 #include <cuefusion/reconstruction/dense_reconstruction.h>
 #include <cuefusion/segmentation/geometric_segmentation.h>
 #include <cuefusion/segmentation/global_segment_map.h>
@@ -15,6 +16,8 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <deque>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -126,6 +129,19 @@ public:
   /** \param[in] instances the frame's instance masks, nullptr when there are none */
   PipelineFrameReport process (const RGBDFrame& frame, const std::vector<Instance>* instances);
 
+  /** \brief The same, with \a instances computed on the frame of index \a masks_frame (a
+    * live camera's newest masks, `--masks-every`'s reused ones;
+    * InstanceSegmenter::lastResultFrame): when that is an earlier frame the pipeline was
+    * given this way and tracked, they are first carried into this frame by the camera's
+    * motion from that frame's pose to this one's expected pose (carryMasks,
+    * DenseReconstruction::expectedPose); else they are used as they are. Each tracked frame
+    * given this way is remembered (its depth, camera and pose; the last kRememberedViews). */
+  PipelineFrameReport process (const RGBDFrame& frame, const std::vector<Instance>* instances,
+                               std::optional<std::size_t> masks_frame);
+
+  /// Frames remembered for carrying masks: a live camera's masks are a few frames old.
+  static constexpr std::size_t kRememberedViews = 8;
+
   /** \brief Continues a saved map (before the first frame; cuefusion::Error after it):
     * the reconstruction continues \a volume and \a keyframes
     * (DenseReconstruction::continueFrom: the first frame is relocalised in it), and each
@@ -191,6 +207,7 @@ private:
   std::unique_ptr<segmentation::VoxelLabelLayer> labels_ = std::make_unique<segmentation::VoxelLabelLayer> ();
   segmentation::SurfacePlanes planes_;
   cv::Mat frame_labels_;
+  std::deque<std::pair<std::size_t, MaskView>> mask_views_;  ///< by frame index, oldest first (process with masks_frame)
   /** \brief The output label of \a label (GlobalSegmentMap::settledLabels). Exact for
     * the written outputs; for per-frame views (\a exact false) the table may be up to
     * kViewSettleFrames frames old (it scans the whole volume), and labels made since show

@@ -17,9 +17,9 @@ namespace recognition
 /** \brief Runs another InstanceSegmenter on its own thread, so segmentation never waits
   * for the network (thesis §6.1): each frame is handed to the worker — replacing a frame
   * still waiting there, since only the newest is worth running — and the call returns at
-  * once with the newest masks the worker has finished, computed on an earlier frame. The
-  * pipeline applies them to the current frame; the instance-guided merge tolerates the
-  * small shift (it needs 70 % of a segment under one mask).
+  * once with the newest masks the worker has finished, computed on an earlier frame
+  * (lastResultFrame says which; FusionPipeline carries them into the current frame by the
+  * camera's motion, carryMasks).
   *
   * Used for live cameras. Offline sequences keep the synchronous source, so a run is the
   * same every time.
@@ -39,7 +39,7 @@ public:
   std::string name () const override;
 
   /** \brief Index of the frame the masks last returned were computed on. */
-  std::optional<std::size_t> lastResultFrame () const;
+  std::optional<std::size_t> lastResultFrame () const override;
   /** \brief Frames the inner source has run on so far. */
   std::size_t framesSegmented () const;
   /** \brief Blocks until no frame is waiting or running (tests, end of a run). */

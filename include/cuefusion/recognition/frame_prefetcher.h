@@ -26,6 +26,7 @@ struct PreparedFrame
   double read_ms = 0.0;             ///< reading and decoding the frame's files
   double masks_ms = 0.0;            ///< the mask source (the network) on it
   SegmenterTimings masks_stages;    ///< its stages (InstanceSegmenter::lastTimings)
+  std::optional<std::size_t> masks_frame;  ///< the frame its masks were computed on (InstanceSegmenter::lastResultFrame)
 };
 
 struct FramePrefetcherConfig

@@ -4,7 +4,9 @@
 #include <cuefusion/common/instance.h>
 #include <cuefusion/common/rgbd_frame.h>
 
+#include <cstddef>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,6 +38,11 @@ public:
 
   /** \brief The stages of the last segment() call, on the thread that made it. */
   virtual SegmenterTimings lastTimings () const { return {}; }
+
+  /** \brief Index of the frame the masks of the last segment() call were computed on, for
+    * sources that hand out an earlier frame's masks (AsynchronousSegmenter,
+    * PeriodicSegmenter); none for those whose masks are always the frame's own. */
+  virtual std::optional<std::size_t> lastResultFrame () const { return std::nullopt; }
 };
 
 /** \brief Class names, one per line (blank lines and surrounding spaces dropped), e.g.

@@ -17,7 +17,8 @@ namespace recognition
   * segmentation on every frame, the network "only when possible").
   *
   * This is what a live camera gets from AsynchronousSegmenter — masks computed on an
-  * earlier frame, applied to the current one — on a fixed schedule instead of the
+  * earlier frame (lastResultFrame says which; FusionPipeline carries them into the current
+  * frame by the camera's motion) — on a fixed schedule instead of the
   * network's speed, so a recorded run costs a period-th of the network's work and still
   * repeats byte for byte (and reading ahead, FramePrefetcher, gives the same outputs as
   * --sequential). The schedule follows the frames' indices: the source runs on the first
@@ -41,7 +42,7 @@ public:
 
   std::size_t getPeriod () const { return period_; }
   /** \brief Index of the frame the masks last returned were computed on (none before the first call). */
-  std::optional<std::size_t> lastResultFrame () const { return last_run_; }
+  std::optional<std::size_t> lastResultFrame () const override { return last_run_; }
   /** \brief Frames the inner source has run on so far. */
   std::size_t framesSegmented () const { return runs_; }
 

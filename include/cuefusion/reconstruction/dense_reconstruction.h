@@ -186,6 +186,10 @@ public:
 
   bool initialized () const { return initialized_; }
   const Eigen::Isometry3d& lastGoodPose () const { return last_good_pose_; }
+  /** \brief Where \a frame is expected before it is tracked: its reference pose when those
+    * are used, else the motion model's prediction (predictedPose), else the last good pose
+    * once a frame was placed; none before. */
+  std::optional<Eigen::Isometry3d> expectedPose (const RGBDFrame& frame) const;
 
   /** \brief The relocalisation keyframes stored so far. */
   const KeyframeDatabase& keyframes () const { return keyframes_; }

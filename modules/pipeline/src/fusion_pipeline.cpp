@@ -251,6 +251,30 @@ FusionPipeline::segmentFrame (const RGBDFrame& frame, const std::vector<Instance
 }
 
 PipelineFrameReport
+FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* instances, std::optional<std::size_t> masks_frame)
+{
+  if (!masks_frame)
+    return process (frame, instances);
+  // Masks of an earlier frame: carried into this one by the motion between the two.
+  std::vector<Instance> carried;
+  // The newest view of that index (a source that starts a sequence again repeats indices).
+  const auto from = std::find_if (mask_views_.rbegin (), mask_views_.rend (), [&] (const auto& seen) { return seen.first == *masks_frame; });
+  const std::optional<Eigen::Isometry3d> expected = reconstruction_.expectedPose (frame);
+  const bool carry = instances && *masks_frame != frame.index && from != mask_views_.rend () && expected;
+  if (carry)
+    carried = carryMasks (*instances, from->second, MaskView{frame.depth, frame.camera, *expected});
+  PipelineFrameReport report = process (frame, carry ? &carried : instances);
+  if (report.reconstruction.tracked)
+  {
+    // A live grabber may reuse its buffers: the depth is copied.
+    mask_views_.emplace_back (frame.index, MaskView{frame.depth.clone (), frame.camera, report.reconstruction.pose});
+    if (mask_views_.size () > kRememberedViews)
+      mask_views_.pop_front ();
+  }
+  return report;
+}
+
+PipelineFrameReport
 FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* instances)
 {
   pcl::StopWatch loop;

@@ -107,6 +107,7 @@ FramePrefetcher::work ()
       {
         prepared.have_masks = masks_->segment (*prepared.frame, prepared.instances);
         prepared.masks_stages = masks_->lastTimings ();
+        prepared.masks_frame = masks_->lastResultFrame ();
       }
       catch (...)
       {

@@ -139,6 +139,18 @@ DenseReconstruction::predictedPose (const RGBDFrame& frame) const
   return Prediction{last_good_pose_ * repeatMotion (velocity_, steps), true};
 }
 
+std::optional<Eigen::Isometry3d>
+DenseReconstruction::expectedPose (const RGBDFrame& frame) const
+{
+  if (config_.use_reference_poses)
+    return frame.pose;
+  if (const std::optional<Prediction> predicted = predictedPose (frame))
+    return predicted->pose;
+  if (initialized_)
+    return last_good_pose_;
+  return std::nullopt;
+}
+
 std::optional<DenseReconstruction::Candidate>
 DenseReconstruction::featureCandidate (const RGBDFrame& frame, const KeyframeDatabase::Code& code)
 {
