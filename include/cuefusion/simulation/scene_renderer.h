@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include <cstdint>
+#include <vector>
 
 namespace cuefusion
 {
@@ -57,7 +58,10 @@ struct RenderedView
 };
 
 /** \brief Ray-casts a SyntheticScene through a pinhole camera, one ray per pixel centre.
-  * Rows run in parallel on the project's thread pool (common/parallel.h).
+  * The image is cast in tiles of kCullTile × kCullTile pixels: each tile's rays are tested only
+  * against the parts whose bounding sphere the tile's cone of rays can meet (a
+  * conservative cull, so the image is the one casting every ray against every part
+  * gives). Rows of tiles run in parallel on the project's thread pool (common/parallel.h).
   */
 class SceneRenderer
 {
@@ -77,9 +81,28 @@ public:
   /** \brief Shaded colour (R, G, B) of object \a id at world point \a p with normal \a n. */
   cv::Vec3b shade (const SceneObject& object, const Eigen::Vector3d& p, const Eigen::Vector3d& n) const;
 
+  /** \brief Side of the square tiles of pixels render culls the scene's parts for. */
+  static constexpr int kCullTile = 8;
+
 private:
+  /** \brief One part of one object, by index (the renderer may be copied). */
+  struct PartIndex
+  {
+    std::uint32_t object;
+    std::uint32_t part;
+  };
+  /** \brief castRay over the parts \a candidates lists (indices into parts_, in scene order). */
+  std::uint16_t castRayAmong (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
+                              const std::vector<std::uint32_t>& candidates, double& t, Eigen::Vector3d& normal) const;
+  /** \brief The parts (indices into parts_, in order) whose bounding sphere a ray from
+    * \a origin within \a half_angle radians of the unit direction \a axis can meet. */
+  void partsInCone (const Eigen::Vector3d& origin, const Eigen::Vector3d& axis, double half_angle,
+                    std::vector<std::uint32_t>& candidates) const;
+
   SyntheticScene scene_;  // a copy: small, and no lifetime ties to the caller
   std::vector<std::uint16_t> class_of_;   ///< object index → class id
+  std::vector<PartIndex> parts_;          ///< every object's parts, in scene order
+  std::vector<std::uint32_t> every_part_; ///< 0 … parts_.size () − 1
 };
 
 /** \brief 64-bit mix of a seed and a counter (SplitMix64), for per-frame random streams

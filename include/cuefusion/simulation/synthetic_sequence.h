@@ -41,6 +41,17 @@ struct SyntheticSequenceConfig
   void validate () const;
 };
 
+/** \brief The points of a cloud grouped by cubes of space (SyntheticSequence::cloudCells),
+  * for markObserved to pass over the cubes a view cannot see. */
+struct CloudCells
+{
+  static constexpr float kSide = 0.25f;     ///< metres: the side of a cube
+  std::vector<std::uint32_t> points;       ///< the cloud's indices, cube by cube
+  std::vector<std::uint32_t> begin;        ///< cube k holds points[begin[k]] … points[begin[k + 1] − 1]
+  std::vector<Eigen::Vector3f> centre;     ///< cube k's centre
+  std::size_t cloud_size = 0;              ///< the size of the cloud they were made of
+};
+
 /** \brief A synthetic RGB-D sequence with exact truth: frame i is the scene seen from
   * the orbit at s = i / (frames − 1), with its pose, instance and class masks.
   */
@@ -69,9 +80,13 @@ public:
     * (render (i)) measured: the pixel it projects to shows its object with a depth
     * (not dropped), and the point lies within 5 mm of the surface seen there (the plane
     * through the pixel's exact point and normal, so a slanted surface counts whole and
-    * the far side of a 2 cm board does not). \a observed has the cloud's size. */
+    * the far side of a 2 cm board does not). \a observed has the cloud's size.
+    * \a cells, when given, is cloudCells (cloud): the cubes of space out of the view's
+    * frustum are passed over whole (the same flags, far less work for a large cloud). */
   void markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, std::size_t i, const RenderedView& view,
-                     std::vector<char>& observed) const;
+                     std::vector<char>& observed, const CloudCells* cells = nullptr) const;
+  /** \brief The points of \a cloud grouped by the cube of side CloudCells::kSide they lie in. */
+  static CloudCells cloudCells (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud);
 
 private:
   SyntheticScene scene_;

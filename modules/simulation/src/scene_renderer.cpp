@@ -20,35 +20,71 @@ mixSeed (std::uint64_t seed, std::uint64_t counter)
 
 SceneRenderer::SceneRenderer (const SyntheticScene& scene) : scene_ (scene)
 {
-  for (const SceneObject& o : scene_.objects)
-    class_of_.push_back (scene_.classIdOf (o));
+  for (std::uint32_t i = 0; i < scene_.objects.size (); ++i)
+  {
+    class_of_.push_back (scene_.classIdOf (scene_.objects[i]));
+    for (std::uint32_t k = 0; k < scene_.objects[i].parts.size (); ++k)
+    {
+      every_part_.push_back (static_cast<std::uint32_t> (parts_.size ()));
+      parts_.push_back ({i, k});
+    }
+  }
 }
 
 std::uint16_t
 SceneRenderer::castRay (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double& t,
                         Eigen::Vector3d& normal) const
 {
+  return castRayAmong (origin, dir, every_part_, t, normal);
+}
+
+std::uint16_t
+SceneRenderer::castRayAmong (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
+                             const std::vector<std::uint32_t>& candidates, double& t, Eigen::Vector3d& normal) const
+{
   std::uint16_t hit_id = 0;
   t = std::numeric_limits<double>::infinity ();
-  for (const SceneObject& o : scene_.objects)
-    for (const Primitive& prim : o.parts)
+  for (const std::uint32_t k : candidates)
+  {
+    const SceneObject& o = scene_.objects[parts_[k].object];
+    const Primitive& prim = o.parts[parts_[k].part];
+    // Cull by bounding sphere before the exact test.
+    const Eigen::Vector3d oc = prim.center - origin;
+    const double along = oc.dot (dir);
+    const double r = prim.boundingRadius ();
+    if (along + r < 0.0 || oc.squaredNorm () - along * along > r * r || along - r > t)
+      continue;
+    double ti;
+    Eigen::Vector3d ni;
+    if (prim.intersect (origin, dir, 1e-6, ti, ni) && ti < t)
     {
-      // Cull by bounding sphere before the exact test.
-      const Eigen::Vector3d oc = prim.center - origin;
-      const double along = oc.dot (dir);
-      const double r = prim.boundingRadius ();
-      if (along + r < 0.0 || oc.squaredNorm () - along * along > r * r || along - r > t)
-        continue;
-      double ti;
-      Eigen::Vector3d ni;
-      if (prim.intersect (origin, dir, 1e-6, ti, ni) && ti < t)
-      {
-        t = ti;
-        normal = ni;
-        hit_id = o.id;
-      }
+      t = ti;
+      normal = ni;
+      hit_id = o.id;
     }
+  }
   return hit_id;
+}
+
+void
+SceneRenderer::partsInCone (const Eigen::Vector3d& origin, const Eigen::Vector3d& axis, double half_angle,
+                            std::vector<std::uint32_t>& candidates) const
+{
+  // A ray at angle φ to the direction of a sphere's centre (distance d, radius r < d)
+  // meets it only when φ ≤ asin (r / d); the rays of the cone are within half_angle of
+  // the axis, so a sphere whose centre is more than half_angle + asin (r / d) off the
+  // axis is missed by all of them. The small margin keeps rounding on the safe side.
+  constexpr double kMargin = 1e-6;
+  candidates.clear ();
+  for (std::uint32_t k = 0; k < parts_.size (); ++k)
+  {
+    const Primitive& prim = scene_.objects[parts_[k].object].parts[parts_[k].part];
+    const Eigen::Vector3d oc = prim.center - origin;
+    const double d = oc.norm (), r = prim.boundingRadius ();
+    if (d > r && std::atan2 (oc.cross (axis).norm (), oc.dot (axis)) > half_angle + std::asin (r / d) + kMargin)
+      continue;
+    candidates.push_back (k);
+  }
 }
 
 cv::Vec3b
@@ -120,7 +156,25 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
   const double deg = 3.14159265358979323846 / 180.0;
   const bool stereo_fattening = noise.enabled && noise.sensor == DepthSensor::RealSense && noise.edge_fattening_px > 0;
 
-  parallelForChunks (camera.height, 4, [&] (int, int begin, int end) {
+  const auto rayAt = [&] (double u, double v) {
+    return (rotation * Eigen::Vector3d ((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0)).normalized ();
+  };
+  const int tile_columns = (camera.width + kCullTile - 1) / kCullTile;
+
+  parallelForChunks (camera.height, kCullTile, [&] (int, int begin, int end) {
+    // The parts each tile of this row of tiles can see: the cone around the ray through
+    // the tile's centre that holds the rays through its four corner pixels (the pixels
+    // between lie on the image plane inside the corners' hull, so inside the cone).
+    std::vector<std::vector<std::uint32_t>> candidates (tile_columns);
+    for (int c = 0; c < tile_columns; ++c)
+    {
+      const int u0 = c * kCullTile, u1 = std::min (camera.width, u0 + kCullTile) - 1;
+      const Eigen::Vector3d axis = rayAt (0.5 * (u0 + u1), 0.5 * (begin + end - 1));
+      double half_angle = 0.0;
+      for (const Eigen::Vector3d& corner : {rayAt (u0, begin), rayAt (u1, begin), rayAt (u0, end - 1), rayAt (u1, end - 1)})
+        half_angle = std::max (half_angle, std::atan2 (corner.cross (axis).norm (), corner.dot (axis)));
+      partsInCone (origin, axis, half_angle, candidates[c]);
+    }
     for (int v = begin; v < end; ++v)
     {
       // One random stream per row keeps the noise independent of the thread count.
@@ -129,11 +183,10 @@ SceneRenderer::render (const PinholeCamera& camera, const Eigen::Isometry3d& pos
       std::uniform_real_distribution<double> uniform (0.0, 1.0);
       for (int u = 0; u < camera.width; ++u)
       {
-        const Eigen::Vector3d ray_cam ((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
-        const Eigen::Vector3d dir = (rotation * ray_cam).normalized ();
+        const Eigen::Vector3d dir = rayAt (u, v);
         double t;
         Eigen::Vector3d n;
-        const std::uint16_t id = castRay (origin, dir, t, n);
+        const std::uint16_t id = castRayAmong (origin, dir, candidates[u / kCullTile], t, n);
         if (id == 0)
           continue;
         const SceneObject& object = scene_.objects[id - 1u];

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include <cuefusion/common/exceptions.h>
+#include <cuefusion/common/parallel.h>
 #include <cuefusion/io/file_io.h>
 #include <cuefusion/simulation/synthetic_sequence.h>
 
@@ -7,6 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <pcl/io/pcd_io.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 
@@ -139,36 +142,104 @@ SyntheticSequence::groundTruthCloud () const
 
 void
 SyntheticSequence::markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, std::size_t i, const RenderedView& view,
-                                 std::vector<char>& observed) const
+                                 std::vector<char>& observed, const CloudCells* cells) const
 {
   if (observed.size () != cloud.size ())
     throw Error ("SyntheticSequence::markObserved", "needs one flag per point");
+  if (cells && cells->cloud_size != cloud.size ())
+    throw Error ("SyntheticSequence::markObserved", "needs the cloud's own cells (cloudCells)");
   const Eigen::Isometry3f to_camera = poseAt (i).inverse ().cast<float> ();
+  // The transform written out (Eigen's own order of the sums): called through Eigen it
+  // was most of the time of writing a sequence in the instrumented (sanitizer) build.
+  const Eigen::Matrix3f r = to_camera.linear ();
+  const Eigen::Vector3f t = to_camera.translation ();
   const PinholeCamera& k = camera_;
-  for (std::size_t p = 0; p < cloud.size (); ++p)
+  // lround (x) is in [0, n) exactly when −0.5 < x < n − 0.5: the comparisons spare the
+  // rounding for the points out of view (most of them, every frame).
+  const float u_end = static_cast<float> (view.depth.cols) - 0.5f, v_end = static_cast<float> (view.depth.rows) - 0.5f;
+  // A cube is out of view when its bounding sphere lies behind the camera or wholly
+  // outside one of the four planes through the camera centre and the image's outer pixel
+  // edges (where the comparisons below fail); a millimetre's margin keeps rounding safe.
+  const float fx = static_cast<float> (k.fx), fy = static_cast<float> (k.fy);
+  const float cx = static_cast<float> (k.cx), cy = static_cast<float> (k.cy);
+  const Eigen::Vector3f sides[4] = {Eigen::Vector3f (fx, 0.f, cx + 0.5f).normalized (),
+                                    Eigen::Vector3f (-fx, 0.f, u_end - cx).normalized (),
+                                    Eigen::Vector3f (0.f, fy, cy + 0.5f).normalized (),
+                                    Eigen::Vector3f (0.f, -fy, v_end - cy).normalized ()};
+  const auto outOfView = [&] (const Eigen::Vector3f& centre) {
+    const float radius = 0.5f * std::sqrt (3.f) * CloudCells::kSide + 1e-3f;
+    const Eigen::Vector3f c = r * centre + t;
+    if (c.z () + radius <= 0.f)
+      return true;
+    for (const Eigen::Vector3f& side : sides)
+      if (side.dot (c) < -radius)
+        return true;
+    return false;
+  };
+  const int groups = cells ? static_cast<int> (cells->centre.size ()) : 1;
+  parallelForChunks (groups, 1, [&] (int group, int, int) {
+    if (cells && outOfView (cells->centre[group]))
+      return;
+    const std::size_t begin = cells ? cells->begin[group] : 0, end = cells ? cells->begin[group + 1] : cloud.size ();
+    for (std::size_t k_point = begin; k_point < end; ++k_point)
+    {
+      const std::size_t p = cells ? cells->points[k_point] : k_point;
+      if (observed[p])
+        continue;
+      const pcl::PointXYZRGBL& point = cloud[p];
+      const Eigen::Vector3f q (r (0, 0) * point.x + r (0, 1) * point.y + r (0, 2) * point.z + t.x (),
+                               r (1, 0) * point.x + r (1, 1) * point.y + r (1, 2) * point.z + t.y (),
+                               r (2, 0) * point.x + r (2, 1) * point.y + r (2, 2) * point.z + t.z ());
+      if (!(q.z () > 0.f))
+        continue;
+      const float uf = static_cast<float> (k.fx) * q.x () / q.z () + static_cast<float> (k.cx);
+      const float vf = static_cast<float> (k.fy) * q.y () / q.z () + static_cast<float> (k.cy);
+      if (!(uf > -0.5f && uf < u_end && vf > -0.5f && vf < v_end))
+        continue;
+      const int u = static_cast<int> (std::lround (uf)), v = static_cast<int> (std::lround (vf));
+      if (view.depth.at<float> (v, u) <= 0.f || view.instance.at<std::uint16_t> (v, u) != point.label)
+        continue;
+      // The seen surface's tangent plane through the pixel's exact point, along the point's ray.
+      const float z0 = view.exact_depth.at<float> (v, u);
+      const cv::Vec3f n = view.normals.at<cv::Vec3f> (v, u);
+      const Eigen::Vector3f normal (n[0], n[1], n[2]);
+      const Eigen::Vector3f centre ((static_cast<float> (u) - static_cast<float> (k.cx)) / static_cast<float> (k.fx) * z0,
+                                    (static_cast<float> (v) - static_cast<float> (k.cy)) / static_cast<float> (k.fy) * z0, z0);
+      const Eigen::Vector3f ray ((uf - static_cast<float> (k.cx)) / static_cast<float> (k.fx),
+                                 (vf - static_cast<float> (k.cy)) / static_cast<float> (k.fy), 1.f);
+      const float along = normal.dot (ray);
+      const float z_plane = std::abs (along) > 1e-6f ? normal.dot (centre) / along : z0;
+      observed[p] = std::abs (q.z () - z_plane) <= 0.005f;
+    }
+  });
+}
+
+CloudCells
+SyntheticSequence::cloudCells (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud)
+{
+  CloudCells cells;
+  cells.cloud_size = cloud.size ();
+  const auto cellOf = [&cloud] (std::uint32_t p) {
+    const Eigen::Vector3f q = cloud[p].getVector3fMap () / CloudCells::kSide;
+    return std::array<long, 3>{std::lround (std::floor (q.x ())), std::lround (std::floor (q.y ())), std::lround (std::floor (q.z ()))};
+  };
+  std::vector<std::pair<std::array<long, 3>, std::uint32_t>> keyed;
+  keyed.reserve (cloud.size ());
+  for (std::uint32_t p = 0; p < cloud.size (); ++p)
+    keyed.emplace_back (cellOf (p), p);
+  std::sort (keyed.begin (), keyed.end ());
+  for (std::size_t k = 0; k < keyed.size (); ++k)
   {
-    if (observed[p])
-      continue;
-    const Eigen::Vector3f q = to_camera * cloud[p].getVector3fMap ();
-    if (!(q.z () > 0.f))
-      continue;
-    const float uf = static_cast<float> (k.fx) * q.x () / q.z () + static_cast<float> (k.cx);
-    const float vf = static_cast<float> (k.fy) * q.y () / q.z () + static_cast<float> (k.cy);
-    const int u = static_cast<int> (std::lround (uf)), v = static_cast<int> (std::lround (vf));
-    if (u < 0 || v < 0 || u >= view.depth.cols || v >= view.depth.rows || view.depth.at<float> (v, u) <= 0.f ||
-        view.instance.at<std::uint16_t> (v, u) != cloud[p].label)
-      continue;
-    // The seen surface's tangent plane through the pixel's exact point, along the point's ray.
-    const float z0 = view.exact_depth.at<float> (v, u);
-    const cv::Vec3f n = view.normals.at<cv::Vec3f> (v, u);
-    const Eigen::Vector3f normal (n[0], n[1], n[2]);
-    const Eigen::Vector3f centre ((static_cast<float> (u) - static_cast<float> (k.cx)) / static_cast<float> (k.fx) * z0,
-                                  (static_cast<float> (v) - static_cast<float> (k.cy)) / static_cast<float> (k.fy) * z0, z0);
-    const Eigen::Vector3f ray ((uf - static_cast<float> (k.cx)) / static_cast<float> (k.fx), (vf - static_cast<float> (k.cy)) / static_cast<float> (k.fy), 1.f);
-    const float along = normal.dot (ray);
-    const float z_plane = std::abs (along) > 1e-6f ? normal.dot (centre) / along : z0;
-    observed[p] = std::abs (q.z () - z_plane) <= 0.005f;
+    if (k == 0 || keyed[k].first != keyed[k - 1].first)
+    {
+      cells.begin.push_back (static_cast<std::uint32_t> (k));
+      const std::array<long, 3>& c = keyed[k].first;
+      cells.centre.push_back ((Eigen::Vector3f (c[0], c[1], c[2]) + Eigen::Vector3f::Constant (0.5f)) * CloudCells::kSide);
+    }
+    cells.points.push_back (keyed[k].second);
   }
+  cells.begin.push_back (static_cast<std::uint32_t> (keyed.size ()));
+  return cells;
 }
 
 namespace
@@ -209,13 +280,14 @@ writeSyntheticSequence (const SyntheticSequence& sequence, io::DatasetLayout lay
     fs::create_directories (staging / "detections");
     auto cloud = sequence.groundTruthCloud ();
     std::vector<char> observed (cloud->size (), sequence.config ().gt_observed_only ? 0 : 1);
+    const CloudCells cells = SyntheticSequence::cloudCells (*cloud);
     for (std::size_t i = 0; i < sequence.size (); ++i)
     {
       const RenderedView view = sequence.render (i);
       const RGBDFrame::Ptr frame = sequence.frame (i, view);
       writer->write (*frame);
       if (sequence.config ().gt_observed_only)
-        sequence.markObserved (*cloud, i, view, observed);
+        sequence.markObserved (*cloud, i, view, observed, &cells);
       const DetectionResult detections = sequence.detections (*frame);
       const std::string stem = (staging / "detections" / writer->frameName (*frame)).string ();
       io::writeImageAtomic (stem + ".png", detections.ids);
