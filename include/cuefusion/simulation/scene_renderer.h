@@ -90,6 +90,7 @@ private:
   {
     std::uint32_t object;
     std::uint32_t part;
+    double cos_yaw, sin_yaw;  ///< of the part's yaw, for Primitive::intersect
   };
   /** \brief castRay over the parts \a candidates lists (indices into parts_, in scene order). */
   std::uint16_t castRayAmong (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,

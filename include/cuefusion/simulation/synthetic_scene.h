@@ -33,6 +33,10 @@ struct Primitive
   /** \brief Nearest hit of origin + t·dir with t > t_min; outward unit normal in world. */
   bool intersect (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double& t,
                   Eigen::Vector3d& normal) const;
+  /** \brief intersect with cos (yaw) and sin (yaw) given (a renderer casting many rays
+    * computes them once per part). */
+  bool intersect (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double cos_yaw, double sin_yaw,
+                  double& t, Eigen::Vector3d& normal) const;
   /** \brief True when \a p lies inside the solid grown by \a margin. */
   bool contains (const Eigen::Vector3d& p, double margin) const;
   /** \brief Points on the surface, about \a spacing apart. */

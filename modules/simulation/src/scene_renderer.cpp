@@ -26,7 +26,8 @@ SceneRenderer::SceneRenderer (const SyntheticScene& scene) : scene_ (scene)
     for (std::uint32_t k = 0; k < scene_.objects[i].parts.size (); ++k)
     {
       every_part_.push_back (static_cast<std::uint32_t> (parts_.size ()));
-      parts_.push_back ({i, k});
+      const double yaw = scene_.objects[i].parts[k].yaw;
+      parts_.push_back ({i, k, std::cos (yaw), std::sin (yaw)});
     }
   }
 }
@@ -56,7 +57,7 @@ SceneRenderer::castRayAmong (const Eigen::Vector3d& origin, const Eigen::Vector3
       continue;
     double ti;
     Eigen::Vector3d ni;
-    if (prim.intersect (origin, dir, 1e-6, ti, ni) && ti < t)
+    if (prim.intersect (origin, dir, 1e-6, parts_[k].cos_yaw, parts_[k].sin_yaw, ti, ni) && ti < t)
     {
       t = ti;
       normal = ni;
@@ -71,18 +72,24 @@ SceneRenderer::partsInCone (const Eigen::Vector3d& origin, const Eigen::Vector3d
                             std::vector<std::uint32_t>& candidates) const
 {
   // A ray at angle φ to the direction of a sphere's centre (distance d, radius r < d)
-  // meets it only when φ ≤ asin (r / d); the rays of the cone are within half_angle of
-  // the axis, so a sphere whose centre is more than half_angle + asin (r / d) off the
-  // axis is missed by all of them. The small margin keeps rounding on the safe side.
+  // meets it only when φ ≤ β = asin (r / d); the rays of the cone are within half_angle
+  // α of the axis, so a sphere whose centre is more than α + β off the axis (its cosine
+  // below cos (α + β) = cos α cos β − sin α sin β; α + β ≤ π here) is missed by all of
+  // them. The small margin keeps rounding on the safe side.
   constexpr double kMargin = 1e-6;
+  const double cos_a = std::cos (half_angle), sin_a = std::sin (half_angle);
   candidates.clear ();
   for (std::uint32_t k = 0; k < parts_.size (); ++k)
   {
     const Primitive& prim = scene_.objects[parts_[k].object].parts[parts_[k].part];
     const Eigen::Vector3d oc = prim.center - origin;
     const double d = oc.norm (), r = prim.boundingRadius ();
-    if (d > r && std::atan2 (oc.cross (axis).norm (), oc.dot (axis)) > half_angle + std::asin (r / d) + kMargin)
-      continue;
+    if (d > r)
+    {
+      const double sin_b = r / d, cos_b = std::sqrt (1.0 - sin_b * sin_b);
+      if (oc.dot (axis) / d < cos_a * cos_b - sin_a * sin_b - kMargin)
+        continue;
+    }
     candidates.push_back (k);
   }
 }

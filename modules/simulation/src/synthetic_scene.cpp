@@ -58,6 +58,15 @@ Primitive::intersect (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
                       Eigen::Vector3d& normal) const
 {
   if (type == Type::Sphere)
+    return intersect (origin, dir, t_min, 1.0, 0.0, t, normal);
+  return intersect (origin, dir, t_min, std::cos (yaw), std::sin (yaw), t, normal);
+}
+
+bool
+Primitive::intersect (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double cos_yaw,
+                      double sin_yaw, double& t, Eigen::Vector3d& normal) const
+{
+  if (type == Type::Sphere)
   {
     const double r = half_size.x ();
     const Eigen::Vector3d oc = origin - center;
@@ -76,7 +85,6 @@ Primitive::intersect (const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
     normal = (origin + t * dir - center) / r;
     return true;
   }
-  const double cos_yaw = std::cos (yaw), sin_yaw = std::sin (yaw);
   const Eigen::Vector3d o = turnAboutZ (origin - center, cos_yaw, -sin_yaw);
   const Eigen::Vector3d d = turnAboutZ (dir, cos_yaw, -sin_yaw);
   double best = std::numeric_limits<double>::infinity ();
