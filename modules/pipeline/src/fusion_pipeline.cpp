@@ -259,8 +259,10 @@ FusionPipeline::process (const RGBDFrame& frame, const std::vector<Instance>* in
   std::vector<Instance> carried;
   // The newest view of that index (a source that starts a sequence again repeats indices).
   const auto from = std::find_if (mask_views_.rbegin (), mask_views_.rend (), [&] (const auto& seen) { return seen.first == *masks_frame; });
-  const std::optional<Eigen::Isometry3d> expected = reconstruction_.expectedPose (frame);
-  const bool carry = instances && *masks_frame != frame.index && from != mask_views_.rend () && expected;
+  std::optional<Eigen::Isometry3d> expected;  // asked only when there are masks to carry
+  if (instances && *masks_frame != frame.index && from != mask_views_.rend ())
+    expected = reconstruction_.expectedPose (frame);
+  const bool carry = expected.has_value ();
   if (carry)
     carried = carryMasks (*instances, from->second, MaskView{frame.depth, frame.camera, *expected});
   PipelineFrameReport report = process (frame, carry ? &carried : instances);

@@ -192,8 +192,8 @@ SyntheticSequence::markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud
                                r (2, 0) * point.x + r (2, 1) * point.y + r (2, 2) * point.z + t.z ());
       if (!(q.z () > 0.f))
         continue;
-      const float uf = static_cast<float> (k.fx) * q.x () / q.z () + static_cast<float> (k.cx);
-      const float vf = static_cast<float> (k.fy) * q.y () / q.z () + static_cast<float> (k.cy);
+      const float uf = fx * q.x () / q.z () + cx;
+      const float vf = fy * q.y () / q.z () + cy;
       if (!(uf > -0.5f && uf < u_end && vf > -0.5f && vf < v_end))
         continue;
       const int u = static_cast<int> (std::lround (uf)), v = static_cast<int> (std::lround (vf));
@@ -203,10 +203,8 @@ SyntheticSequence::markObserved (const pcl::PointCloud<pcl::PointXYZRGBL>& cloud
       const float z0 = view.exact_depth.at<float> (v, u);
       const cv::Vec3f n = view.normals.at<cv::Vec3f> (v, u);
       const Eigen::Vector3f normal (n[0], n[1], n[2]);
-      const Eigen::Vector3f centre ((static_cast<float> (u) - static_cast<float> (k.cx)) / static_cast<float> (k.fx) * z0,
-                                    (static_cast<float> (v) - static_cast<float> (k.cy)) / static_cast<float> (k.fy) * z0, z0);
-      const Eigen::Vector3f ray ((uf - static_cast<float> (k.cx)) / static_cast<float> (k.fx),
-                                 (vf - static_cast<float> (k.cy)) / static_cast<float> (k.fy), 1.f);
+      const Eigen::Vector3f centre ((static_cast<float> (u) - cx) / fx * z0, (static_cast<float> (v) - cy) / fy * z0, z0);
+      const Eigen::Vector3f ray ((uf - cx) / fx, (vf - cy) / fy, 1.f);
       const float along = normal.dot (ray);
       const float z_plane = std::abs (along) > 1e-6f ? normal.dot (centre) / along : z0;
       observed[p] = std::abs (q.z () - z_plane) <= 0.005f;
