@@ -39,6 +39,14 @@ struct FeatureRelocaliserConfig
   /// the tests; ICP against the model verifies every pose found)
   std::size_t min_inliers = 15;
   std::size_t max_views = 500;    ///< keyframe views kept (88 kB each at 2000 features)
+  /// SIFT keypoints per image for the wide-baseline match of a lost frame with the last
+  /// tracked frame (relocaliseWide); 0 = none. ORB's descriptor changes with the view:
+  /// right matches among the mutual nearest neighbours between generated printed views
+  /// (640×480, Kinect noise) 30 / 36 / 45° apart: ORB (2000) 16 / 10 / 3, SIFT (2000)
+  /// 87 / 60 / 25, SIFT (1000) – / 26 / 12. SIFT costs ~85 ms an image on one core
+  /// against ORB's 7, so it describes only the last tracked frame (once a lost stretch)
+  /// and some lost frames, never keyframes.
+  int wide_features = 2000;
   std::uint32_t seed = 7;         ///< of RANSAC's samples
 
   void validate () const;
@@ -49,7 +57,7 @@ struct FeatureRelocaliserConfig
 struct FeatureView
 {
   std::vector<Eigen::Vector3f> points;
-  cv::Mat descriptors;  ///< CV_8U, 32 bytes a row
+  cv::Mat descriptors;  ///< ORB's CV_8U, 32 bytes a row; SIFT's CV_32F, 128 a row
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();  ///< camera-to-world of the image
 };
 
@@ -62,6 +70,10 @@ struct FeatureView
   * matches whose distance to it is the same in both views (a rigid motion keeps
   * distances): such triples are right far more often than random ones. The pose is a candidate only: the caller verifies
   * it by ICP against the model (DenseReconstruction::relocalise).
+  *
+  * Beyond about 30° ORB finds too few right matches; a lost frame is then matched to the
+  * last tracked frame by SIFT, whose descriptor changes less with the view
+  * (relocaliseWide; the same sampler and refit).
   *
   * Features are computed only when needed: a keyframe's when it is stored (a few a
   * minute), the last tracked frame's only when the next frame is lost (rememberTracked
@@ -116,6 +128,13 @@ public:
   std::optional<Estimate>
   relocalise (const cv::Mat& color, const cv::Mat& depth, const PinholeCamera& camera, const std::vector<std::size_t>& keyframes);
 
+  /** \brief The pose of a lost frame from SIFT features (wide_features) matched to the
+    * last tracked frame's: a view further from it than ORB's descriptor reaches (a jump,
+    * a blackout while the camera moved on). None when wide_features is 0, no frame was
+    * tracked, or too few matches agree. Its view reads "last tracked frame, SIFT". */
+  std::optional<Estimate>
+  relocaliseWide (const cv::Mat& color, const cv::Mat& depth, const PinholeCamera& camera);
+
   /** \brief Ids of the keyframes stored, in the order added. */
   std::vector<std::size_t> keyframeIds () const;
 
@@ -126,8 +145,14 @@ private:
   const FeatureView&
   lastTrackedView ();
 
+  /** describe() with \a detector's keypoints and descriptors (ORB's or SIFT's). */
+  FeatureView
+  describeWith (cv::Feature2D& detector, const cv::Mat& color, const cv::Mat& depth, const PinholeCamera& camera,
+                const Eigen::Isometry3d& pose) const;
+
   FeatureRelocaliserConfig config_;
   cv::Ptr<cv::ORB> orb_;
+  cv::Ptr<cv::SIFT> sift_;  ///< when wide_features > 0
   std::vector<std::pair<std::size_t, FeatureView>> keyframes_;
   struct Remembered
   {
@@ -135,6 +160,7 @@ private:
     PinholeCamera camera;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity ();
     std::optional<FeatureView> view;  ///< computed on first use
+    std::optional<FeatureView> wide;  ///< its SIFT features, computed on first use
   } last_;
 };
 }  // namespace reconstruction

@@ -108,6 +108,7 @@ fields (V& v, FeatureRelocaliserConfig& c)
   v ("inlier_distance", c.inlier_distance);
   v ("min_inliers", c.min_inliers);
   v ("max_views", c.max_views);
+  v ("wide_features", c.wide_features);
   v ("seed", c.seed);
 }
 
@@ -127,6 +128,8 @@ fields (V& v, DenseReconstructionConfig& c)
   v ("relocalisation_min_inlier_fraction", c.relocalisation_min_inlier_fraction);
   v ("relocalisation_min_agreement", c.relocalisation_min_agreement);
   v ("relocalisation_min_overlap", c.relocalisation_min_overlap);
+  v ("relocalisation_confirmation_shift", c.relocalisation_confirmation_shift);
+  v ("relocalisation_confirmation_deg", c.relocalisation_confirmation_deg);
   v ("min_inlier_share_ratio", c.min_inlier_share_ratio);
   v ("motion_model", c.motion_model);
   v ("max_prediction_gap", c.max_prediction_gap);

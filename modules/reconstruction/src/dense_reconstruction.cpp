@@ -40,6 +40,10 @@ DenseReconstructionConfig::validate () const
     throw ParameterError ("DenseReconstructionConfig::relocalisation_min_agreement", "must lie in [0, 1]");
   if (!(relocalisation_min_overlap >= 0.0 && relocalisation_min_overlap <= 1.0))
     throw ParameterError ("DenseReconstructionConfig::relocalisation_min_overlap", "must lie in [0, 1]");
+  if (!(relocalisation_confirmation_shift >= 0.0 && relocalisation_confirmation_shift <= 1.0))
+    throw ParameterError ("DenseReconstructionConfig::relocalisation_confirmation_shift", "must lie in [0, 1] metres");
+  if (!(relocalisation_confirmation_deg >= 0.0 && relocalisation_confirmation_deg <= 180.0))
+    throw ParameterError ("DenseReconstructionConfig::relocalisation_confirmation_deg", "must lie in [0, 180] degrees");
   if (relocalisation_candidates_per_frame > 100)
     throw ParameterError ("DenseReconstructionConfig::relocalisation_candidates_per_frame", "must lie in [0, 100]");
   features.validate ();

@@ -25,6 +25,49 @@ rigidMotion (const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to)
   return motion;
 }
 
+/** Mutual nearest neighbours (frame row, view column) of a matrix of every distance
+  * between two descriptor sets (one matrix serves both directions: half the work of two
+  * matchers), each passing the ratio test against the row's second nearest. */
+template <typename Distance>
+std::vector<std::pair<int, int>>
+mutualMatches (const cv::Mat& distances, double ratio)
+{
+  std::vector<int> column_best (static_cast<std::size_t> (distances.cols), -1);
+  std::vector<Distance> column_distance (static_cast<std::size_t> (distances.cols), std::numeric_limits<Distance>::max ());
+  std::vector<int> row_best (static_cast<std::size_t> (distances.rows), -1);
+  for (int r = 0; r < distances.rows; ++r)
+  {
+    const Distance* row = distances.ptr<Distance> (r);
+    Distance first = std::numeric_limits<Distance>::max (), second = first;
+    for (int c = 0; c < distances.cols; ++c)
+    {
+      if (row[c] < first)
+      {
+        second = first;
+        first = row[c];
+        row_best[static_cast<std::size_t> (r)] = c;
+      }
+      else if (row[c] < second)
+        second = row[c];
+      if (row[c] < column_distance[static_cast<std::size_t> (c)])
+      {
+        column_distance[static_cast<std::size_t> (c)] = row[c];
+        column_best[static_cast<std::size_t> (c)] = r;
+      }
+    }
+    if (!(static_cast<double> (first) < ratio * static_cast<double> (second)))
+      row_best[static_cast<std::size_t> (r)] = -1;
+  }
+  std::vector<std::pair<int, int>> matches;
+  for (int r = 0; r < distances.rows; ++r)
+  {
+    const int c = row_best[static_cast<std::size_t> (r)];
+    if (c >= 0 && column_best[static_cast<std::size_t> (c)] == r)
+      matches.emplace_back (r, c);
+  }
+  return matches;
+}
+
 /** Where a match agrees with a motion: config's distance plus three σ_z at its depth. */
 double
 agreementDistance (const FeatureRelocaliserConfig& config, float depth)
@@ -50,17 +93,28 @@ FeatureRelocaliserConfig::validate () const
     throw ParameterError ("FeatureRelocaliserConfig::inlier_distance", "must lie in (0, 1] metres");
   if (min_inliers < 3)
     throw ParameterError ("FeatureRelocaliserConfig::min_inliers", "must be at least 3 (a rigid motion)");
+  if (wide_features < 0 || wide_features > 100000)
+    throw ParameterError ("FeatureRelocaliserConfig::wide_features", "must lie in [0, 100000] (0: none)");
 }
 
 FeatureRelocaliser::FeatureRelocaliser (const FeatureRelocaliserConfig& config) : config_ (config)
 {
   config_.validate ();
   orb_ = cv::ORB::create (config_.features, config_.scale_factor, config_.levels);
+  if (config_.wide_features > 0)
+    sift_ = cv::SIFT::create (config_.wide_features);
 }
 
 FeatureView
 FeatureRelocaliser::describe (const cv::Mat& color, const cv::Mat& depth, const PinholeCamera& camera,
                               const Eigen::Isometry3d& pose) const
+{
+  return describeWith (*orb_, color, depth, camera, pose);
+}
+
+FeatureView
+FeatureRelocaliser::describeWith (cv::Feature2D& detector, const cv::Mat& color, const cv::Mat& depth,
+                                  const PinholeCamera& camera, const Eigen::Isometry3d& pose) const
 {
   FeatureView view;
   view.pose = pose;
@@ -73,7 +127,7 @@ FeatureRelocaliser::describe (const cv::Mat& color, const cv::Mat& depth, const 
   else
     grey = color;
   std::vector<cv::KeyPoint> keypoints;
-  orb_->detectAndCompute (grey, cv::noArray (), keypoints, descriptors);
+  detector.detectAndCompute (grey, cv::noArray (), keypoints, descriptors);
   std::vector<int> kept;
   for (std::size_t k = 0; k < keypoints.size (); ++k)
   {
@@ -108,48 +162,18 @@ FeatureRelocaliser::estimate (const FeatureView& frame, const FeatureView& view)
   if (frame.points.size () < config_.min_inliers || view.points.size () < config_.min_inliers)
     return std::nullopt;
   // Mutual nearest neighbours that pass a loose ratio test: across a wide baseline the
-  // right match is often not much nearer than the second (ORB's descriptor changes with
-  // the view), so the sampler below, not the test, sorts them out. One matrix of every
-  // Hamming distance serves both directions (half the work of two matchers).
+  // right match is often not much nearer than the second (the descriptor changes with
+  // the view), so the sampler below, not the test, sorts them out.
+  if (frame.descriptors.type () != view.descriptors.type ())
+    return std::nullopt;
+  const bool binary = frame.descriptors.type () == CV_8U;  // ORB's; SIFT's are CV_32F
   cv::Mat distances;
-  cv::batchDistance (frame.descriptors, view.descriptors, distances, CV_32S, cv::noArray (), cv::NORM_HAMMING);
-  std::vector<int> column_best (static_cast<std::size_t> (distances.cols), -1);
-  std::vector<int> column_distance (static_cast<std::size_t> (distances.cols), std::numeric_limits<int>::max ());
-  std::vector<int> row_best (static_cast<std::size_t> (distances.rows), -1);
-  std::vector<std::pair<int, int>> matches;  // (frame point, view point)
-  for (int r = 0; r < distances.rows; ++r)
-  {
-    const int* row = distances.ptr<int> (r);
-    int first = std::numeric_limits<int>::max (), second = first;
-    for (int c = 0; c < distances.cols; ++c)
-    {
-      if (row[c] < first)
-      {
-        second = first;
-        first = row[c];
-        row_best[static_cast<std::size_t> (r)] = c;
-      }
-      else if (row[c] < second)
-        second = row[c];
-      if (row[c] < column_distance[static_cast<std::size_t> (c)])
-      {
-        column_distance[static_cast<std::size_t> (c)] = row[c];
-        column_best[static_cast<std::size_t> (c)] = r;
-      }
-    }
-    if (!(first < config_.ratio * second))
-      row_best[static_cast<std::size_t> (r)] = -1;
-  }
-  for (int r = 0; r < distances.rows; ++r)
-  {
-    const int c = row_best[static_cast<std::size_t> (r)];
-    if (c >= 0 && column_best[static_cast<std::size_t> (c)] == r)
-      matches.emplace_back (r, c);
-  }
+  cv::batchDistance (frame.descriptors, view.descriptors, distances, binary ? CV_32S : CV_32F, cv::noArray (),
+                     binary ? cv::NORM_HAMMING : cv::NORM_L2);
+  const std::vector<std::pair<int, int>> matches =
+      binary ? mutualMatches<int> (distances, config_.ratio) : mutualMatches<float> (distances, config_.ratio);
   if (matches.size () < config_.min_inliers)
-  {
-      return std::nullopt;
-  }
+    return std::nullopt;
 
   Eigen::Matrix3Xd from (3, static_cast<Eigen::Index> (matches.size ())), to (3, from.cols ());
   std::vector<double> tolerance (matches.size ());
@@ -242,6 +266,7 @@ FeatureRelocaliser::rememberTracked (const cv::Mat& color, const cv::Mat& depth,
   last_.camera = camera;
   last_.pose = pose;
   last_.view.reset ();
+  last_.wide.reset ();
 }
 
 const FeatureView&
@@ -286,6 +311,20 @@ FeatureRelocaliser::relocalise (const cv::Mat& color, const cv::Mat& depth, cons
       if (stored == id)
         consider (view, "keyframe " + std::to_string (id));
   return best;
+}
+
+std::optional<FeatureRelocaliser::Estimate>
+FeatureRelocaliser::relocaliseWide (const cv::Mat& color, const cv::Mat& depth, const PinholeCamera& camera)
+{
+  if (!sift_ || color.empty () || last_.grey.empty ())
+    return std::nullopt;
+  const FeatureView frame = describeWith (*sift_, color, depth, camera, Eigen::Isometry3d::Identity ());
+  if (!last_.wide)
+    last_.wide = describeWith (*sift_, last_.grey, last_.depth, last_.camera, last_.pose);
+  std::optional<Estimate> found = estimate (frame, *last_.wide);
+  if (found)
+    found->view = "last tracked frame, SIFT";
+  return found;
 }
 
 std::vector<std::size_t>

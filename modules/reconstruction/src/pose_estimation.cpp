@@ -169,7 +169,7 @@ DenseReconstruction::featureCandidate (const RGBDFrame& frame, const KeyframeDat
   const std::optional<FeatureRelocaliser::Estimate> found = features_.relocalise (frame.color, frame.depth, frame.camera, views);
   if (!found)
     return std::nullopt;
-  return Candidate{found->pose, "features (" + found->view + ")", true};
+  return Candidate{found->pose, "features (" + found->view + ")", true, true};
 }
 
 void
@@ -178,17 +178,25 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
 {
   for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
     candidates.push_back ({m.pose, "keyframe " + std::to_string (m.keyframe), false});
-  // Features on every other lost frame, the first of a stretch included (not while the view
-  // is blank, a hand over the lens: nothing to describe). They cost about what verifying a
-  // candidate does, so on their rounds they take one candidate's place in the budget.
-  const bool feature_round = features && config_.feature_relocalisation && !frame.color.empty () && lost_streak_ % 2 == 0 &&
-                             cv::countNonZero (frame_pyramid_.back ().depth > 0.f) >= 100;
-  const std::optional<Candidate> found = feature_round ? featureCandidate (frame, code) : std::nullopt;
+  // ORB features on every other lost frame, the first of a stretch included (not while the
+  // view is blank, a hand over the lens: nothing to describe); SIFT against the last tracked
+  // frame on every fourth, the second of a stretch included (a jump wider than ORB reaches
+  // comes back one frame later). ORB costs about what verifying a candidate does, so on its
+  // rounds it takes one candidate's place in the budget; SIFT ~2–3 candidates' (a tenth of
+  // a stretch's frames: the stretch's median frame stays a candidate's).
+  const bool describable = features && config_.feature_relocalisation && !frame.color.empty () &&
+                           cv::countNonZero (frame_pyramid_.back ().depth > 0.f) >= 100;
+  const bool feature_round = describable && lost_streak_ % 2 == 0;
+  const bool wide_round = describable && config_.features.wide_features > 0 && lost_streak_ % 4 == 1;
+  std::optional<Candidate> found = feature_round ? featureCandidate (frame, code) : std::nullopt;
+  if (wide_round)
+    if (const std::optional<FeatureRelocaliser::Estimate> wide = features_.relocaliseWide (frame.color, frame.depth, frame.camera))
+      found = Candidate{wide->pose, "features (" + wide->view + ")", true, true};
   // A time budget: a few candidates a frame, the next few on the next lost frame.
   const std::size_t budget = config_.relocalisation_candidates_per_frame;
   if (budget > 0 && !candidates.empty ())
   {
-    const std::size_t take = std::min (candidates.size (), budget - (feature_round ? 1 : 0));
+    const std::size_t take = std::min (candidates.size (), budget - (feature_round || wide_round ? 1 : 0));
     std::vector<Candidate> chosen;
     for (std::size_t k = 0; k < take; ++k)
       chosen.push_back (candidates[(round_robin_ + k) % candidates.size ()]);
@@ -200,7 +208,7 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
   ++lost_streak_;
   RaycastResult view;
   FramePyramid view_pyramid;
-  for (const auto& [candidate, source, evidenced] : candidates)
+  for (const auto& [candidate, source, evidenced, from_features] : candidates)
   {
     // The model as seen from the candidate, and the frame aligned to it from there: a
     // right candidate converges close by with most points agreeing.
@@ -215,9 +223,13 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
     // The motion model's and the features' candidates have evidence of their own: the frame
     // must agree with the model where the model exists (a view that moved on into space the
     // map has not seen yet overlaps it in part) and still explain a fair share of the frame
-    // (relocalisation_min_overlap). The others must agree over most of the frame.
+    // (relocalisation_min_overlap), unless ICP confirms the features' pose where it stands.
+    // The others must agree over most of the frame.
+    const Eigen::Isometry3d shift = candidate.inverse () * verified.pose;
+    const bool confirmed = from_features && shift.translation ().norm () <= config_.relocalisation_confirmation_shift &&
+                           Eigen::AngleAxisd (shift.rotation ()).angle () <= config_.relocalisation_confirmation_deg * M_PI / 180.0;
     const bool passed = evidenced ? verified.icp.agreement () >= config_.relocalisation_min_agreement &&
-                                      verified.icp.inlierShare () >= config_.relocalisation_min_overlap
+                                      (confirmed || verified.icp.inlierShare () >= config_.relocalisation_min_overlap)
                                   : verified.icp.inlierShare () >= config_.relocalisation_min_inlier_fraction;
     if (!verified.tracked || !passed)
       continue;
