@@ -37,7 +37,8 @@ struct DenseReconstructionConfig
   /// A verified candidate needs at least this share of the frame's points as inliers
   /// (stricter than tracking's min_inlier_fraction: a wrong pose must not pass)
   double relocalisation_min_inlier_fraction = 0.5;
-  /// The motion model's and the features' candidates are verified by their agreement with
+  /// The motion model's and the features' candidates (and ICP's pose from the motion carried
+  /// across lost frames, which refines the former) are verified by their agreement with
   /// the model where the two overlap (ICPResult::agreement: their view may reach into space
   /// the map has not seen) of at least this much, and at least relocalisation_min_overlap
   /// of the frame's points as inliers. Measured (generated orbits, 640×480, Kinect noise):
