@@ -192,7 +192,7 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
   // view is blank, a hand over the lens: nothing to describe); SIFT against the last tracked
   // frame on every fourth, the second of a stretch included (a jump wider than ORB reaches
   // comes back one frame later). ORB costs about what verifying a candidate does, so on its
-  // rounds it takes one candidate's place in the budget; SIFT ~2–3 candidates' (a tenth of
+  // rounds it takes one candidate's place in the budget; SIFT ~2–3 candidates' (a quarter of
   // a stretch's frames: the stretch's median frame stays a candidate's).
   const bool describable = features && config_.feature_relocalisation && !frame.color.empty () &&
                            cv::countNonZero (frame_pyramid_.back ().depth > 0.f) >= 100;
