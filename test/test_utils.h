@@ -16,6 +16,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace cuefusion
 {
@@ -139,6 +141,32 @@ inline std::string
 tabletopScenePath ()
 {
   return std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/tabletop.scene";
+}
+
+/** \brief The trajectory line of the scene file \a path with the fields in \a changes set
+  * (name, value; added when the line has none): the bundled orbit with another start,
+  * sweep or bob, for printedSceneText. */
+inline std::string
+changedTrajectory (const std::string& path, const std::vector<std::pair<std::string, double>>& changes)
+{
+  std::istringstream lines (readFile (path));
+  std::string line;
+  while (std::getline (lines, line))
+  {
+    if (line.rfind ("trajectory ", 0) != 0)
+      continue;
+    for (const auto& [name, value] : changes)
+    {
+      const std::string field = " " + name + "=" + std::to_string (value);
+      const std::size_t at = line.find (" " + name + "=");
+      if (at == std::string::npos)
+        line += field;
+      else
+        line.replace (at, std::min (line.find (' ', at + 1), line.size ()) - at, field);
+    }
+    return line;
+  }
+  throw std::runtime_error (path + ": no trajectory line");
 }
 
 /** \brief The scene file \a path with every object printed (texture=print, in place of

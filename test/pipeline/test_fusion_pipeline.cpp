@@ -867,18 +867,14 @@ TEST (FusionPipeline, AfterABlackoutTheCameraIsFoundWhereItTurnedTo)
   // frame lost, as in the stress matrix's clutter blackout of 25 frames).
   std::mt19937 random (34);
   const std::string path = std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/clutter.scene";
-  const std::string text = test::readFile (path);
-  const std::size_t line = text.find ("\ntrajectory ");
-  ASSERT_NE (line, std::string::npos);
-  const std::string bundled = text.substr (line + 1, text.find ('\n', line + 1) - line - 1);
   for (int draw = 0; draw < 2; ++draw)
   {
     const std::size_t gap = std::uniform_int_distribution<std::size_t> (20, 30) (random);
     const double rate = std::uniform_real_distribution<double> (1.2, 1.6) (random);
     const double start = std::uniform_real_distribution<double> (-10.0, 10.0) (random);
     const std::size_t begin = 10, end = begin + gap, frames = end + 30;
-    const std::string trajectory = bundled.substr (0, bundled.find (" start=")) + " start=" + std::to_string (start) +
-                                   " sweep=" + std::to_string (rate * static_cast<double> (frames - 1)) + " bob=0.03";
+    const std::string trajectory =
+      test::changedTrajectory (path, {{"start", start}, {"sweep", rate * static_cast<double> (frames - 1)}, {"bob", 0.03}});
     SCOPED_TRACE (std::to_string (gap) + " frames blank at " + std::to_string (rate) + "° a frame from " + std::to_string (start) + "°");
     simulation::SyntheticSequenceConfig config;
     config.frames = frames;

@@ -1103,14 +1103,9 @@ TEST (FeatureRelocalisation, AJumpTooWideForOrbIsRelocalisedBySift)
   for (const char* scene : {"tabletop", "clutter"})
   {
     const std::string path = std::string (CUEFUSION_TEST_DATA_DIR) + "/scenes/" + scene + ".scene";
-    const std::string text = test::readFile (path);
-    const std::size_t line = text.find ("\ntrajectory ");
-    ASSERT_NE (line, std::string::npos);
-    std::string trajectory = text.substr (line + 1, text.find ('\n', line + 1) - line - 1);
     const std::size_t cut = static_cast<std::size_t> (std::lround (std::uniform_real_distribution<double> (38.0, 48.0) (random) / 1.5));
     const std::size_t frames = 6 + cut + 20;
-    trajectory = trajectory.substr (0, trajectory.find (" sweep=")) + " sweep=" + std::to_string (1.5 * static_cast<double> (frames - 1)) +
-                 " bob=0.03";
+    const std::string trajectory = test::changedTrajectory (path, {{"sweep", 1.5 * static_cast<double> (frames - 1)}, {"bob", 0.03}});
     SCOPED_TRACE (std::string (scene) + ", " + std::to_string (1.5 * static_cast<double> (cut)) + "° cut out");
     simulation::SyntheticSequenceConfig sequence_config;
     sequence_config.frames = frames;
