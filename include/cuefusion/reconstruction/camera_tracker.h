@@ -36,6 +36,10 @@ struct TrackingResult
   Eigen::Isometry3d estimate = Eigen::Isometry3d::Identity ();  ///< ICP's pose, accepted or not
   bool tracked = false;
   bool implausible_motion = false;  ///< rejected for its motion alone (ICP itself was fine)
+  /// rejected for its inlier share alone (min_inlier_fraction): enough inliers that agree,
+  /// constrain every direction and fit, and a plausible motion, over too small a part of
+  /// the frame — the map's overlap with a view that moved on into space it has not seen
+  bool short_of_overlap = false;
   std::string failure;     ///< why tracking was rejected (empty when tracked)
   ICPResult icp;
 };

@@ -56,6 +56,18 @@ struct DenseReconstructionConfig
   /// frame and agreement 0.64–0.66; the features' own tolerance is 2 cm plus 3 σ_z.
   double relocalisation_confirmation_shift = 0.04;
   double relocalisation_confirmation_deg = 2.0;
+  /// ICP's pose after lost frames (a blackout; from the motion carried across them, or from
+  /// the last pose) is confirmed by the frame's texture (textureAgreement at that pose against the model raycast there) of at
+  /// least this much, the pose its peak (texturePeak, over moves of
+  /// relocalisation_confirmation_shift), with relocalisation_min_agreement: then neither
+  /// relocalisation_min_overlap nor the tracker's min_inlier_fraction applies — a view 90°
+  /// round from a map of ten frames shares a quarter of itself with it. Where there is
+  /// texture to judge by, it decides. Measured (the stress matrix's printed tabletop and
+  /// clutter, Kinect noise, 354 verified candidates; docs/reconstruction.md): right poses
+  /// 0.25–0.60, wrong ones ≤ 0.196 and never a peak, wrong ones that agree with the model
+  /// ≤ 0.09 — ICP's pose in sudden 90° turns among them, which the overlap rule alone
+  /// accepted. A scene without texture (NaN) keeps the overlap rule.
+  double relocalisation_min_texture_agreement = 0.2;
   /// A tracked frame whose inlier share falls below this times the median share of the
   /// last 10 tracked frames is not trusted (ICP converged, but onto a wrong pose: a jump
   /// back to an earlier view, a fast turn); it goes to relocalisation. 0 = off.
@@ -70,7 +82,11 @@ struct DenseReconstructionConfig
   /// frames that fail) for at most this many seconds since the last tracked frame: the
   /// last tracked motion repeated once per frame interval is ICP's start and the first
   /// relocalisation candidate ("motion model") when the view comes back. 0 = not carried.
-  double max_prediction_gap = 2.0;
+  /// 3 s: the blackouts `scripts/bench tracking` draws (5–60 frames at 30 Hz) end at most
+  /// 2.03 s after the last tracked frame, and the view after them is placed for 30 frames
+  /// more; ICP's pose from this far is confirmed by the frame's texture
+  /// (relocalisation_min_texture_agreement). Keyframes wait while it is tried.
+  double max_prediction_gap = 3.0;
   /// Candidate poses verified per lost frame (each costs a raycast and an ICP): a lost
   /// stretch goes round-robin over its candidates instead of trying all on every frame,
   /// so it runs at no less than about half the tracked frame rate (one candidate and its
@@ -230,8 +246,13 @@ public:
   bool awaitingPlacement () const { return awaiting_placement_; }
 
 private:
-  /** The source name of a pose from the motion model (FrameReport::relocalised_from). */
+  /** The source names of a pose from the motion model (FrameReport::relocalised_from), as
+    * predicted and as ICP refined it from there (after lost frames): both keep the motion. */
   static constexpr const char* kMotionModel = "motion model";
+  static constexpr const char* kMotionModelRefined = "motion model, refined by ICP";
+  /** ... and of ICP's pose from the last tracked pose after lost frames (a camera that
+    * stopped in the dark), which keeps the motion as a tracked frame's does. */
+  static constexpr const char* kLastPoseRefined = "last pose, refined by ICP";
 
   /** §4.1.3 (pose_estimation.cpp): the frame's pose — its reference pose, its placement in
     * a loaded volume, the first frame's, or ICP from the motion model's or the last pose,
@@ -270,17 +291,33 @@ private:
     /// than relocalisation_confirmation_shift / _deg confirms it (two cues agree), and then
     /// relocalisation_min_overlap does not apply
     bool from_features = false;
+    /// May pass on the frame's texture instead of its overlap: when it agrees with the model
+    /// (relocalisation_min_agreement) and the texture at its pose lines up with the model's
+    /// colours (texturePeak: agreement ≥ relocalisation_min_texture_agreement, a peak), the
+    /// verification's inlier share need not reach relocalisation_min_overlap nor the
+    /// tracker's own min_inlier_fraction (it is short of overlap only: CameraTracker's other
+    /// checks hold); where there is texture to judge by, it decides
+    bool by_texture = false;
+    /// May pass on its overlap as an evidenced candidate (relocalisation_min_overlap)
+    bool by_overlap = true;
   };
 
   /** Relocalises the current frame (its pyramid is built): the features' pose first (when
-    * \a features and a feature round: featureCandidate), then candidates \a first (the
-    * motion model's prediction, ICP's rejected pose when worth verifying, a loaded run's
-    * reference pose) and the keyframes most similar to \a code, at most
-    * relocalisation_candidates_per_frame of those, taken round-robin over a lost stretch;
-    * fills \a report when one passes. */
+    * \a features and a feature round: featureCandidate), then \a own (ICP's pose from the
+    * motion carried across lost frames), then candidates \a first (the motion model's
+    * prediction, ICP's rejected pose when worth verifying, a loaded run's reference pose)
+    * and the keyframes most similar to \a code, at most relocalisation_candidates_per_frame
+    * of those, less one on a feature round or with \a own, taken round-robin over a lost
+    * stretch; fills \a report when one passes. */
   void
   relocalise (const RGBDFrame& frame, bool features, std::vector<Candidate> first, const KeyframeDatabase::Code& code,
-              FrameReport& report);
+              FrameReport& report, const std::optional<Candidate>& own = std::nullopt);
+
+  /** Whether \a candidate passes, \a verified being ICP from it against the model raycast
+    * there (\a view): its agreement and overlap, the features' confirmation, the texture. */
+  bool
+  passesVerification (const RGBDFrame& frame, const Candidate& candidate, const TrackingResult& verified,
+                      const RaycastResult& view) const;
 
   /** The features' candidate for a lost \a frame (FeatureRelocaliser), or none. */
   std::optional<Candidate>

@@ -130,6 +130,7 @@ fields (V& v, DenseReconstructionConfig& c)
   v ("relocalisation_min_overlap", c.relocalisation_min_overlap);
   v ("relocalisation_confirmation_shift", c.relocalisation_confirmation_shift);
   v ("relocalisation_confirmation_deg", c.relocalisation_confirmation_deg);
+  v ("relocalisation_min_texture_agreement", c.relocalisation_min_texture_agreement);
   v ("min_inlier_share_ratio", c.min_inlier_share_ratio);
   v ("motion_model", c.motion_model);
   v ("max_prediction_gap", c.max_prediction_gap);

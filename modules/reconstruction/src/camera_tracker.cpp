@@ -43,6 +43,7 @@ CameraTracker::track (const FramePyramid& frame, const FramePyramid& model, cons
   const double translation = motion.translation ().norm ();
   const double rotation_deg = Eigen::AngleAxisd (motion.rotation ()).angle () * 180.0 / M_PI;
   const double fraction = icp.inlierShare ();
+  const bool implausible = translation > config_.max_translation || rotation_deg > config_.max_rotation_deg;
 
   // A degenerate system names its cause: the frame's own surfaces (a plane, a corridor)
   // or its overlap with the model at the guess (the frame is fine, the matches are few).
@@ -63,10 +64,13 @@ CameraTracker::track (const FramePyramid& frame, const FramePyramid& model, cons
     why << "ICP degenerate: the surfaces in view leave a translation free (conditioning "
         << icp.translation_conditioning << ", a plane or a corridor)";
   else if (icp.inliers < config_.min_inliers || fraction < config_.min_inlier_fraction)
+  {
     why << "too few inliers (" << icp.inliers << " of " << icp.source_points << ")";
+    result.short_of_overlap = icp.inliers >= config_.min_inliers && icp.rmse <= config_.max_rmse && !implausible;
+  }
   else if (icp.rmse > config_.max_rmse)
     why << "residual too large (" << icp.rmse * 1000.0 << " mm RMS)";
-  else if ((result.implausible_motion = translation > config_.max_translation || rotation_deg > config_.max_rotation_deg))
+  else if ((result.implausible_motion = implausible))
     why << "implausible motion (" << translation * 100.0 << " cm, " << rotation_deg << " deg)";
   result.failure = why.str ();
   result.tracked = result.failure.empty ();

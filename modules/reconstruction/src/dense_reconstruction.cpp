@@ -44,6 +44,8 @@ DenseReconstructionConfig::validate () const
     throw ParameterError ("DenseReconstructionConfig::relocalisation_confirmation_shift", "must lie in [0, 1] metres");
   if (!(relocalisation_confirmation_deg >= 0.0 && relocalisation_confirmation_deg <= 180.0))
     throw ParameterError ("DenseReconstructionConfig::relocalisation_confirmation_deg", "must lie in [0, 180] degrees");
+  if (!(relocalisation_min_texture_agreement >= -1.0 && relocalisation_min_texture_agreement <= 1.0))
+    throw ParameterError ("DenseReconstructionConfig::relocalisation_min_texture_agreement", "must lie in [-1, 1]");
   if (relocalisation_candidates_per_frame > 100)
     throw ParameterError ("DenseReconstructionConfig::relocalisation_candidates_per_frame", "must lie in [0, 100]");
   features.validate ();
@@ -199,7 +201,8 @@ DenseReconstruction::acceptPose (const RGBDFrame& frame, const FrameReport& repo
     if (recent_shares_.size () > 10)
       recent_shares_.erase (recent_shares_.begin ());
   }
-  if (report.relocalised && report.relocalised_from != kMotionModel)
+  if (report.relocalised && report.relocalised_from != kMotionModel && report.relocalised_from != kMotionModelRefined &&
+      report.relocalised_from != kLastPoseRefined)
     velocity_valid_ = false;  // placed elsewhere: the motion before says nothing about here
   else if (initialized_ && frames_since_tracked_ == 0 && !report.relocalised)  // the frame before was tracked
   {

@@ -4,6 +4,7 @@
 // The fusing and rendering that follow an accepted pose are in dense_reconstruction.cpp.
 #include <cuefusion/common/exceptions.h>
 #include <cuefusion/reconstruction/dense_reconstruction.h>
+#include <cuefusion/reconstruction/texture_agreement.h>
 
 #include "stage_clock.h"
 
@@ -99,26 +100,46 @@ DenseReconstruction::estimatePose (const RGBDFrame& frame, FrameReport& report, 
       tracking.pose = last_good_pose_;
     // ICP itself was fine: its motion, or its agreement with the model, was not.
     const bool verify_estimate = tracking.implausible_motion || refuseDroppedAgreement (tracking);
-    report.pose = tracking.pose;
-    report.tracked = tracking.tracked;
-    report.failure = tracking.failure;
+    // The first pose after lost frames is verified where it looks, even where every check
+    // passed: those judged it against the model raycast at the last pose before the gap,
+    // another view, and ICP from there converges onto a wrong pose that passes them (90°
+    // into a sudden turn: 2.2 m off with 45 % agreement, fused, in the stress matrix's
+    // held-out draws; docs/benchmarks.md, 2026-12-08).
+    const bool after_gap = tracking.tracked && frames_since_tracked_ > 0 && config_.relocalise;
+    report.pose = after_gap ? last_good_pose_ : tracking.pose;
+    report.tracked = tracking.tracked && !after_gap;
+    report.failure = after_gap ? "after lost frames, ICP's pose not confirmed where it looks (its agreement, texture or overlap)"
+                               : tracking.failure;
     report.icp = tracking.icp;
     report.timings.track_ms = clock.lap ();
     if (!report.tracked && config_.relocalise)
     {
       code = keyframes_.encode (frame.depth);
       std::vector<Candidate> first;
-      if (predict && prediction->across_gap)  // the model seen from where the motion leads
+      // After lost frames the model seen from where the motion leads; where ICP from there
+      // converged, its pose instead: that candidate refined by the frame's own evidence.
+      // Judged against the model raycast at the last pose before the gap, which a camera
+      // that turned 30° meanwhile meets with half its matches on other surfaces (new faces
+      // of the objects), it failed; raycast at the estimate itself the model agrees with ~90 %
+      // of them, over as little as a quarter of the frame after a long blackout. So it
+      // passes on the frame's texture lining up with the model's colours, and without
+      // texture on its overlap only where the tracker found ICP sound but its motion or
+      // agreement suspect: ICP's pose in a sudden 90° turn, wrong by 1.8 m, agreed 0.62 over
+      // 0.43 of the frame (docs/reconstruction.md, 2026-12-08). It is tried on every such
+      // frame, after the features' pose, in a keyframe's place (the budget holds; keyframes
+      // wait while the motion is carried).
+      std::optional<Candidate> own;
+      if (after_gap)  // ICP's checks passed: its overlap may stand where there is no texture
+        own = Candidate{tracking.estimate, across_gap ? kMotionModelRefined : kLastPoseRefined, /*evidenced*/ true,
+                        /*from_features*/ false, /*by_texture*/ true, /*by_overlap*/ true};
+      else if (across_gap && tracking.icp.solved)
+        own = Candidate{tracking.estimate, kMotionModelRefined, /*evidenced*/ true, /*from_features*/ false,
+                        /*by_texture*/ true, /*by_overlap*/ verify_estimate};
+      else if (predict && prediction->across_gap)
         first.push_back ({prediction->pose, kMotionModel, true});
-      // ICP's pose from the motion carried across a gap is that candidate refined, and the
-      // frame's own evidence: verified as the motion model's is. Its agreement was judged
-      // against the model raycast at the last pose before the gap, which a camera that
-      // turned 30° meanwhile meets with half its matches on other surfaces (new faces of the
-      // objects); raycast at the estimate itself the model agrees with ~90 % of them
-      // (docs/benchmarks.md, 2026-12-08).
-      if (verify_estimate)
-        first.push_back ({tracking.estimate, "ICP estimate", across_gap});
-      relocalise (frame, true, std::move (first), code, report);
+      if (verify_estimate && !across_gap)
+        first.push_back ({tracking.estimate, "ICP estimate", false});
+      relocalise (frame, true, std::move (first), code, report, own);
       report.timings.relocalise_ms = clock.lap ();
     }
   }
@@ -184,7 +205,7 @@ DenseReconstruction::featureCandidate (const RGBDFrame& frame, const KeyframeDat
 
 void
 DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vector<Candidate> candidates,
-                                 const KeyframeDatabase::Code& code, FrameReport& report)
+                                 const KeyframeDatabase::Code& code, FrameReport& report, const std::optional<Candidate>& own)
 {
   for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
     candidates.push_back ({m.pose, "keyframe " + std::to_string (m.keyframe), false});
@@ -206,19 +227,21 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
   const std::size_t budget = config_.relocalisation_candidates_per_frame;
   if (budget > 0 && !candidates.empty ())
   {
-    const std::size_t take = std::min (candidates.size (), budget - (feature_round || wide_round ? 1 : 0));
+    const std::size_t take = std::min (candidates.size (), budget - (feature_round || wide_round || own ? 1 : 0));
     std::vector<Candidate> chosen;
     for (std::size_t k = 0; k < take; ++k)
       chosen.push_back (candidates[(round_robin_ + k) % candidates.size ()]);
     round_robin_ += take;
     candidates = std::move (chosen);
   }
+  if (own)
+    candidates.insert (candidates.begin (), *own);
   if (found)
     candidates.insert (candidates.begin (), *found);
   ++lost_streak_;
   RaycastResult view;
   FramePyramid view_pyramid;
-  for (const auto& [candidate, source, evidenced, from_features] : candidates)
+  for (const Candidate& candidate : candidates)
   {
     // The model as seen from the candidate, and the frame aligned to it from there: a
     // right candidate converges close by with most points agreeing.
@@ -226,31 +249,50 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
     // settles by a Newton step or two near it instead of marching (a third of the cost).
     RaycastOptions hinted;
     hinted.depth_hint = frame_pyramid_[0].depth;
-    volume_.raycast (frame.camera, candidate, view, hinted);
+    volume_.raycast (frame.camera, candidate.pose, view, hinted);
     buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
                        static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
-    const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate, candidate);
-    // The motion model's and the features' candidates have evidence of their own: the frame
-    // must agree with the model where the model exists (a view that moved on into space the
-    // map has not seen yet overlaps it in part) and still explain a fair share of the frame
-    // (relocalisation_min_overlap), unless ICP confirms the features' pose where it stands.
-    // The others must agree over most of the frame.
-    const Eigen::Isometry3d shift = candidate.inverse () * verified.pose;
-    const bool confirmed = from_features && shift.translation ().norm () <= config_.relocalisation_confirmation_shift &&
-                           Eigen::AngleAxisd (shift.rotation ()).angle () <= config_.relocalisation_confirmation_deg * M_PI / 180.0;
-    const bool passed = evidenced ? verified.icp.agreement () >= config_.relocalisation_min_agreement &&
-                                      (confirmed || verified.icp.inlierShare () >= config_.relocalisation_min_overlap)
-                                  : verified.icp.inlierShare () >= config_.relocalisation_min_inlier_fraction;
-    if (!verified.tracked || !passed)
+    const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate.pose, candidate.pose);
+    if (!passesVerification (frame, candidate, verified, view))
       continue;
-    report.pose = verified.pose;
+    report.pose = verified.estimate;  // the tracked pose, or ICP's where only the overlap was short
     report.tracked = true;
     report.relocalised = true;
-    report.relocalised_from = source;
+    report.relocalised_from = candidate.source;
     report.failure.clear ();
     report.icp = verified.icp;
     return;
   }
+}
+
+bool
+DenseReconstruction::passesVerification (const RGBDFrame& frame, const Candidate& candidate, const TrackingResult& verified,
+                                         const RaycastResult& view) const
+{
+  // The motion model's and the features' candidates have evidence of their own: the frame
+  // must agree with the model where the model exists (a view that moved on into space the
+  // map has not seen yet overlaps it in part) and still explain a fair share of the frame
+  // (relocalisation_min_overlap), unless ICP confirms the features' pose where it stands or
+  // the frame's texture confirms ICP's. The others must agree over most of the frame.
+  if (!candidate.evidenced)
+    return verified.tracked && verified.icp.inlierShare () >= config_.relocalisation_min_inlier_fraction;
+  if (verified.icp.agreement () < config_.relocalisation_min_agreement)
+    return false;
+  const Eigen::Isometry3d shift = candidate.pose.inverse () * verified.pose;
+  const bool confirmed = candidate.from_features && shift.translation ().norm () <= config_.relocalisation_confirmation_shift &&
+                         Eigen::AngleAxisd (shift.rotation ()).angle () <= config_.relocalisation_confirmation_deg * M_PI / 180.0;
+  if (candidate.by_texture && (verified.tracked || verified.short_of_overlap))
+  {
+    // Compared where the frame's points meet the model within ICP's correspondence distance;
+    // a peak over moves of the confirmation's tolerance. Where there is texture to judge by,
+    // it decides.
+    const TexturePeak texture = texturePeak (frame.color, frame_pyramid_[0].vertices, view, verified.estimate,
+                                             config_.relocalisation_confirmation_shift, config_.tracking.icp.max_distance,
+                                             config_.tracking.min_inliers);
+    if (!std::isnan (texture.agreement))
+      return texture.peak && texture.agreement >= config_.relocalisation_min_texture_agreement;
+  }
+  return verified.tracked && (confirmed || (candidate.by_overlap && verified.icp.inlierShare () >= config_.relocalisation_min_overlap));
 }
 
 bool
