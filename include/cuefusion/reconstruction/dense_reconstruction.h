@@ -302,16 +302,23 @@ private:
     bool by_overlap = true;
   };
 
-  /** Relocalises the current frame (its pyramid is built): the features' pose first (when
-    * \a features and a feature round: featureCandidate), then \a own (ICP's pose from the
-    * motion carried across lost frames), then candidates \a first (the motion model's
-    * prediction, ICP's rejected pose when worth verifying, a loaded run's reference pose)
-    * and the keyframes most similar to \a code, at most relocalisation_candidates_per_frame
-    * of those, less one on a feature round or with \a own, taken round-robin over a lost
-    * stretch; fills \a report when one passes. */
+  /** Relocalises the current frame (its pyramid is built): \a own first when \a own_first
+    * (ICP's pose after lost frames that passed every tracking check), then the features'
+    * pose (when \a features and a feature round: featureCandidate), then \a own on a round
+    * without features (ICP's pose from the motion carried across lost frames), then
+    * candidates \a first (the motion model's prediction, ICP's rejected pose when worth
+    * verifying, a loaded run's reference pose) and the keyframes most similar to \a code, at
+    * most relocalisation_candidates_per_frame of those, less one on a feature round or
+    * with \a own, taken round-robin over a lost stretch; fills \a report when one passes. */
   void
   relocalise (const RGBDFrame& frame, bool features, std::vector<Candidate> first, const KeyframeDatabase::Code& code,
-              FrameReport& report, const std::optional<Candidate>& own = std::nullopt);
+              FrameReport& report, const std::optional<Candidate>& own = std::nullopt, bool own_first = false);
+
+  /** Verifies \a candidate (the model raycast there into \a view and \a view_pyramid, ICP
+    * from it, passesVerification) and fills \a report when it passes; true then. */
+  bool
+  placeAt (const RGBDFrame& frame, const Candidate& candidate, RaycastResult& view, FramePyramid& view_pyramid,
+           FrameReport& report);
 
   /** Whether \a candidate passes, \a verified being ICP from it against the model raycast
     * there (\a view): its agreement and overlap, the features' confirmation, the texture. */

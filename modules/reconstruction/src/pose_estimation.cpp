@@ -125,9 +125,10 @@ DenseReconstruction::estimatePose (const RGBDFrame& frame, FrameReport& report, 
       // passes on the frame's texture lining up with the model's colours, and without
       // texture on its overlap only where the tracker found ICP sound but its motion or
       // agreement suspect: ICP's pose in a sudden 90° turn, wrong by 1.8 m, agreed 0.62 over
-      // 0.43 of the frame (docs/reconstruction.md, 2026-12-08). It is tried on every such
-      // frame, after the features' pose, in a keyframe's place (the budget holds; keyframes
-      // wait while the motion is carried).
+      // 0.43 of the frame (docs/reconstruction.md, 2026-12-08). It is tried on every lost
+      // round without features, in a keyframe's place (the budget holds; keyframes wait while
+      // the motion is carried) — and first, before anything is described, where ICP passed
+      // every tracking check.
       std::optional<Candidate> own;
       if (after_gap)  // ICP's checks passed: its overlap may stand where there is no texture
         own = Candidate{tracking.estimate, across_gap ? kMotionModelRefined : kLastPoseRefined, /*evidenced*/ true,
@@ -139,7 +140,7 @@ DenseReconstruction::estimatePose (const RGBDFrame& frame, FrameReport& report, 
         first.push_back ({prediction->pose, kMotionModel, true});
       if (verify_estimate && !across_gap)
         first.push_back ({tracking.estimate, "ICP estimate", false});
-      relocalise (frame, true, std::move (first), code, report, own);
+      relocalise (frame, true, std::move (first), code, report, own, after_gap);
       report.timings.relocalise_ms = clock.lap ();
     }
   }
@@ -205,8 +206,15 @@ DenseReconstruction::featureCandidate (const RGBDFrame& frame, const KeyframeDat
 
 void
 DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vector<Candidate> candidates,
-                                 const KeyframeDatabase::Code& code, FrameReport& report, const std::optional<Candidate>& own)
+                                 const KeyframeDatabase::Code& code, FrameReport& report, const std::optional<Candidate>& own,
+                                 bool own_first)
 {
+  RaycastResult view;
+  FramePyramid view_pyramid;
+  // ICP's pose that passed every tracking check: verified before anything is described.
+  if (own && own_first && placeAt (frame, *own, view, view_pyramid, report))
+    return;
+  const bool own_in_turn = own && !own_first;
   for (const KeyframeDatabase::Match& m : keyframes_.query (code, config_.relocalisation_candidates))
     candidates.push_back ({m.pose, "keyframe " + std::to_string (m.keyframe), false});
   // ORB features on every other lost frame, the first of a stretch included (not while the
@@ -227,42 +235,48 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
   const std::size_t budget = config_.relocalisation_candidates_per_frame;
   if (budget > 0 && !candidates.empty ())
   {
-    const std::size_t take = std::min (candidates.size (), budget - (feature_round || wide_round || own ? 1 : 0));
+    const std::size_t take = std::min (candidates.size (), budget - (feature_round || wide_round || own_in_turn ? 1 : 0));
     std::vector<Candidate> chosen;
     for (std::size_t k = 0; k < take; ++k)
       chosen.push_back (candidates[(round_robin_ + k) % candidates.size ()]);
     round_robin_ += take;
     candidates = std::move (chosen);
   }
-  if (own)
+  // The other one takes a keyframe's place on the rounds without features (their cost is a
+  // candidate's), so a lost frame costs what it did before it.
+  if (own_in_turn && !feature_round && !wide_round)
     candidates.insert (candidates.begin (), *own);
   if (found)
     candidates.insert (candidates.begin (), *found);
   ++lost_streak_;
-  RaycastResult view;
-  FramePyramid view_pyramid;
   for (const Candidate& candidate : candidates)
-  {
-    // The model as seen from the candidate, and the frame aligned to it from there: a
-    // right candidate converges close by with most points agreeing.
-    // The frame's own depth as the raycast's start: where the candidate is right, each ray
-    // settles by a Newton step or two near it instead of marching (a third of the cost).
-    RaycastOptions hinted;
-    hinted.depth_hint = frame_pyramid_[0].depth;
-    volume_.raycast (frame.camera, candidate.pose, view, hinted);
-    buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
-                       static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
-    const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate.pose, candidate.pose);
-    if (!passesVerification (frame, candidate, verified, view))
-      continue;
-    report.pose = verified.estimate;  // the tracked pose, or ICP's where only the overlap was short
-    report.tracked = true;
-    report.relocalised = true;
-    report.relocalised_from = candidate.source;
-    report.failure.clear ();
-    report.icp = verified.icp;
-    return;
-  }
+    if (placeAt (frame, candidate, view, view_pyramid, report))
+      return;
+}
+
+bool
+DenseReconstruction::placeAt (const RGBDFrame& frame, const Candidate& candidate, RaycastResult& view,
+                              FramePyramid& view_pyramid, FrameReport& report)
+{
+  // The model as seen from the candidate, and the frame aligned to it from there: a right
+  // candidate converges close by with most points agreeing.
+  // The frame's own depth as the raycast's start: where the candidate is right, each ray
+  // settles by a Newton step or two near it instead of marching (a third of the cost).
+  RaycastOptions hinted;
+  hinted.depth_hint = frame_pyramid_[0].depth;
+  volume_.raycast (frame.camera, candidate.pose, view, hinted);
+  buildModelPyramid (view.vertices, view.normals, view.camera, config_.preprocessing.pyramid_levels,
+                     static_cast<float> (config_.preprocessing.max_depth_jump), view_pyramid);
+  const TrackingResult verified = tracker_.track (frame_pyramid_, view_pyramid, candidate.pose, candidate.pose);
+  if (!passesVerification (frame, candidate, verified, view))
+    return false;
+  report.pose = verified.estimate;  // the tracked pose, or ICP's where only the overlap was short
+  report.tracked = true;
+  report.relocalised = true;
+  report.relocalised_from = candidate.source;
+  report.failure.clear ();
+  report.icp = verified.icp;
+  return true;
 }
 
 bool
