@@ -242,8 +242,8 @@ DenseReconstruction::relocalise (const RGBDFrame& frame, bool features, std::vec
     round_robin_ += take;
     candidates = std::move (chosen);
   }
-  // The other one takes a keyframe's place on the rounds without features (their cost is a
-  // candidate's), so a lost frame costs what it did before it.
+  // ICP's carried pose that did not pass every check takes a keyframe's place, on the rounds
+  // without features only (theirs is a candidate's cost), so a lost frame costs what it did.
   if (own_in_turn && !feature_round && !wide_round)
     candidates.insert (candidates.begin (), *own);
   if (found)
