@@ -3,6 +3,7 @@
 
 #include <cuefusion/reconstruction/dense_reconstruction.h>
 #include <cuefusion/reconstruction/texture_agreement.h>
+#include <cuefusion/reconstruction/vertex_maps.h>
 
 #include <gtest/gtest.h>
 
@@ -10,24 +11,6 @@
 #include <random>
 
 using namespace cuefusion;
-
-namespace
-{
-/** The camera-frame points of a depth image (NaN where it has none). */
-cv::Mat
-pointsOf (const cv::Mat& depth, const PinholeCamera& camera)
-{
-  cv::Mat points (depth.size (), CV_32FC3, cv::Scalar::all (std::nanf ("")));
-  for (int v = 0; v < depth.rows; ++v)
-    for (int u = 0; u < depth.cols; ++u)
-      if (const float z = depth.at<float> (v, u); z > 0.f)
-      {
-        const Eigen::Vector3f p = camera.backProject (static_cast<float> (u), static_cast<float> (v), z);
-        points.at<cv::Vec3f> (v, u) = cv::Vec3f (p.x (), p.y (), p.z ());
-      }
-  return points;
-}
-}  // namespace
 
 TEST (TextureAgreement, TheRightPoseLinesUpAndAPoseAFewCentimetresOrDegreesOffDoesNot)
 {
@@ -55,7 +38,8 @@ TEST (TextureAgreement, TheRightPoseLinesUpAndAPoseAFewCentimetresOrDegreesOffDo
   {
     const Eigen::Isometry3d pose = scene.trajectory.poseAt (std::uniform_real_distribution<double> (0.0, arc) (random));
     const simulation::RenderedView frame = renderer.render (scene.camera, pose);
-    const cv::Mat points = pointsOf (frame.depth, scene.camera);
+    cv::Mat points;
+    reconstruction::computeVertexMap (frame.depth, scene.camera, points);
     const reconstruction::RaycastResult model = test::rendered (volume, scene.camera, pose);
     const reconstruction::TexturePeak right = reconstruction::texturePeak (frame.color, points, model, pose, 0.04, distance, 300);
     EXPECT_GE (right.agreement, threshold) << "draw " << draw;
